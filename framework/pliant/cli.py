@@ -1,0 +1,207 @@
+"""The ``pliant`` command.
+
+    pliant plugins [--kind KIND] [--options KIND NAME]   what is installed, and each component's options
+    pliant scenes [NAME]                                 bundled scenes (and one scene's details)
+    pliant run PIPELINE [--set key=value ...]            run a pipeline file or bundled pipeline
+    pliant bench [NAME] [-- ARGS]                        run a benchmark script from benchmarks/
+
+Plugins add their own sub-commands through the ``pliant_add_commands`` hook.  Errors in input are
+reported as one line naming the file, field and value, with exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import runpy
+import sys
+from pathlib import Path
+
+from pliant import __version__
+from pliant.errors import PliantError
+
+EXAMPLES = """examples:
+  pliant plugins                                 list plugins and their components
+  pliant plugins --options planner straight      options of one component (units, defaults)
+  pliant scenes                                  list bundled scenes
+  pliant run demo                                run the bundled demo pipeline
+  pliant run my.toml --set planner.max_time=5 --set simulator=pybullet
+  pliant bench                                   list the benchmarks
+"""
+
+
+def _table(rows: list[tuple], header: tuple) -> str:
+    rows = [tuple(str(c) for c in r) for r in rows]
+    widths = [max(len(str(h)), *(len(r[i]) for r in rows)) if rows else len(str(h)) for i, h in enumerate(header)]
+    fmt = "  ".join(f"{{:<{w}}}" for w in widths)
+    lines = [fmt.format(*header), fmt.format(*("-" * w for w in widths))]
+    lines += [fmt.format(*r) for r in rows]
+    return "\n".join(lines)
+
+
+def cmd_plugins(args) -> int:
+    from pliant import registry
+    from pliant.options import describe_options
+
+    reg = registry.default_registry()
+    if args.options:
+        kind, name = args.options
+        entry = reg.entry(kind, name)
+        cls = entry.load()
+        print(f"{kind} '{name}' from plugin '{entry.plugin}': {entry.description}")
+        doc = (cls.__doc__ or "").strip()
+        if doc:
+            print("\n" + doc + "\n")
+        opts = getattr(cls, "Options", None)
+        rows = []
+        for row in describe_options(opts) if opts is not None else []:
+            rng = ""
+            if row["minimum"] is not None or row["maximum"] is not None:
+                rng = f"[{row['minimum'] if row['minimum'] is not None else '-inf'}, " \
+                      f"{row['maximum'] if row['maximum'] is not None else 'inf'}]"
+            if row["choices"]:
+                rng = "|".join(map(str, row["choices"]))
+            rows.append((row["name"], row["type"], row["default"], rng, row["doc"]))
+        print(_table(rows, ("option", "type", "default", "range", "meaning")) if rows else "(no options)")
+        return 0
+    plugins = reg.plugins()
+    print(_table([(p.name, p.distribution, p.status, p.error) for p in plugins],
+                 ("plugin", "distribution", "status", "error")))
+    print()
+    entries = [e for e in reg.entries() if args.kind is None or e.kind == args.kind]
+    print(_table([(e.kind, e.name, e.plugin, e.description) for e in entries],
+                 ("kind", "name", "plugin", "description")))
+    return 0
+
+
+def cmd_scenes(args) -> int:
+    from pliant.pipeline import available_pipelines
+    from pliant.scene import available_scenes, load_scene
+
+    if args.name:
+        scene = load_scene(args.name)
+        print(f"{scene.name}: {scene.description}")
+        print(f"  file        {scene.source}")
+        print(f"  bounds      {scene.lower.tolist()} .. {scene.upper.tolist()} m, resolution {scene.resolution} m,"
+              f" grid {scene.shape}")
+        print(f"  robot       {scene.robot.kind} '{scene.robot.name}'"
+              + (f" in {scene.robot.space}" if scene.robot.space else f" model {scene.robot.model}"))
+        print(f"  objects     {', '.join(o.name for o in scene.objects) or 'none'}")
+        print(f"  regions     {len(scene.regions)}")
+        print(f"  start       {scene.start.tolist()}")
+        print(f"  goal        {scene.goal.tolist()}")
+        print(f"  variants    {', '.join(scene.variants) or 'none'}")
+        return 0
+    rows = []
+    for name in available_scenes():
+        try:
+            s = load_scene(name)
+            rows.append((name, ",".join(s.variants) or "-", s.description))
+        except PliantError as exc:
+            rows.append((name, "?", f"INVALID: {exc}"))
+    print(_table(rows, ("scene", "variants", "description")))
+    print("\npipelines: " + (", ".join(available_pipelines()) or "none"))
+    return 0
+
+
+def cmd_run(args) -> int:
+    from pliant.pipeline import Pipeline
+
+    overrides = list(args.set or [])
+    if args.output:
+        overrides.append(f"output={args.output!r}".replace("'", '"'))
+    pipeline = Pipeline.from_file(args.pipeline, overrides=overrides)
+    record = pipeline.run()
+    width = max(len(k) for k, _ in record.summary_rows())
+    for key, value in record.summary_rows():
+        print(f"{key:<{width}}  {value}")
+    print(f"\nreport: {record.output / 'report.md'}")
+    return 0 if record.result is None or record.result.solved else 1
+
+
+def _benchmarks_dir() -> Path:
+    env = os.environ.get("PLIANT_BENCHMARKS")
+    candidates = [Path(env)] if env else []
+    candidates += [Path.cwd() / "benchmarks", Path(__file__).resolve().parents[2] / "benchmarks"]
+    for c in candidates:
+        if c.is_dir():
+            return c
+    raise PliantError("no benchmarks directory found (run from a pliant checkout or set PLIANT_BENCHMARKS)",
+                      field="PLIANT_BENCHMARKS", value=env)
+
+
+def cmd_bench(args) -> int:
+    directory = _benchmarks_dir()
+    scripts = sorted(p.stem.removeprefix("bench_") for p in directory.glob("bench_*.py"))
+    if not args.name:
+        print("benchmarks: " + (", ".join(scripts) or "none"))
+        return 0
+    if args.name not in scripts:
+        raise PliantError(f"unknown benchmark (available: {', '.join(scripts)})", field="NAME", value=args.name)
+    sys.argv = [f"bench_{args.name}.py", *args.args]
+    runpy.run_path(str(directory / f"bench_{args.name}.py"), run_name="__main__")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="pliant", description="Plan and execute robot motion where contact, deformation and uncertainty matter.",
+        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action="version", version=f"pliant {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv for debug)")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("plugins", help="list plugins, components and their options")
+    p.add_argument("--kind", help="only components of this kind")
+    p.add_argument("--options", nargs=2, metavar=("KIND", "NAME"), help="show one component's options")
+    p.set_defaults(handler=cmd_plugins)
+
+    p = sub.add_parser("scenes", help="list bundled scenes, or describe one")
+    p.add_argument("name", nargs="?", help="a scene name or TOML file to describe")
+    p.set_defaults(handler=cmd_scenes)
+
+    p = sub.add_parser("run", help="run a pipeline and write its report",
+                       description="Run a pipeline file (or a bundled pipeline by name) and write its report.")
+    p.add_argument("pipeline", help="pipeline TOML file or bundled pipeline name")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override one value, e.g. planner.max_time=5, simulator=pybullet, scene.variant=soft")
+    p.add_argument("--output", help="report directory (default out/<pipeline name>)")
+    p.set_defaults(handler=cmd_run)
+
+    p = sub.add_parser("bench", help="run a benchmark script (prints a table, writes JSON)")
+    p.add_argument("name", nargs="?", help="benchmark name; omit to list them")
+    p.add_argument("args", nargs=argparse.REMAINDER, help="arguments passed to the benchmark")
+    p.set_defaults(handler=cmd_bench)
+
+    try:
+        from pliant.registry import default_registry
+
+        reg = default_registry()
+        reg.load()
+        reg.manager.hook.pliant_add_commands(subparsers=sub)
+    except Exception as exc:  # a plugin's command must not break the core commands
+        logging.getLogger(__name__).warning("a plugin failed to add its commands: %s", exc)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=[logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)],
+                        format="%(levelname)s %(name)s: %(message)s")
+    if not getattr(args, "handler", None):
+        parser.print_help()
+        return 0
+    try:
+        return int(args.handler(args) or 0)
+    except PliantError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,40 @@
+"""The pluggy hooks a pliant plugin may implement.
+
+A plugin is a module named by an entry point in the ``pliant`` group.  It implements
+:func:`pliant_register` to add its components; it may implement :func:`pliant_report` to draw
+figures for pipeline reports.  Keep the module light: name component classes as
+``"package.module:Class"`` strings so heavy libraries load only when a component is created.
+"""
+
+from __future__ import annotations
+
+import pluggy
+
+PROJECT = "pliant"
+hookspec = pluggy.HookspecMarker(PROJECT)
+hookimpl = pluggy.HookimplMarker(PROJECT)
+
+
+class PliantSpec:
+    """Hook specifications of pliant."""
+
+    @hookspec
+    def pliant_register(self, registrar):
+        """Register components: ``registrar.add(kind, name, "module:Class", description="...")``."""
+
+    @hookspec
+    def pliant_report(self, run, directory):
+        """Draw figures for a finished pipeline ``run`` into ``directory``; return the files written.
+
+        ``run`` is a :class:`pliant.pipeline.RunRecord`.  Return a list of ``pathlib.Path`` (or
+        ``None`` when the plugin has nothing to draw for this run).
+        """
+
+    @hookspec
+    def pliant_add_commands(self, subparsers):
+        """Add sub-commands to the ``pliant`` command line.
+
+        ``subparsers`` is the :mod:`argparse` sub-parser action; call ``subparsers.add_parser(...)``
+        and ``set_defaults(handler=function)``; the handler receives the parsed namespace and returns
+        an exit code.
+        """

@@ -1,0 +1,362 @@
+"""The contracts between pliant's components.
+
+Every built-in and third-party component derives from one of the abstract classes below, declares
+an ``Options`` dataclass (see :mod:`pliant.options`) and is registered under a *kind* and a *name*
+(see :mod:`pliant.registry`).  Components meet only through these interfaces: a planner asks the
+:class:`CostModel` for costs and the :class:`Simulator` for outcomes, never a concrete plugin.
+
+Array conventions (docs/conventions.md): float64, batch first.  ``d`` is the space's coordinate
+count (``space.dim``), ``t`` its tangent dimension (``space.tangent_dim``: 6 for SE(3)), ``n`` a
+batch size, ``m`` a number of body points.  SI units throughout.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from pliant.errors import DimensionError, PlanningError
+from pliant.options import NoOptions, build_options
+from pliant.results import Path, PlanResult
+from pliant.spaces import Space
+from pliant.termination import Termination
+
+if TYPE_CHECKING:
+    from pliant.scene import Scene
+
+KINDS = ("simulator", "robot", "controller", "planner", "metric", "cost", "learner", "driver")
+
+
+@dataclass
+class Context:
+    """What the components of one pipeline share; filled in dependency order by the pipeline.
+
+    Order: scene -> robot -> cost -> simulator -> controller -> planner / metric / learner / driver.
+    A component's :meth:`Component.bind` sees everything built before it.
+    """
+
+    scene: Scene | None = None
+    robot: RobotModel | None = None
+    cost: CostModel | None = None
+    simulator: Simulator | None = None
+    controller: Controller | None = None
+    seed: int = 0
+    extras: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def space(self) -> Space:
+        if self.robot is None:
+            raise PlanningError("this component needs a robot (and its configuration space) in the pipeline",
+                                field="robot")
+        return self.robot.space
+
+
+class Component(ABC):
+    """Base of every pluggable component.
+
+    Subclasses set :attr:`Options` to a frozen dataclass of documented options; the constructor
+    validates keyword options against it (unknown names and bad values raise
+    :class:`~pliant.errors.ConfigError`).  :meth:`bind` receives the pipeline's :class:`Context`.
+    """
+
+    kind: ClassVar[str] = ""
+    Options: ClassVar[type] = NoOptions
+
+    def __init__(self, options: Any = None, *, source: str = "<options>", **kwargs: Any) -> None:
+        if options is not None and kwargs:
+            raise TypeError("pass either an Options instance or keyword options, not both")
+        if isinstance(options, self.Options):
+            self.options = options
+        else:
+            self.options = build_options(self.Options, options if options is not None else kwargs,
+                                         source=source, prefix=self.kind)
+        self.context: Context | None = None
+
+    def bind(self, context: Context) -> None:
+        """Attach to a pipeline's context.  Override to prepare (and call ``super().bind``)."""
+        self.context = context
+
+    def require(self, attribute: str):
+        """The context's ``attribute`` (``"scene"``, ``"robot"``...), or a clear error if absent."""
+        value = getattr(self.context, attribute, None) if self.context is not None else None
+        if value is None:
+            raise PlanningError(f"{type(self).__name__} needs a {attribute}; bind it to a context that has one",
+                                field=attribute)
+        return value
+
+
+def check_batch(q: Any, space: Space, field: str = "configurations") -> tuple[np.ndarray, bool]:
+    """``q`` as ``(n, d)`` float64 plus whether the input was a single ``(d,)`` configuration.
+
+    Raises :class:`DimensionError` for a wrong width or non-finite entries.
+    """
+    arr = np.asarray(q, dtype=np.float64)
+    single = arr.ndim == 1
+    arr = np.atleast_2d(arr)
+    if arr.ndim != 2 or arr.shape[1] != space.dim:
+        raise DimensionError(f"must be (n, {space.dim}) or ({space.dim},) for this {space.kind} space",
+                             field=field, value=list(np.shape(q)))
+    if not np.all(np.isfinite(arr)):
+        raise DimensionError("must be finite", field=field, value=np.asarray(q).tolist())
+    return arr, single
+
+
+class RobotModel(Component):
+    """A robot: its configuration space and the points of its body.
+
+    The body is a set of ``m`` sample points (voxel centres at the scene resolution, thesis 3.2.1),
+    each with a deformability and a sensitivity.
+    """
+
+    kind = "robot"
+
+    @property
+    @abstractmethod
+    def space(self) -> Space:
+        """The configuration space (bounds from joint limits or the scene)."""
+
+    @abstractmethod
+    def body_points(self, q: np.ndarray) -> np.ndarray:
+        """World positions of the body points, ``(n, m, 3)`` for ``q`` ``(n, d)``; metres."""
+
+    @abstractmethod
+    def point_materials(self) -> np.ndarray:
+        """``(m, 2)``: deformability and sensitivity of each body point."""
+
+    @abstractmethod
+    def point_jacobians(self, q: np.ndarray) -> np.ndarray:
+        """``(n, m, 3, t)``: d(point position)/d(tangent motion) at each configuration."""
+
+    def point_count(self) -> int:
+        return len(self.point_materials())
+
+
+class CostModel(Component):
+    """A state cost over configurations (e.g. the cost of deformation, thesis eq. 3.1).
+
+    ``cost`` may return NaN for infeasible states, where the method defines it (documented by the
+    plugin).  Costs are dimensionless unless the plugin states units.
+    """
+
+    kind = "cost"
+    #: whether :meth:`gradient` is implemented
+    has_gradient: ClassVar[bool] = False
+
+    @abstractmethod
+    def cost(self, q: np.ndarray) -> np.ndarray:
+        """State cost ``(n,)`` of configurations ``(n, d)``; equal to ``n`` single calls."""
+
+    def gradient(self, q: np.ndarray) -> np.ndarray:
+        """Tangent-space gradient ``(n, t)`` of :meth:`cost` (thesis eq. 3.2)."""
+        raise NotImplementedError(f"{type(self).__name__} has no gradient")
+
+    def breakdown(self, q: np.ndarray) -> np.ndarray:
+        """Per-feature costs ``(n, k)`` summing to :meth:`cost` (e.g. one column per object)."""
+        return self.cost(q)[:, None]
+
+    def feature_names(self) -> list[str]:
+        """Names of the :meth:`breakdown` columns."""
+        return ["cost"]
+
+    def is_valid(self, q: np.ndarray) -> np.ndarray:
+        """Bool ``(n,)``: feasible where the cost is finite."""
+        return np.isfinite(self.cost(q))
+
+    def translation_costs(self, origin: np.ndarray, spacing: float, shape: tuple[int, ...],
+                          base: np.ndarray | None = None) -> np.ndarray:
+        """State costs of every pure translation on a lattice, ``shape`` ``(nx, ny, nz)``.
+
+        Configuration ``(i, j, k)`` is ``origin + spacing * (i, j, k)`` in the first three
+        coordinates (``base`` supplies the remaining coordinates, e.g. a fixed orientation).  The
+        default evaluates :meth:`cost` in batches; cost models may override it with something
+        faster (the voxel model correlates the robot with the environment, thesis 3.2.3).
+        """
+        origin = np.asarray(origin, dtype=np.float64)
+        axes = [origin[i] + spacing * np.arange(n) for i, n in enumerate(shape)]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(shape))
+        if base is not None:
+            base = np.asarray(base, dtype=np.float64)
+            grid = np.concatenate([grid, np.broadcast_to(base[len(shape):], (len(grid), base.size - len(shape)))],
+                                  axis=1)
+        out = np.concatenate([self.cost(grid[s:s + 8192]) for s in range(0, len(grid), 8192)])
+        return out.reshape(shape)
+
+
+@dataclass
+class SimulationBatch:
+    """Outcome of forward-simulating ``n`` particles.
+
+    final: ``(n, d)`` configurations at the end.
+    in_contact / stuck / reached: bool ``(n,)``.
+    trajectories: optional ``(n, k, d)`` recorded states.
+    steps: microsteps taken (total over the batch).
+    """
+
+    final: np.ndarray
+    in_contact: np.ndarray
+    stuck: np.ndarray
+    reached: np.ndarray
+    trajectories: np.ndarray | None = None
+    steps: int = 0
+
+
+class Simulator(Component):
+    """Moves the robot among the scene's objects under commands, with contact.
+
+    Two ways in: :meth:`simulate` (a batch of particles toward targets; the belief planner's
+    workhorse) and the stepping API :meth:`reset` / :meth:`step` used by
+    :func:`pliant.execution.execute` to run a controller in closed loop.
+    """
+
+    kind = "simulator"
+
+    @abstractmethod
+    def simulate(self, starts: np.ndarray, targets: np.ndarray, rng: np.random.Generator,
+                 duration: float) -> SimulationBatch:
+        """Drive each start ``(n, d)`` toward its target (``(n, d)`` or ``(d,)``) for ``duration`` s."""
+
+    @abstractmethod
+    def reset(self, q: np.ndarray) -> None:
+        """Place the robot at configuration ``(d,)``, at rest."""
+
+    @abstractmethod
+    def step(self, velocity: np.ndarray, dt: float, rng: np.random.Generator) -> np.ndarray:
+        """Apply a tangent velocity command ``(t,)`` (m/s, rad/s) for ``dt`` seconds; return the new ``(d,)``."""
+
+    @abstractmethod
+    def configuration(self) -> np.ndarray:
+        """The robot's current configuration ``(d,)``."""
+
+    def in_contact(self) -> bool:
+        """Whether the robot touched anything during the last step."""
+        return False
+
+
+class Controller(Component):
+    """Turns (current configuration, target) into a velocity command (thesis app. C)."""
+
+    kind = "controller"
+
+    def reset(self) -> None:
+        """Forget internal state (e.g. the stuck-detection window) before a new motion."""
+
+    @abstractmethod
+    def command(self, q: np.ndarray, target: np.ndarray, dt: float) -> np.ndarray:
+        """Tangent velocity ``(t,)`` to apply for ``dt`` seconds toward ``target``."""
+
+    def reached(self, q: np.ndarray, target: np.ndarray) -> bool:
+        """Whether ``q`` is close enough to ``target`` to move on."""
+        return False
+
+
+@dataclass
+class PlanningProblem:
+    """A query: the space, start, goal and what to consult (cost, simulator, robot, scene).
+
+    goal_tolerance: distance (in the space's metric) within which the goal counts as reached.
+    validity: optional extra check ``(n, d) -> bool (n,)``; the cost's NaN also marks infeasible states.
+    goal_region: optional ``(n, d) -> bool (n,)`` replacing the goal configuration (task-space goals).
+    """
+
+    space: Space
+    start: np.ndarray
+    goal: np.ndarray
+    goal_tolerance: float = 0.0
+    cost: CostModel | None = None
+    robot: RobotModel | None = None
+    simulator: Simulator | None = None
+    controller: Controller | None = None
+    scene: Any = None
+    validity: Callable[[np.ndarray], np.ndarray] | None = None
+    goal_region: Callable[[np.ndarray], np.ndarray] | None = None
+
+    @classmethod
+    def from_context(cls, context: Context, start=None, goal=None) -> PlanningProblem:
+        """The scene's task (or the given start/goal) with the context's components."""
+        scene = context.scene
+        space = context.space
+        start = scene.start if start is None else start
+        goal = scene.goal if goal is None else goal
+        return cls(space=space, start=np.asarray(start, dtype=np.float64), goal=np.asarray(goal, dtype=np.float64),
+                   goal_tolerance=scene.goal_tolerance if scene is not None else 0.0, cost=context.cost,
+                   robot=context.robot, simulator=context.simulator, controller=context.controller, scene=scene)
+
+    def is_valid(self, q: np.ndarray) -> np.ndarray:
+        """Bool ``(n,)``: in the space's bounds, feasible for the cost, and passing ``validity``."""
+        q = np.atleast_2d(q)
+        ok = np.asarray(self.space.is_valid(q), dtype=bool)
+        if self.cost is not None and ok.any():
+            ok &= self.cost.is_valid(q)
+        if self.validity is not None and ok.any():
+            ok &= np.asarray(self.validity(q), dtype=bool)
+        return ok
+
+    def in_goal(self, q: np.ndarray) -> np.ndarray:
+        """Bool ``(n,)``: within ``goal_tolerance`` of the goal, or inside ``goal_region``."""
+        q = np.atleast_2d(q)
+        if self.goal_region is not None:
+            return np.asarray(self.goal_region(q), dtype=bool)
+        return self.space.distance(q, self.goal) <= self.goal_tolerance + 1e-12
+
+
+class Planner(Component):
+    """Finds a path (or a policy) for a :class:`PlanningProblem`."""
+
+    kind = "planner"
+
+    @abstractmethod
+    def plan(self, problem: PlanningProblem, rng: np.random.Generator,
+             termination: Termination | None = None) -> PlanResult:
+        """Solve ``problem``; never returns ``None`` (see :class:`~pliant.results.Status`)."""
+
+
+class PathMetric(Component):
+    """Scores a path (e.g. the reachable-volume quality metric of thesis ch. 6)."""
+
+    kind = "metric"
+
+    @abstractmethod
+    def evaluate(self, path: Path, problem: PlanningProblem, rng: np.random.Generator) -> dict[str, float]:
+        """Named scores of ``path`` (units documented by the plugin)."""
+
+
+class Driver(Component):
+    """Sends trajectories to a real (or emulated) robot and reads its state."""
+
+    kind = "driver"
+
+    @abstractmethod
+    def connect(self) -> None:
+        """Open the connection to the robot."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Close the connection; safe to call twice."""
+
+    @abstractmethod
+    def send(self, path: Path) -> None:
+        """Execute a timed path (``path.times`` required), smoothed within the robot's limits."""
+
+    @abstractmethod
+    def state(self) -> np.ndarray:
+        """The measured configuration ``(d,)``."""
+
+
+class Learner(Component):
+    """Fits parameters from data (demonstrations, action outcomes)."""
+
+    kind = "learner"
+
+    @abstractmethod
+    def fit(self, data: Any, rng: np.random.Generator) -> dict[str, Any]:
+        """Fit and return the learned parameters (names and units documented by the plugin)."""
+
+
+BASES: dict[str, type[Component]] = {
+    "simulator": Simulator, "robot": RobotModel, "controller": Controller, "planner": Planner,
+    "metric": PathMetric, "cost": CostModel, "learner": Learner, "driver": Driver,
+}

@@ -1,0 +1,163 @@
+"""Options dataclasses: building them from untrusted dictionaries with clear errors.
+
+Every component declares one ``Options`` dataclass (DESIGN rule 4).  Each field carries its
+documentation in ``metadata``: ``doc`` (what it is, with units), and optionally ``minimum`` /
+``maximum`` (inclusive range) and ``choices``.  :func:`build_options` turns a dict from a pipeline
+file, the command line or Python keyword arguments into an instance, converting and checking types
+and ranges and rejecting unknown names.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from typing import Any
+
+from pliant.errors import ConfigError
+
+
+@dataclasses.dataclass(frozen=True)
+class NoOptions:
+    """Options of a component that takes none."""
+
+
+def option(default: Any, doc: str, *, minimum: float | None = None, maximum: float | None = None,
+           choices: tuple | None = None, default_factory=None) -> Any:
+    """A documented dataclass field for an ``Options`` class (``doc`` states units)."""
+    meta = {"doc": doc, "minimum": minimum, "maximum": maximum, "choices": choices}
+    if default_factory is not None:
+        return dataclasses.field(default_factory=default_factory, metadata=meta)
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def describe_options(options_cls: type) -> list[dict]:
+    """One row per option: name, type, default, doc, range; for ``pliant plugins --options`` and docs."""
+    rows = []
+    hints = typing.get_type_hints(options_cls)
+    for f in dataclasses.fields(options_cls):
+        default = f.default if f.default is not dataclasses.MISSING else (
+            f.default_factory() if f.default_factory is not dataclasses.MISSING else None)
+        rows.append({"name": f.name, "type": _type_name(hints.get(f.name)), "default": default,
+                     "doc": f.metadata.get("doc", ""), "minimum": f.metadata.get("minimum"),
+                     "maximum": f.metadata.get("maximum"), "choices": f.metadata.get("choices")})
+    return rows
+
+
+def build_options(options_cls: type, values: dict[str, Any] | None, *, source: str = "<options>",
+                  prefix: str = "") -> Any:
+    """An ``options_cls`` instance from ``values``; raises :class:`ConfigError` naming the field.
+
+    Strings from the command line (``"5"``, ``"true"``, ``"0.5,0.2"``) are converted to the declared
+    type.  After construction the instance's ``validate()`` (if any) runs for cross-field checks.
+    """
+    values = dict(values or {})
+    if isinstance(values, options_cls):
+        return values
+    names = {f.name: f for f in dataclasses.fields(options_cls)}
+    hints = typing.get_type_hints(options_cls)
+    kwargs = {}
+    for key, raw in values.items():
+        field_name = f"{prefix}.{key}" if prefix else key
+        if key not in names:
+            known = ", ".join(sorted(names)) or "none"
+            raise ConfigError(f"unknown option (known options: {known})", source=source, field=field_name, value=raw)
+        f = names[key]
+        value = _convert(raw, hints[key], source, field_name)
+        meta = f.metadata
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            if meta.get("minimum") is not None and value < meta["minimum"]:
+                raise ConfigError(f"must be >= {meta['minimum']}", source=source, field=field_name, value=raw)
+            if meta.get("maximum") is not None and value > meta["maximum"]:
+                raise ConfigError(f"must be <= {meta['maximum']}", source=source, field=field_name, value=raw)
+        if meta.get("choices") is not None and value not in meta["choices"]:
+            raise ConfigError(f"must be one of {', '.join(map(str, meta['choices']))}", source=source,
+                              field=field_name, value=raw)
+        kwargs[key] = value
+    try:
+        instance = options_cls(**kwargs)
+    except TypeError as exc:
+        raise ConfigError(f"cannot build options: {exc}", source=source, field=prefix or "<options>") from None
+    validate = getattr(instance, "validate", None)
+    if callable(validate):
+        try:
+            validate()
+        except ConfigError as exc:
+            raise ConfigError(exc.message, source=source,
+                              field=f"{prefix}.{exc.field}" if prefix and exc.field else (exc.field or prefix),
+                              **({"value": exc.value} if exc.has_value else {})) from None
+    return instance
+
+
+def _type_name(tp) -> str:
+    if tp is None:
+        return "any"
+    return getattr(tp, "__name__", str(tp)).replace("typing.", "")
+
+
+def _convert(raw: Any, tp: Any, source: str, field: str) -> Any:
+    origin = typing.get_origin(tp)
+    args = typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        if raw is None and type(None) in args:
+            return None
+        if isinstance(raw, str) and raw.lower() in ("none", "null") and type(None) in args:
+            return None
+        errors = []
+        for arg in args:
+            if arg is type(None):
+                continue
+            try:
+                return _convert(raw, arg, source, field)
+            except ConfigError as exc:
+                errors.append(exc)
+        raise errors[0]
+    if tp is typing.Any:
+        return raw
+    if tp is bool:
+        if isinstance(raw, bool):
+            return raw
+        if isinstance(raw, str) and raw.lower() in ("true", "false", "yes", "no", "1", "0"):
+            return raw.lower() in ("true", "yes", "1")
+        raise ConfigError("must be true or false", source=source, field=field, value=raw)
+    if tp is int:
+        if isinstance(raw, str):
+            try:
+                raw = int(raw)
+            except ValueError:
+                raise ConfigError("must be an integer", source=source, field=field, value=raw) from None
+        if isinstance(raw, bool) or not isinstance(raw, int):
+            if isinstance(raw, float) and raw.is_integer():
+                return int(raw)
+            raise ConfigError("must be an integer", source=source, field=field, value=raw)
+        return raw
+    if tp is float:
+        if isinstance(raw, str):
+            try:
+                raw = float(raw)
+            except ValueError:
+                raise ConfigError("must be a number", source=source, field=field, value=raw) from None
+        if isinstance(raw, bool) or not isinstance(raw, (int, float)):
+            raise ConfigError("must be a number", source=source, field=field, value=raw)
+        if not math.isfinite(raw):
+            raise ConfigError("must be finite", source=source, field=field, value=raw)
+        return float(raw)
+    if tp is str:
+        if not isinstance(raw, str):
+            raise ConfigError("must be a string", source=source, field=field, value=raw)
+        return raw
+    if origin in (tuple, list):
+        if isinstance(raw, str):
+            raw = [p for p in raw.replace("[", "").replace("]", "").split(",") if p.strip()]
+        if not isinstance(raw, (list, tuple)):
+            raise ConfigError("must be a list", source=source, field=field, value=raw)
+        item = args[0] if args else typing.Any
+        converted = [_convert(v.strip() if isinstance(v, str) else v, item, source, f"{field}[{i}]")
+                     for i, v in enumerate(raw)]
+        return tuple(converted) if origin is tuple else converted
+    if origin is dict or tp is dict:
+        if not isinstance(raw, dict):
+            raise ConfigError("must be a table", source=source, field=field, value=raw)
+        return dict(raw)
+    return raw

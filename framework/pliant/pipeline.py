@@ -1,0 +1,387 @@
+"""Pipelines: a scene plus one component of each kind, wired and run.
+
+A pipeline is built from Python, a dict, or a TOML file::
+
+    name = "demo"
+    scene = "triple-wall"          # bundled name or a path relative to this file
+    seed = 0
+    [planner]
+    name = "astar"
+    p = 0.5
+
+Components are given as a name (``planner = "straight"``) or a table with ``name`` and options.
+Overrides such as ``planner.max_time=5``, ``simulator=pybullet`` or ``scene.variant=soft`` change one
+value without editing the file (``pliant run FILE --set ...``).  :meth:`Pipeline.run` plans,
+scores and writes a report (``result.json``, ``report.md`` and figures) under ``output``.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import logging
+import time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pliant.errors import ConfigError, PipelineError, PliantError
+from pliant.interfaces import KINDS, Component, Context, PlanningProblem
+from pliant.registry import Registry, default_registry
+from pliant.results import PlanResult
+from pliant.scene import Scene, load_scene
+
+log = logging.getLogger(__name__)
+
+#: the order in which components are built; each sees the ones before it in its Context
+BUILD_ORDER = ("robot", "cost", "simulator", "controller", "planner", "metric", "learner", "driver")
+TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable"}
+DEFAULT_ROBOT = {"rigid": "rigid", "urdf": "pinocchio"}
+
+
+@dataclass
+class ComponentSpec:
+    """A component named in a pipeline: registry ``name`` and its ``options``."""
+
+    name: str
+    options: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class RunRecord:
+    """Everything one :meth:`Pipeline.run` produced; handed to report hooks.
+
+    result: the planner's result (``None`` if the pipeline has no planner).
+    metrics: the metric's named scores of the path.
+    files: every file the run wrote.
+    """
+
+    pipeline: Pipeline
+    context: Context
+    result: PlanResult | None
+    problem: PlanningProblem | None
+    metrics: dict[str, float]
+    output: Path
+    timings: dict[str, float]
+    files: list[Path] = field(default_factory=list)
+
+    def summary_rows(self) -> list[tuple[str, str]]:
+        """``(quantity, value)`` rows for the report table."""
+        rows = [("pipeline", self.pipeline.name), ("scene", self.context.scene.name +
+                (f" ({self.context.scene.variant})" if self.context.scene.variant else ""))]
+        for kind in BUILD_ORDER:
+            if kind in self.pipeline.components:
+                rows.append((kind, self.pipeline.components[kind].name))
+        if self.result is not None:
+            r = self.result
+            rows += [("status", r.status.value), ("cost", f"{r.cost:.6g}"), ("seed", str(r.seed))]
+            if r.path is not None:
+                rows.append(("waypoints", str(len(r.path))))
+                rows.append(("path length", f"{self.context.space.path_length(r.path.configurations):.6g}"))
+            for key, value in sorted(r.statistics.items()):
+                if isinstance(value, (int, float, str, np.integer, np.floating)):
+                    rows.append((key, f"{value:.6g}" if isinstance(value, (float, np.floating)) else str(value)))
+        for key, value in sorted(self.metrics.items()):
+            rows.append((f"metric {key}", f"{value:.6g}"))
+        for key, value in self.timings.items():
+            rows.append((f"time {key} (s)", f"{value:.3f}"))
+        return rows
+
+
+class Pipeline:
+    """A scene and its components; see the module docstring for the file format.
+
+    Parameters
+    ----------
+    scene:
+        A :class:`~pliant.scene.Scene`, a bundled scene name, a path, or ``{"name": ..., "variant": ...}``.
+    name, seed, output, disable:
+        Report name; the seed of the run's generator; the report directory (default ``out/<name>``);
+        plugin names not to use.
+    **components:
+        One per kind (``planner=...``): a name, ``{"name": ..., **options}``, a
+        :class:`ComponentSpec` or a ready :class:`~pliant.interfaces.Component`.
+    """
+
+    def __init__(self, scene: Any = None, *, name: str = "pipeline", seed: int = 0, output: str | Path | None = None,
+                 disable: tuple[str, ...] | list[str] = (), description: str = "", source: str = "<python>",
+                 base_dir: Path | None = None, registry: Registry | None = None, **components: Any) -> None:
+        self.source = source
+        self.base_dir = base_dir or Path.cwd()
+        self.registry = registry or default_registry()
+        self.name = name
+        self.description = description
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise PipelineError("must be a non-negative integer", source=source, field="seed", value=seed)
+        self.seed = int(seed)
+        self.output = Path(output) if output is not None else Path("out") / name
+        if isinstance(disable, str) or not all(isinstance(d, str) for d in disable):
+            raise PipelineError("must be a list of plugin names", source=source, field="disable", value=disable)
+        self.disable = frozenset(disable)
+        self.scene_spec = scene
+        self.components: dict[str, ComponentSpec] = {}
+        self.instances: dict[str, Component] = {}
+        for kind, spec in components.items():
+            if kind not in KINDS:
+                raise PipelineError(f"unknown component kind (kinds: {', '.join(KINDS)})", source=source,
+                                    field=kind, value=spec)
+            if isinstance(spec, Component):
+                self.instances[kind] = spec
+                self.components[kind] = ComponentSpec(type(spec).__name__, {})
+            elif spec is not None:
+                self.components[kind] = _component_spec(spec, source, kind)
+        if scene is None:
+            raise PipelineError("a pipeline needs a scene", source=source, field="scene")
+
+    # --- construction from data ---------------------------------------------------------------
+
+    @classmethod
+    def from_dict(cls, data: dict, *, source: str = "<dict>", base_dir: Path | None = None,
+                  overrides: list[str] | dict[str, Any] | None = None, registry: Registry | None = None) -> Pipeline:
+        """Build from a parsed pipeline table, after applying ``overrides``."""
+        if not isinstance(data, dict):
+            raise PipelineError("a pipeline must be a table", source=source, field="<top>", value=data)
+        data = apply_overrides(data, overrides or [], source)
+        unknown = sorted(set(data) - TOP_LEVEL - set(KINDS))
+        if unknown:
+            raise PipelineError(f"not a known field (fields: {', '.join(sorted(TOP_LEVEL | set(KINDS)))})",
+                                source=source, field=unknown[0], value=data[unknown[0]])
+        name = data.get("name", Path(source).stem if source.endswith(".toml") else "pipeline")
+        if not isinstance(name, str) or not name:
+            raise PipelineError("must be a non-empty string", source=source, field="name", value=name)
+        description = data.get("description", "")
+        if not isinstance(description, str):
+            raise PipelineError("must be a string", source=source, field="description", value=description)
+        output = data.get("output")
+        if output is not None and not isinstance(output, str):
+            raise PipelineError("must be a path string", source=source, field="output", value=output)
+        components = {k: data[k] for k in KINDS if k in data}
+        return cls(data.get("scene"), name=name, seed=data.get("seed", 0), output=output,
+                   disable=data.get("disable", ()), description=description, source=source,
+                   base_dir=base_dir, registry=registry, **components)
+
+    @classmethod
+    def from_file(cls, path: str | Path, overrides: list[str] | dict[str, Any] | None = None,
+                  registry: Registry | None = None) -> Pipeline:
+        """Read a pipeline TOML file (a bundled pipeline may be named without ``.toml``)."""
+        path = _resolve_pipeline_path(path)
+        try:
+            data = tomllib.loads(path.read_text())
+        except tomllib.TOMLDecodeError as exc:
+            raise PipelineError(f"not valid TOML: {exc}", source=str(path), field="<file>") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise PipelineError(f"cannot read file: {exc}", source=str(path), field="<file>") from None
+        if "robot" in data and "kind" in data.get("robot", {}):
+            raise PipelineError("this looks like a scene file, not a pipeline; run a pipeline that names it "
+                                "as scene = \"...\"", source=str(path), field="robot")
+        return cls.from_dict(data, source=str(path), base_dir=path.parent, overrides=overrides, registry=registry)
+
+    # --- building and running -----------------------------------------------------------------
+
+    def load_scene(self) -> Scene:
+        """The pipeline's scene (loaded, with its variant)."""
+        spec = self.scene_spec
+        if isinstance(spec, Scene):
+            return spec
+        variant = None
+        if isinstance(spec, dict):
+            unknown = sorted(set(spec) - {"name", "variant"})
+            if unknown:
+                raise PipelineError("scene table takes only name and variant", source=self.source,
+                                    field=f"scene.{unknown[0]}", value=spec[unknown[0]])
+            variant = spec.get("variant")
+            spec = spec.get("name")
+        if not isinstance(spec, (str, Path)) or not str(spec):
+            raise PipelineError("must be a scene name, a path, or {name, variant}", source=self.source,
+                                field="scene", value=spec)
+        if variant is not None and not isinstance(variant, str):
+            raise PipelineError("must be a string", source=self.source, field="scene.variant", value=variant)
+        candidate = self.base_dir / str(spec)
+        target = candidate if candidate.is_file() else spec
+        return load_scene(target, variant=variant)
+
+    def build(self) -> Context:
+        """Load the scene and create every component, in :data:`BUILD_ORDER`, bound to one context."""
+        scene = self.load_scene()
+        context = Context(scene=scene, seed=self.seed)
+        specs = dict(self.components)
+        if "robot" not in specs and "robot" not in self.instances:
+            specs["robot"] = ComponentSpec(DEFAULT_ROBOT[scene.robot.kind])
+        for kind in BUILD_ORDER:
+            if kind in self.instances:
+                component = self.instances[kind]
+                component.bind(context)
+            elif kind in specs:
+                spec = specs[kind]
+                component = self.registry.create(kind, spec.name, context, source=self.source,
+                                                 disabled=self.disable, **spec.options)
+            else:
+                continue
+            if kind in ("robot", "cost", "simulator", "controller"):
+                setattr(context, kind, component)
+            else:
+                context.extras[kind] = component
+        return context
+
+    def run(self, *, write: bool = True) -> RunRecord:
+        """Build, plan, score and (if ``write``) write the report; returns the :class:`RunRecord`."""
+        timings: dict[str, float] = {}
+        t0 = time.perf_counter()
+        context = self.build()
+        timings["build"] = time.perf_counter() - t0
+        rng = np.random.default_rng(self.seed)
+        result, problem, metrics = None, None, {}
+        planner = context.extras.get("planner")
+        if planner is not None:
+            problem = PlanningProblem.from_context(context)
+            t0 = time.perf_counter()
+            log.info("planning with %s on %s", self.components["planner"].name, context.scene.name)
+            result = planner.plan(problem, rng)
+            timings["plan"] = time.perf_counter() - t0
+            if result.seed is None:
+                result.seed = self.seed
+            metric = context.extras.get("metric")
+            if metric is not None and result.path is not None:
+                t0 = time.perf_counter()
+                metrics = dict(metric.evaluate(result.path, problem, rng))
+                timings["metric"] = time.perf_counter() - t0
+        record = RunRecord(self, context, result, problem, metrics, self.output, timings)
+        if write:
+            self.write_report(record)
+        return record
+
+    def write_report(self, record: RunRecord) -> None:
+        """Write ``result.json``, ``run.json``, figures from report hooks and ``report.md``."""
+        out = record.output
+        out.mkdir(parents=True, exist_ok=True)
+        if record.result is not None:
+            record.result.save(out / "result.json")
+            record.files.append(out / "result.json")
+        (out / "run.json").write_text(json.dumps({"pipeline": self.to_dict(), "metrics": record.metrics,
+                                                  "timings": record.timings}, indent=1, default=str))
+        record.files.append(out / "run.json")
+        figures: list[Path] = []
+        for produced in self.registry.report_hook()(run=record, directory=out):
+            figures.extend(Path(p) for p in (produced or []))
+        record.files.extend(figures)
+        lines = [f"# {self.name}", ""]
+        if self.description:
+            lines += [self.description, ""]
+        lines += ["| quantity | value |", "| --- | --- |"]
+        lines += [f"| {k} | {v} |" for k, v in record.summary_rows()]
+        if figures:
+            lines += [""] + [f"![{p.stem}]({p.name})" for p in figures]
+        (out / "report.md").write_text("\n".join(lines) + "\n")
+        record.files.append(out / "report.md")
+
+    def to_dict(self) -> dict:
+        """The pipeline as a table (what a file would contain)."""
+        scene = self.scene_spec.name if isinstance(self.scene_spec, Scene) else self.scene_spec
+        out: dict[str, Any] = {"name": self.name, "scene": str(scene) if isinstance(scene, Path) else scene,
+                               "seed": self.seed, "output": str(self.output)}
+        if self.disable:
+            out["disable"] = sorted(self.disable)
+        for kind, spec in self.components.items():
+            out[kind] = {"name": spec.name, **spec.options}
+        return out
+
+
+def _component_spec(spec: Any, source: str, kind: str) -> ComponentSpec:
+    if isinstance(spec, ComponentSpec):
+        return spec
+    if isinstance(spec, str):
+        if not spec:
+            raise PipelineError("component name must not be empty", source=source, field=kind, value=spec)
+        return ComponentSpec(spec)
+    if isinstance(spec, dict):
+        options = dict(spec)
+        name = options.pop("name", None)
+        if not isinstance(name, str) or not name:
+            raise PipelineError("component table needs a 'name' (a registered component)", source=source,
+                                field=f"{kind}.name", value=name)
+        return ComponentSpec(name, options)
+    raise PipelineError("must be a component name or a table with 'name' and options", source=source,
+                        field=kind, value=spec)
+
+
+def parse_override(text: str, source: str = "<overrides>") -> tuple[str, Any]:
+    """``"planner.max_time=5"`` -> ``("planner.max_time", 5)``; values parse as TOML, else strings."""
+    if not isinstance(text, str) or "=" not in text:
+        raise PipelineError("an override must look like key=value (e.g. planner.max_time=5)", source=source,
+                            field="--set", value=text)
+    key, _, raw = text.partition("=")
+    key = key.strip()
+    if not key or any(not part for part in key.split(".")):
+        raise PipelineError("an override needs a key before '='", source=source, field="--set", value=text)
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()
+    return key, value
+
+
+def apply_overrides(data: dict, overrides: list[str] | dict[str, Any], source: str) -> dict:
+    """A copy of pipeline ``data`` with overrides applied.
+
+    ``kind=name`` replaces a component (dropping its old options); ``kind.option=value`` sets one
+    option; ``scene.variant=v`` picks a scene variant; top-level keys (``seed=3``) are set directly.
+    """
+    out = copy.deepcopy(data)
+    items = overrides.items() if isinstance(overrides, dict) else (parse_override(o, source) for o in overrides)
+    for key, value in items:
+        head, _, rest = key.partition(".")
+        if head not in TOP_LEVEL and head not in KINDS:
+            raise PipelineError(f"override names no pipeline field (fields: {', '.join(sorted(TOP_LEVEL | set(KINDS)))})",
+                                source=source, field=key, value=value)
+        if not rest:
+            out[head] = value
+            continue
+        if head == "scene":
+            if rest not in ("name", "variant"):
+                raise PipelineError("scene overrides are scene=NAME or scene.variant=VARIANT", source=source,
+                                    field=key, value=value)
+            current = out.get("scene")
+            table = dict(current) if isinstance(current, dict) else {"name": current}
+            table[rest] = value
+            out["scene"] = table
+            continue
+        if head in TOP_LEVEL:
+            raise PipelineError("this field has no sub-fields", source=source, field=key, value=value)
+        current = out.get(head)
+        if current is None:
+            raise PipelineError(f"the pipeline has no {head}; set {head}=NAME first", source=source, field=key,
+                                value=value)
+        table = {"name": current} if isinstance(current, str) else dict(current)
+        table[rest] = value
+        out[head] = table
+    return out
+
+
+def bundled_pipelines_dir() -> Path:
+    """Directory of the pipelines shipped with pliant (``scenes/pipelines``)."""
+    from pliant.scene import bundled_scenes_dir
+
+    return bundled_scenes_dir() / "pipelines"
+
+
+def available_pipelines() -> list[str]:
+    return sorted(p.stem for p in bundled_pipelines_dir().glob("*.toml"))
+
+
+def _resolve_pipeline_path(path: str | Path) -> Path:
+    p = Path(path)
+    if p.is_file():
+        return p
+    candidate = bundled_pipelines_dir() / f"{path}.toml"
+    if p.suffix != ".toml" and candidate.is_file():
+        return candidate
+    raise PipelineError(f"no pipeline file or bundled pipeline of that name (bundled: "
+                        f"{', '.join(available_pipelines()) or 'none'})", source=str(path), field="<file>",
+                        value=str(path))
+
+
+__all__ = ["Pipeline", "ComponentSpec", "RunRecord", "apply_overrides", "parse_override", "ConfigError",
+           "PliantError"]

@@ -1,0 +1,249 @@
+"""The plugin registry: components by kind and name, from entry points or Python.
+
+Plugins are modules named by entry points in the group ``pliant`` (see :mod:`pliant.hookspecs`).
+They load on first use, not at ``import pliant``.  A plugin that fails to import or register is
+recorded with its error (``pliant plugins`` shows it) and does not break the others.  Plugins named
+in the environment variable ``PLIANT_DISABLE`` (comma separated) are not loaded.
+
+Public surface::
+
+    pliant.registry.available("planner")            # ['astar', 'straight', ...]
+    pliant.registry.create("planner", "straight", step=0.01)
+    pliant.registry.register("cost", "mine", MyCost)  # without packaging, from Python
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import threading
+from dataclasses import dataclass
+from importlib.metadata import entry_points
+from typing import Any
+
+import pluggy
+
+from pliant.errors import PluginError
+from pliant.hookspecs import PROJECT, PliantSpec
+from pliant.interfaces import BASES, KINDS, Component, Context
+
+ENTRY_POINT_GROUP = "pliant"
+DISABLE_ENV = "PLIANT_DISABLE"
+
+
+@dataclass
+class ComponentEntry:
+    """One registered component.
+
+    target: the class (or factory) or a lazy ``"module:attr"`` string.
+    plugin: the plugin (entry point name) that registered it; ``"<python>"`` for :func:`register`.
+    """
+
+    kind: str
+    name: str
+    target: Any
+    description: str = ""
+    plugin: str = ""
+    distribution: str = ""
+
+    def load(self) -> Any:
+        """The class or factory, importing it now if it was registered as a string."""
+        if not isinstance(self.target, str):
+            return self.target
+        module_name, _, attr = self.target.partition(":")
+        try:
+            obj = importlib.import_module(module_name)
+            for part in attr.split("."):
+                obj = getattr(obj, part)
+        except Exception as exc:  # any import failure of a plugin is reported, not fatal
+            raise PluginError(f"cannot load {self.kind} '{self.name}' from plugin '{self.plugin}': "
+                              f"{type(exc).__name__}: {exc}", field=f"{self.kind}.name", value=self.name) from exc
+        self.target = obj
+        return obj
+
+
+@dataclass
+class PluginStatus:
+    """What happened to one plugin: ``loaded``, ``failed`` (with ``error``) or ``disabled``."""
+
+    name: str
+    distribution: str
+    status: str
+    error: str = ""
+
+
+class Registrar:
+    """Handed to a plugin's ``pliant_register`` hook; adds components on the plugin's behalf."""
+
+    def __init__(self, registry: Registry, plugin: str, distribution: str) -> None:
+        self._registry = registry
+        self._plugin = plugin
+        self._distribution = distribution
+
+    def add(self, kind: str, name: str, target: Any, description: str = "") -> None:
+        """Register ``target`` (a class, factory or ``"module:Class"``) as ``kind``/``name``."""
+        self._registry._add(ComponentEntry(kind, name, target, description, self._plugin, self._distribution))
+
+
+class Registry:
+    """Components by kind and name; loads entry-point plugins lazily on first query."""
+
+    def __init__(self) -> None:
+        self._entries: dict[tuple[str, str], ComponentEntry] = {}
+        self._plugins: dict[str, PluginStatus] = {}
+        self._loaded = False
+        self._lock = threading.RLock()
+        self.manager = pluggy.PluginManager(PROJECT)
+        self.manager.add_hookspecs(PliantSpec)
+
+    # --- loading ------------------------------------------------------------------------------
+
+    def _disabled_from_env(self) -> set[str]:
+        return {n.strip() for n in os.environ.get(DISABLE_ENV, "").split(",") if n.strip()}
+
+    def load(self) -> None:
+        """Load every entry-point plugin once (called implicitly by the queries)."""
+        with self._lock:
+            if self._loaded:
+                return
+            self._loaded = True
+            disabled = self._disabled_from_env()
+            for ep in sorted(entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
+                dist = ep.dist.name if ep.dist is not None else ""
+                if ep.name in disabled:
+                    self._plugins[ep.name] = PluginStatus(ep.name, dist, "disabled", f"listed in {DISABLE_ENV}")
+                    continue
+                try:
+                    module = ep.load()
+                    self._call_register(module, ep.name, dist)
+                    self.manager.register(module, name=ep.name)
+                except Exception as exc:  # a broken plugin is reported, never fatal
+                    self._plugins[ep.name] = PluginStatus(ep.name, dist, "failed", f"{type(exc).__name__}: {exc}")
+                    self._entries = {k: v for k, v in self._entries.items() if v.plugin != ep.name}
+                    continue
+                self._plugins[ep.name] = PluginStatus(ep.name, dist, "loaded")
+
+    def _call_register(self, module: Any, plugin: str, distribution: str) -> None:
+        hook = getattr(module, "pliant_register", None)
+        if hook is None:
+            raise PluginError("plugin module has no pliant_register hook", field="entry point", value=plugin)
+        hook(registrar=Registrar(self, plugin, distribution))
+
+    def _add(self, entry: ComponentEntry) -> None:
+        if entry.kind not in KINDS:
+            raise PluginError(f"unknown component kind (kinds: {', '.join(KINDS)})", source=entry.plugin,
+                              field="kind", value=entry.kind)
+        if not entry.name or not isinstance(entry.name, str):
+            raise PluginError("component names must be non-empty strings", source=entry.plugin, field="name",
+                              value=entry.name)
+        key = (entry.kind, entry.name)
+        if key in self._entries and self._entries[key].plugin != entry.plugin:
+            other = self._entries[key].plugin
+            raise PluginError(f"{entry.kind} '{entry.name}' is already registered by plugin '{other}'",
+                              source=entry.plugin, field="name", value=entry.name)
+        self._entries[key] = entry
+
+    # --- queries ------------------------------------------------------------------------------
+
+    def register(self, kind: str, name: str, target: Any, description: str = "") -> None:
+        """Register a component from Python (no packaging needed); plugin name ``<python>``."""
+        self.load()
+        self._add(ComponentEntry(kind, name, target, description, "<python>", ""))
+
+    def unregister(self, kind: str, name: str) -> None:
+        """Remove a component registered with :meth:`register`."""
+        self._entries.pop((kind, name), None)
+
+    def available(self, kind: str) -> list[str]:
+        """Sorted names of the registered components of ``kind``."""
+        self._check_kind(kind)
+        self.load()
+        return sorted(n for (k, n) in self._entries if k == kind)
+
+    def entry(self, kind: str, name: str) -> ComponentEntry:
+        """The entry of ``kind``/``name``; raises :class:`PluginError` listing the alternatives."""
+        self._check_kind(kind)
+        self.load()
+        try:
+            return self._entries[(kind, name)]
+        except KeyError:
+            known = ", ".join(self.available(kind)) or "none registered"
+            failed = [p.name for p in self._plugins.values() if p.status != "loaded"]
+            hint = f"; plugins not loaded: {', '.join(failed)} (see `pliant plugins`)" if failed else ""
+            raise PluginError(f"unknown {kind} (available: {known}){hint}", field=kind, value=name) from None
+
+    def entries(self) -> list[ComponentEntry]:
+        self.load()
+        return sorted(self._entries.values(), key=lambda e: (e.kind, e.name))
+
+    def plugins(self) -> list[PluginStatus]:
+        """Status of every entry-point plugin (loaded, failed with its error, or disabled)."""
+        self.load()
+        return sorted(self._plugins.values(), key=lambda p: p.name)
+
+    def create(self, kind: str, name: str, context: Context | None = None, *, source: str = "<options>",
+               disabled: set[str] | frozenset[str] = frozenset(), **options: Any) -> Component:
+        """Build the component ``kind``/``name`` with ``options``; bind it to ``context`` if given.
+
+        ``disabled`` names plugins whose components must not be used (a pipeline's ``disable``).
+        Raises :class:`PluginError` for unknown names and :class:`~pliant.errors.ConfigError` for bad
+        options.
+        """
+        entry = self.entry(kind, name)
+        if entry.plugin in disabled:
+            raise PluginError(f"plugin '{entry.plugin}' is disabled in this pipeline", field=kind, value=name)
+        target = entry.load()
+        if isinstance(target, type) and issubclass(target, Component):
+            component = target(dict(options), source=source)
+        else:
+            component = target(**options)
+        base = BASES[kind]
+        if not isinstance(component, base):
+            raise PluginError(f"{kind} '{name}' from plugin '{entry.plugin}' is not a {base.__name__}",
+                              field=kind, value=type(component).__name__)
+        if context is not None:
+            component.bind(context)
+        return component
+
+    def report_hook(self):
+        """The ``pliant_report`` hook caller over every loaded plugin."""
+        self.load()
+        return self.manager.hook.pliant_report
+
+    @staticmethod
+    def _check_kind(kind: str) -> None:
+        if kind not in KINDS:
+            raise PluginError(f"unknown component kind (kinds: {', '.join(KINDS)})", field="kind", value=kind)
+
+
+_REGISTRY = Registry()
+
+
+def default_registry() -> Registry:
+    """The process-wide registry used by :func:`available`, :func:`create` and the pipeline."""
+    return _REGISTRY
+
+
+def available(kind: str) -> list[str]:
+    """Names of the registered components of ``kind`` (one of :data:`pliant.interfaces.KINDS`)."""
+    return _REGISTRY.available(kind)
+
+
+def create(kind: str, name: str, context: Context | None = None, **options: Any) -> Component:
+    """Build a registered component by kind and name; see :meth:`Registry.create`."""
+    return _REGISTRY.create(kind, name, context, **options)
+
+
+def register(kind: str, name: str, target: Any, description: str = "") -> None:
+    """Register a component from Python code; see :meth:`Registry.register`."""
+    _REGISTRY.register(kind, name, target, description)
+
+
+def plugins() -> list[PluginStatus]:
+    """Status of every entry-point plugin."""
+    return _REGISTRY.plugins()
+
+
+def entries() -> list[ComponentEntry]:
+    """Every registered component."""
+    return _REGISTRY.entries()

@@ -1,0 +1,173 @@
+"""What planners return: paths, policies and :class:`PlanResult`, with file round trips.
+
+A result is data (DESIGN rule 6): a status, the path or policy, its cost, statistics and the seed,
+never a bare ``None``.  Results save to JSON (``.json``) and load back unchanged.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path as FilePath
+from typing import Any, ClassVar
+
+import numpy as np
+
+from pliant.errors import ConfigError
+
+
+class Status(enum.Enum):
+    """Outcome of a planning query."""
+
+    SOLVED = "solved"                  #: a path/policy that reaches the goal
+    APPROXIMATE = "approximate"        #: the best path found ends near, not at, the goal
+    TIMEOUT = "timeout"                #: termination came before any solution
+    INVALID_START = "invalid start"    #: the start is out of bounds or infeasible
+    INVALID_GOAL = "invalid goal"      #: the goal is out of bounds or infeasible
+    INFEASIBLE = "infeasible"          #: the planner proved (or its search exhausted) no solution
+
+    @property
+    def success(self) -> bool:
+        return self in (Status.SOLVED, Status.APPROXIMATE)
+
+
+@dataclass
+class Path:
+    """A sequence of configurations ``(k, d)`` with optional times ``(k,)`` in seconds.
+
+    ``space_kind`` records the space the coordinates belong to (``"se3"``...), so that a loaded path
+    is not misread.
+    """
+
+    configurations: np.ndarray
+    times: np.ndarray | None = None
+    space_kind: str = ""
+
+    def __post_init__(self) -> None:
+        self.configurations = np.atleast_2d(np.asarray(self.configurations, dtype=np.float64))
+        if self.times is not None:
+            self.times = np.asarray(self.times, dtype=np.float64)
+            if self.times.shape != (len(self.configurations),):
+                raise ConfigError("times must have one entry per configuration", field="times",
+                                  value=list(self.times.shape))
+
+    def __len__(self) -> int:
+        return len(self.configurations)
+
+    def to_dict(self) -> dict:
+        return {"configurations": self.configurations.tolist(),
+                "times": None if self.times is None else self.times.tolist(), "space_kind": self.space_kind}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Path:
+        return cls(np.asarray(data["configurations"], dtype=np.float64),
+                   None if data.get("times") is None else np.asarray(data["times"]), data.get("space_kind", ""))
+
+
+class Policy:
+    """Base class of policies (e.g. the partial policies of thesis ch. 5).
+
+    Subclasses set a unique ``kind`` and implement :meth:`to_dict` / :meth:`from_dict`; they are
+    found again by ``kind`` when a result is loaded.
+    """
+
+    kind: ClassVar[str] = ""
+    _kinds: ClassVar[dict[str, type[Policy]]] = {}
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.kind:
+            Policy._kinds[cls.kind] = cls
+
+    def to_dict(self) -> dict:
+        raise NotImplementedError
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Policy:
+        kind = data.get("kind")
+        if kind not in Policy._kinds:
+            raise ConfigError("unknown policy kind (is the plugin that defines it installed?)", field="policy.kind",
+                              value=kind)
+        return Policy._kinds[kind].from_dict(data)
+
+
+@dataclass
+class PlanResult:
+    """The outcome of :meth:`pliant.interfaces.Planner.plan`.
+
+    status: see :class:`Status`.
+    path: the solution (or best approximate) path, else ``None``.
+    policy: for planners that return policies.
+    cost: the planner's objective value of ``path`` (NaN when there is none).
+    statistics: counters and timings (``iterations``, ``nodes``, ``time``, ``time_to_first`` in
+        seconds, ``cost_history`` as ``[[t, cost], ...]``...).
+    seed: the seed of the generator the planner used, for reproduction.
+    """
+
+    status: Status
+    path: Path | None = None
+    policy: Policy | None = None
+    cost: float = math.nan
+    statistics: dict[str, Any] = field(default_factory=dict)
+    seed: int | None = None
+    planner: str = ""
+    options: dict[str, Any] = field(default_factory=dict)
+    message: str = ""
+
+    @property
+    def solved(self) -> bool:
+        return self.status.success
+
+    def to_dict(self) -> dict:
+        return {"status": self.status.value, "path": None if self.path is None else self.path.to_dict(),
+                "policy": None if self.policy is None else self.policy.to_dict(),
+                "cost": None if math.isnan(self.cost) else self.cost, "statistics": _jsonable(self.statistics),
+                "seed": self.seed, "planner": self.planner, "options": _jsonable(self.options),
+                "message": self.message}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> PlanResult:
+        try:
+            status = Status(data["status"])
+        except (KeyError, ValueError):
+            raise ConfigError("unknown or missing status", field="status", value=data.get("status")) from None
+        return cls(status=status, path=None if data.get("path") is None else Path.from_dict(data["path"]),
+                   policy=None if data.get("policy") is None else Policy.from_dict(data["policy"]),
+                   cost=math.nan if data.get("cost") is None else float(data["cost"]),
+                   statistics=dict(data.get("statistics") or {}), seed=data.get("seed"),
+                   planner=data.get("planner", ""), options=dict(data.get("options") or {}),
+                   message=data.get("message", ""))
+
+    def save(self, path: str | FilePath) -> None:
+        """Write the result as JSON (parent directories are created)."""
+        path = FilePath(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(self.to_dict(), indent=1))
+
+    @classmethod
+    def load(cls, path: str | FilePath) -> PlanResult:
+        """Read a result written by :meth:`save`."""
+        try:
+            data = json.loads(FilePath(path).read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ConfigError(f"cannot read result file: {exc}", source=str(path), field="<file>") from None
+        return cls.from_dict(data)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _jsonable(value.tolist())
+    if isinstance(value, (np.floating, float)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, enum.Enum):
+        return value.value
+    return value

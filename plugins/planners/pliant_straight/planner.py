@@ -1,0 +1,66 @@
+"""The straight-line planner: the simplest complete baseline of every pipeline.
+
+It discretises the straight motion from start to goal in the space's metric and checks each
+configuration with the problem's validity (bounds, the cost model's feasibility, extra checks).
+The path cost is the discrete integral of the state cost along the motion (thesis Table 3.1's
+"integral of costs incurred at each state"): ``sum_k c(q_k) * |q_k - q_{k-1}|``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from pliant.interfaces import Planner, PlanningProblem
+from pliant.options import option
+from pliant.results import Path, PlanResult, Status
+from pliant.termination import Termination
+
+
+@dataclass(frozen=True)
+class StraightLineOptions:
+    """Options of :class:`StraightLinePlanner`."""
+
+    step: float = option(0.01, "largest distance between checked configurations (space metric units)",
+                         minimum=1e-9)
+
+
+class StraightLinePlanner(Planner):
+    """Plan the straight motion start -> goal if every step along it is valid.
+
+    Statuses: ``invalid start`` / ``invalid goal`` when an endpoint fails validity, ``infeasible``
+    when an intermediate configuration does (the message gives the fraction travelled), else
+    ``solved``.
+    """
+
+    Options = StraightLineOptions
+
+    def plan(self, problem: PlanningProblem, rng: np.random.Generator,
+             termination: Termination | None = None) -> PlanResult:
+        t0 = time.perf_counter()
+        space = problem.space
+        start = space.check(problem.start, field="start")
+        goal = space.check(problem.goal, field="goal")
+
+        def result(status, path=None, cost=float("nan"), message="", checked=0):
+            return PlanResult(status, path=path, cost=cost, planner="straight", message=message,
+                              options={"step": self.options.step},
+                              statistics={"checked": checked, "time": time.perf_counter() - t0})
+
+        if not problem.is_valid(start)[0]:
+            return result(Status.INVALID_START, message="the start configuration is not valid")
+        if not problem.is_valid(goal)[0]:
+            return result(Status.INVALID_GOAL, message="the goal configuration is not valid")
+        configs = space.discretize(start, goal, self.options.step)
+        valid = problem.is_valid(configs)
+        if not valid.all():
+            first = int(np.argmin(valid))
+            return result(Status.INFEASIBLE, checked=len(configs),
+                          message=f"the straight motion is blocked {first / (len(configs) - 1):.0%} of the way")
+        steps = space.distance(configs[:-1], configs[1:])
+        cost = 0.0
+        if problem.cost is not None:
+            cost = float(np.sum(problem.cost.cost(configs[1:]) * steps))
+        return result(Status.SOLVED, Path(configs, space_kind=space.kind), cost, checked=len(configs))

@@ -1,0 +1,9 @@
+"""Entry point of the straight-line planner plugin."""
+
+from pliant.hookspecs import hookimpl
+
+
+@hookimpl
+def pliant_register(registrar):
+    registrar.add("planner", "straight", "pliant_straight.planner:StraightLinePlanner",
+                  description="straight-line interpolation with validity checking (a baseline)")

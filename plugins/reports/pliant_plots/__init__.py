@@ -1,0 +1,1 @@
+"""Report figures for pipeline runs (matplotlib, imported only when a report is drawn)."""

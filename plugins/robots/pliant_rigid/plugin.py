@@ -1,0 +1,9 @@
+"""Entry point of the rigid-body robot plugin (light: names classes as strings)."""
+
+from pliant.hookspecs import hookimpl
+
+
+@hookimpl
+def pliant_register(registrar):
+    registrar.add("robot", "rigid", "pliant_rigid.body:RigidBody",
+                  description="free-flying rigid body (r3 / se2 / se3) sampled as voxel-centre points")
