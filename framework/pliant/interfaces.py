@@ -65,6 +65,10 @@ class Component(ABC):
 
     kind: ClassVar[str] = ""
     Options: ClassVar[type] = NoOptions
+    #: a bundled scene in which the conformance kit exercises this component (None: the default)
+    example_scene: ClassVar[str | None] = None
+    #: other components the conformance kit should create alongside, by kind (``{"cost": "voxel"}``)
+    example_components: ClassVar[dict[str, str]] = {}
 
     def __init__(self, options: Any = None, *, source: str = "<options>", **kwargs: Any) -> None:
         if options is not None and kwargs:

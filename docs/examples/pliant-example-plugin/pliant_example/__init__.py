@@ -1,0 +1,1 @@
+"""An example third-party pliant plugin (see docs/writing-a-plugin.md)."""

@@ -1,0 +1,216 @@
+"""Contract checks for every component kind (see :mod:`pliant.testing`).
+
+Each ``check_*`` function raises :class:`ConformanceFailure` (an ``AssertionError``) naming the
+component and the broken rule, and returns the list of rules it verified.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pliant.errors import PliantError
+from pliant.interfaces import (
+    Component,
+    Context,
+    Controller,
+    CostModel,
+    Planner,
+    PlanningProblem,
+    RobotModel,
+    Simulator,
+)
+from pliant.registry import Registry, default_registry
+from pliant.results import PlanResult, Status
+from pliant.scene import load_scene
+from pliant.spaces import Space
+
+DEFAULT_SCENE = "triple-wall"
+
+
+class ConformanceFailure(AssertionError):
+    """A component broke its interface contract."""
+
+
+def _require(condition: bool, who: str, rule: str) -> None:
+    if not condition:
+        raise ConformanceFailure(f"{who}: {rule}")
+
+
+def _raises_pliant_error(fn, who: str, rule: str) -> None:
+    try:
+        fn()
+    except PliantError:
+        return
+    except Exception as exc:  # the contract: bad input raises PliantError, nothing else
+        raise ConformanceFailure(f"{who}: {rule} (raised {type(exc).__name__}: {exc})") from exc
+    raise ConformanceFailure(f"{who}: {rule} (nothing was raised)")
+
+
+def build_context(scene: str | None = None, registry: Registry | None = None, **components: str) -> Context:
+    """A context for ``scene`` (default: the built-in test scene) with the named components created.
+
+    ``components`` maps kinds to registered names, e.g. ``cost="voxel"``; a robot is added from the
+    scene when not given.
+    """
+    reg = registry or default_registry()
+    sc = load_scene(scene or DEFAULT_SCENE)
+    ctx = Context(scene=sc, seed=0)
+    robot = components.pop("robot", {"rigid": "rigid", "urdf": "pinocchio"}[sc.robot.kind])
+    ctx.robot = reg.create("robot", robot, ctx)
+    for kind in ("cost", "simulator", "controller"):
+        if kind in components:
+            setattr(ctx, kind, reg.create(kind, components.pop(kind), ctx))
+    return ctx
+
+
+def check_space(space: Space, seed: int = 0, who: str = "space") -> list[str]:
+    """Sampling, distance, interpolation and validity of a configuration space."""
+    rng = np.random.default_rng(seed)
+    q = space.sample(rng, 16)
+    _require(q.shape == (16, space.dim) and q.dtype == np.float64, who, "sample(rng, n) returns (n, dim) float64")
+    _require(bool(np.all(space.is_valid(q))), who, "samples are valid")
+    d = space.distance(q[:8], q[8:])
+    _require(d.shape == (8,) and np.all(d >= 0), who, "batched distance is (n,) and non-negative")
+    _require(np.allclose(d, space.distance(q[8:], q[:8])), who, "distance is symmetric")
+    _require(np.allclose(space.distance(q, q), 0.0, atol=1e-9), who, "distance to itself is zero")
+    single = np.array([space.distance(a, b) for a, b in zip(q[:8], q[8:])])
+    _require(np.allclose(d, single), who, "batched distance equals single calls")
+    mid = space.interpolate(q[:8], q[8:], 0.5)
+    _require(np.allclose(space.distance(q[:8], mid), d / 2, atol=1e-7), who, "the midpoint is half way")
+    _require(np.allclose(space.distance(space.interpolate(q[:8], q[8:], 0.0), q[:8]), 0, atol=1e-9), who,
+             "interpolate(a, b, 0) is a")
+    _require(np.allclose(space.distance(space.interpolate(q[:8], q[8:], 1.0), q[8:]), 0, atol=1e-7), who,
+             "interpolate(a, b, 1) is b")
+    _require(np.allclose(space.sample(np.random.default_rng(seed), 16), q), who, "sampling is deterministic per seed")
+    _raises_pliant_error(lambda: space.check(np.zeros(space.dim + 1)), who, "check() rejects a wrong length")
+    _raises_pliant_error(lambda: space.check(np.full(space.dim, np.nan)), who, "check() rejects NaN")
+    return ["sample", "distance", "interpolate", "determinism", "bad input"]
+
+
+def check_robot(robot: RobotModel, seed: int = 0, who: str = "robot") -> list[str]:
+    """Body points, materials and point Jacobians (against finite differences) of a robot model."""
+    rules = check_space(robot.space, seed, f"{who}.space")
+    rng = np.random.default_rng(seed)
+    q = robot.space.sample(rng, 4)
+    mats = robot.point_materials()
+    m = len(mats)
+    _require(mats.shape == (m, 2) and m > 0, who, "point_materials() is (m, 2) with m > 0")
+    pts = robot.body_points(q)
+    _require(pts.shape == (4, m, 3) and pts.dtype == np.float64, who, "body_points is (n, m, 3) float64")
+    _require(np.allclose(robot.body_points(q[1]), pts[1:2]), who, "a single configuration equals its batch row")
+    jac = robot.point_jacobians(q[:1])
+    t = robot.space.tangent_dim
+    _require(jac.shape == (1, m, 3, t), who, "point_jacobians is (n, m, 3, tangent_dim)")
+    eps = 1e-6
+    for k in range(t):
+        e = np.zeros(t)
+        e[k] = eps
+        fd = (robot.body_points(robot.space.retract(q[:1], e)) - robot.body_points(robot.space.retract(q[:1], -e)))
+        _require(np.allclose(fd / (2 * eps), jac[..., k], atol=1e-5), who,
+                 f"Jacobian column {k} matches central finite differences")
+    _raises_pliant_error(lambda: robot.body_points(np.zeros(robot.space.dim + 1)), who,
+                         "a configuration of the wrong length raises PliantError")
+    return [*rules, "body points", "jacobians", "bad input"]
+
+
+def check_cost(cost: CostModel, space: Space, seed: int = 0, who: str = "cost", configurations=None) -> list[str]:
+    """Shapes, batch-equals-single, determinism, breakdown and gradient shapes of a cost model."""
+    rng = np.random.default_rng(seed)
+    q = space.sample(rng, 8) if configurations is None else np.asarray(configurations, dtype=np.float64)
+    c = cost.cost(q)
+    _require(c.shape == (len(q),) and c.dtype == np.float64, who, "cost is (n,) float64")
+    single = np.array([cost.cost(x[None])[0] for x in q])
+    _require(np.allclose(c, single, equal_nan=True), who, "batched cost equals single calls")
+    _require(np.allclose(c, cost.cost(q), equal_nan=True), who, "cost is deterministic")
+    _require(bool(np.all(np.isnan(c) | (c >= 0))), who, "costs are non-negative or NaN")
+    b = cost.breakdown(q)
+    _require(b.shape == (len(q), len(cost.feature_names())), who, "breakdown is (n, len(feature_names()))")
+    finite = np.isfinite(c)
+    _require(np.allclose(b[finite].sum(axis=1), c[finite]), who, "breakdown rows sum to the cost")
+    if cost.has_gradient:
+        g = cost.gradient(q)
+        _require(g.shape == (len(q), space.tangent_dim), who, "gradient is (n, tangent_dim)")
+    _raises_pliant_error(lambda: cost.cost(np.zeros((2, space.dim + 1))), who,
+                         "configurations of the wrong width raise PliantError")
+    return ["cost shape", "batch equals single", "determinism", "breakdown", "bad input"]
+
+
+def check_planner(planner: Planner, problem: PlanningProblem, seed: int = 0, who: str = "planner") -> list[str]:
+    """A planner returns a PlanResult (never None), valid solved paths, and is deterministic per seed."""
+    result = planner.plan(problem, np.random.default_rng(seed))
+    _require(isinstance(result, PlanResult), who, "plan() returns a PlanResult")
+    _require(isinstance(result.status, Status), who, "the result has a Status")
+    if result.status.success:
+        path = result.path.configurations
+        _require(path.ndim == 2 and path.shape[1] == problem.space.dim, who, "the path is (k, d)")
+        _require(np.allclose(problem.space.distance(path[0], problem.start), 0, atol=1e-6), who,
+                 "a solved path starts at the start")
+        _require(bool(np.all(problem.is_valid(path))), who, "every configuration of a solved path is valid")
+        if result.status is Status.SOLVED:
+            end_gap = float(problem.space.distance(path[-1], problem.goal))
+            _require(bool(problem.in_goal(path[-1:])[0]) or end_gap <= max(problem.goal_tolerance, 1e-6), who,
+                     "a solved path ends at the goal")
+    again = planner.plan(problem, np.random.default_rng(seed))
+    _require(again.status == result.status, who, "the same seed gives the same status")
+    if result.path is not None:
+        _require(again.path is not None and np.allclose(again.path.configurations, result.path.configurations),
+                 who, "the same seed gives the same path")
+    bad = PlanningProblem(space=problem.space, start=np.zeros(problem.space.dim + 1), goal=problem.goal,
+                          cost=problem.cost, robot=problem.robot, scene=problem.scene)
+    _raises_pliant_error(lambda: planner.plan(bad, np.random.default_rng(seed)), who,
+                         "a start of the wrong length raises PliantError")
+    return ["returns PlanResult", "valid path", "determinism", "bad input"]
+
+
+def check_simulator(simulator: Simulator, space: Space, start: np.ndarray, seed: int = 0,
+                    who: str = "simulator") -> list[str]:
+    """Batch simulation shapes, determinism under a seed, and the stepping API."""
+    rng = np.random.default_rng(seed)
+    starts = np.repeat(np.asarray(start, dtype=np.float64)[None], 4, axis=0)
+    targets = space.sample(rng, 4)
+    out = simulator.simulate(starts, targets, np.random.default_rng(seed), 0.5)
+    _require(out.final.shape == starts.shape, who, "simulate() final is (n, d)")
+    for name in ("in_contact", "stuck", "reached"):
+        _require(getattr(out, name).shape == (4,), who, f"simulate() {name} is (n,)")
+    again = simulator.simulate(starts, targets, np.random.default_rng(seed), 0.5)
+    _require(np.allclose(out.final, again.final), who, "the same seed gives the same particles")
+    simulator.reset(starts[0])
+    _require(np.allclose(simulator.configuration(), starts[0]), who, "reset() places the robot")
+    q = simulator.step(np.zeros(space.tangent_dim), 0.1, np.random.default_rng(seed))
+    _require(q.shape == (space.dim,), who, "step() returns (d,)")
+    return ["simulate", "determinism", "stepping"]
+
+
+def check_component(kind: str, name: str, scene: str | None = None, seed: int = 0,
+                    registry: Registry | None = None, **components: str) -> list[str]:
+    """Create ``kind``/``name`` in a context for ``scene`` and run the checks of its kind.
+
+    The scene defaults to the component class's ``example_scene`` attribute, else the built-in test
+    scene.  ``components`` names the other components it needs (``cost="voxel"``).
+    """
+    reg = registry or default_registry()
+    cls = reg.entry(kind, name).load()
+    scene = scene or getattr(cls, "example_scene", None)
+    components = {**getattr(cls, "example_components", {}), **components}
+    who = f"{kind} '{name}'"
+    if kind == "robot":
+        ctx = build_context(scene, reg, robot=name, **components)
+        return check_robot(ctx.robot, seed, who)
+    ctx = build_context(scene, reg, **components)
+    component = reg.create(kind, name, ctx)
+    _require(isinstance(component, Component), who, "is a Component")
+    if kind == "cost":
+        samples = ctx.space.sample(np.random.default_rng(seed), 8)
+        return check_cost(component, ctx.space, seed, who, samples)
+    if kind == "planner":
+        ctx.extras["planner"] = component
+        problem = PlanningProblem.from_context(ctx)
+        return check_planner(component, problem, seed, who)
+    if kind == "simulator":
+        return check_simulator(component, ctx.space, ctx.scene.start, seed, who)
+    if kind == "controller":
+        _require(isinstance(component, Controller), who, "is a Controller")
+        v = component.command(ctx.scene.start, ctx.scene.goal, 0.1)
+        _require(np.shape(v) == (ctx.space.tangent_dim,), who, "command() returns (tangent_dim,)")
+        return ["command"]
+    return ["created"]
