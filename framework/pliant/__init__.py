@@ -50,4 +50,7 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'pliant' has no attribute {name!r}")
 
 
-__all__ = ["__version__", "registry", *_LAZY]
+__all__ = [
+    "Path", "PlanResult", "PlanningProblem", "PliantError", "Pipeline", "Scene", "Status", "Termination",
+    "__version__", "load_scene", "registry",
+]

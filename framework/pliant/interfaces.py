@@ -55,7 +55,7 @@ class Context:
         return self.robot.space
 
 
-class Component(ABC):
+class Component(ABC):  # noqa: B024 - ABCMeta enforces the abstract methods of the kinds below
     """Base of every pluggable component.
 
     Subclasses set :attr:`Options` to a frozen dataclass of documented options; the constructor

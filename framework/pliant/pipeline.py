@@ -334,8 +334,9 @@ def apply_overrides(data: dict, overrides: list[str] | dict[str, Any], source: s
     for key, value in items:
         head, _, rest = key.partition(".")
         if head not in TOP_LEVEL and head not in KINDS:
-            raise PipelineError(f"override names no pipeline field (fields: {', '.join(sorted(TOP_LEVEL | set(KINDS)))})",
-                                source=source, field=key, value=value)
+            fields = ", ".join(sorted(TOP_LEVEL | set(KINDS)))
+            raise PipelineError(f"override names no pipeline field (fields: {fields})", source=source, field=key,
+                                value=value)
         if not rest:
             out[head] = value
             continue

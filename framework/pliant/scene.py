@@ -173,7 +173,7 @@ class Scene:
     @property
     def shape(self) -> tuple[int, int, int]:
         """Voxel grid shape ``(nx, ny, nz)`` at :attr:`resolution`."""
-        return tuple(int(round(v)) for v in (self.upper - self.lower) / self.resolution)
+        return tuple(round(float(v)) for v in (self.upper - self.lower) / self.resolution)
 
     def object(self, name: str) -> SceneObject:
         for obj in self.objects:

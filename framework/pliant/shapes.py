@@ -103,7 +103,8 @@ class Mesh(Shape):
         except SceneError:
             raise
         except (OSError, ValueError, IndexError, struct.error) as exc:
-            raise SceneError(f"cannot read mesh file: {exc}", source=source, field=field_name, value=str(path)) from None
+            raise SceneError(f"cannot read mesh file: {exc}", source=source, field=field_name,
+                             value=str(path)) from None
         if tris.size == 0 or not np.all(np.isfinite(tris)):
             raise SceneError("mesh file has no finite triangles", source=source, field=field_name, value=str(path))
         return cls(path=path, scale=scale, triangles=tris * scale)
@@ -153,7 +154,8 @@ class VoxelArray(Shape):
             with np.load(path, allow_pickle=False) as data:
                 arrays = {k: data[k] for k in data.files}
         except (OSError, ValueError, EOFError) as exc:
-            raise SceneError(f"cannot read voxel file: {exc}", source=source, field=field_name, value=str(path)) from None
+            raise SceneError(f"cannot read voxel file: {exc}", source=source, field=field_name,
+                             value=str(path)) from None
         if "occupancy" not in arrays:
             raise SceneError("voxel file has no 'occupancy' array", source=source, field=field_name, value=str(path))
         occ = arrays["occupancy"]

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import pytest
-
 from pliant.registry import default_registry
-from pliant.testing import ConformanceFailure, check_component, check_space
 from pliant.spaces import RealVectorSpace
+from pliant.testing import ConformanceFailure, check_component, check_space
 
 CHECKED_KINDS = ("robot", "cost", "planner", "simulator", "controller")
 

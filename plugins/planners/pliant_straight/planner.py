@@ -12,7 +12,6 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-
 from pliant.interfaces import Planner, PlanningProblem
 from pliant.options import option
 from pliant.results import Path, PlanResult, Status

@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
 from pliant.errors import PlanningError
 from pliant.geometry import quat_to_matrix, rotation_z
 from pliant.interfaces import RobotModel, check_batch

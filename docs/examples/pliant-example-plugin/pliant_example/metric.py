@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
 from pliant.interfaces import PathMetric, PlanningProblem
 from pliant.options import option
 from pliant.results import Path
