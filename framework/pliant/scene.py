@@ -237,10 +237,26 @@ def apply_patch(data: dict, patch: dict, source: str, field_prefix: str) -> dict
     """Apply ``{"objects.wall1.deformability": 1.0, ...}`` to a scene table (a deep copy).
 
     Path segments walk tables; a segment after ``objects`` or ``robot.parts`` names an entry by its
-    ``name`` (``*`` for every entry).  Unknown paths raise :class:`SceneError`.
+    ``name`` (``*`` for every entry).  A key ending in ``+`` appends tables to an array
+    (``"objects+" = [{name = "block", ...}]``).  Unknown paths raise :class:`SceneError`.
     """
     out = copy.deepcopy(data)
     for key, value in patch.items():
+        if key.endswith("+"):
+            target = key[:-1]
+            if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+                raise SceneError("an appending patch takes an array of tables", source=source,
+                                 field=f"{field_prefix}.{key}", value=value)
+            holder = out
+            segments = target.split(".")
+            for seg in segments[:-1]:
+                holder = holder.get(seg) if isinstance(holder, dict) else None
+            existing = holder.get(segments[-1], []) if isinstance(holder, dict) else None
+            if not isinstance(existing, list):
+                raise SceneError("patch path does not name an array of tables", source=source,
+                                 field=f"{field_prefix}.{key}", value=target)
+            holder[segments[-1]] = existing + copy.deepcopy(value)
+            continue
         parts = key.split(".")
         targets = [out]
         for depth, seg in enumerate(parts[:-1]):
