@@ -138,6 +138,14 @@ class RobotModel(Component):
     def point_count(self) -> int:
         return len(self.point_materials())
 
+    def rigid_placement(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """For a single rigid body: ``(R (n, 3, 3), t (n, 3), local (m, 3))`` with points ``R @ local + t``.
+
+        Lets hot paths (cost evaluation, simulation) fuse the transform into their kernels.
+        Articulated robots return ``None`` (the default) and are used through :meth:`body_points`.
+        """
+        return None
+
 
 class CostModel(Component):
     """A state cost over configurations (e.g. the cost of deformation, thesis eq. 3.1).

@@ -111,10 +111,12 @@ class VoxelGrid:
         return _trilinear(self.sdf, self._continuous(points))
 
     def sdf_gradient_at(self, points: np.ndarray) -> np.ndarray:
-        """Trilinearly interpolated SDF gradient ``(..., 3)`` at world points ``(..., 3)``."""
-        u = self._continuous(points)
-        grad = self.sdf_gradient
-        return np.stack([_trilinear(grad[..., a], u) for a in range(3)], axis=-1)
+        """Exact gradient ``(..., 3)`` of :meth:`sdf_at` (the trilinear interpolant) at world points.
+
+        Being the derivative of the interpolant itself, it matches finite differences of
+        :meth:`sdf_at` everywhere except on voxel-centre planes, where the interpolant has kinks.
+        """
+        return _trilinear_gradient(self.sdf, self._continuous(points)) / self.resolution
 
     def _continuous(self, points: np.ndarray) -> np.ndarray:
         points = np.asarray(points, dtype=np.float64)
@@ -192,3 +194,29 @@ def _trilinear(field_: np.ndarray, u: np.ndarray) -> np.ndarray:
                 z = i1[..., 2] if dz else i0[..., 2]
                 out = out + wx * wy * wz * field_[x, y, z]
     return out
+
+
+def _trilinear_gradient(field_: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Gradient (per voxel unit) of the trilinear interpolant of ``field_`` at coordinates ``u``."""
+    shape = np.array(field_.shape)
+    inside = (u >= 0.0) & (u <= shape - 1.0)
+    u = np.clip(u, 0.0, shape - 1.0)
+    i0 = np.minimum(np.floor(u).astype(np.int64), np.maximum(shape - 2, 0))
+    f = u - i0
+    i1 = np.minimum(i0 + 1, shape - 1)
+    grad = np.zeros(u.shape)
+    for dx in (0, 1):
+        x = i1[..., 0] if dx else i0[..., 0]
+        for dy in (0, 1):
+            y = i1[..., 1] if dy else i0[..., 1]
+            for dz in (0, 1):
+                z = i1[..., 2] if dz else i0[..., 2]
+                v = field_[x, y, z]
+                wx = f[..., 0] if dx else 1 - f[..., 0]
+                wy = f[..., 1] if dy else 1 - f[..., 1]
+                wz = f[..., 2] if dz else 1 - f[..., 2]
+                grad[..., 0] += (1.0 if dx else -1.0) * wy * wz * v
+                grad[..., 1] += wx * (1.0 if dy else -1.0) * wz * v
+                grad[..., 2] += wx * wy * (1.0 if dz else -1.0) * v
+    # a clamped coordinate (outside the grid, or an axis one voxel thick) does not vary the value
+    return np.where(inside & (shape > 1), grad, 0.0)

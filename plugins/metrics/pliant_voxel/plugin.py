@@ -1,6 +1,9 @@
+"""Entry point of the voxel deformation-cost plugin."""
+
 from pliant.hookspecs import hookimpl
 
 
 @hookimpl
 def pliant_register(registrar):
-    """Registers nothing yet."""
+    registrar.add("cost", "voxel", "pliant_voxel.cost:VoxelDeformationCost",
+                  description="cost of deformation over a voxel model (thesis eq. 3.1), with gradient (eq. 3.2)")

@@ -112,6 +112,10 @@ class RigidBody(RobotModel):
             return np.column_stack([q[:, :2], np.zeros(len(q))])
         return q[:, :3]
 
+    def rigid_placement(self, q):
+        q, _ = check_batch(q, self._space)
+        return self.rotations(q), self.positions(q), self._points
+
     def body_points(self, q):
         q, _ = check_batch(q, self._space)
         return np.einsum("nij,mj->nmi", self.rotations(q), self._points) + self.positions(q)[:, None, :]

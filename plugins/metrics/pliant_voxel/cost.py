@@ -1,0 +1,173 @@
+"""The cost component ``voxel``: cost of deformation of a robot over the voxelised scene.
+
+Implements thesis ch. 3: per robot point overlapping an object, eq. 3.1 (see :mod:`.formula`);
+free space contributes nothing; the state cost is the sum over the robot's points.  NaN marks an
+infeasible state: a rigid point in a rigid voxel (implicit collision), a forbidden object (NaN
+sensitivity), or any point outside the grid.  The gradient is eq. 3.2.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pliant.errors import DimensionError
+from pliant.interfaces import CostModel, check_batch
+from pliant.options import option
+from pliant.voxelgrid import FREE, VoxelGrid
+from pliant_voxel.formula import cost_tables
+from pliant_voxel.kernels import point_costs, rigid_state_costs, state_costs
+
+
+@dataclass(frozen=True)
+class VoxelCostOptions:
+    """Options of :class:`VoxelDeformationCost`."""
+
+    padding: float = option(0.0, "dilate every object by this distance (m) before costing (thesis 3.3.3)",
+                            minimum=0.0)
+
+
+class VoxelDeformationCost(CostModel):
+    """Cost of deformation (thesis eq. 3.1) summed over the robot's points; gradient by eq. 3.2.
+
+    ``cost(q)`` ``(n, d) -> (n,)``, dimensionless (sensitivity units per overlapping voxel).
+    ``breakdown(q)`` gives one column per scene object (the learning chapter's features).
+    ``gradient(q)`` ``(n, t)`` is the exact gradient of the smooth surrogate
+    ``S(q) = sum_i C_i * max(0, -sdf(x_i(q)))`` with each point's cost ``C_i`` held fixed: the
+    workspace gradient ``-grad sdf`` of every penetrating point, scaled by its cost and mapped through
+    the point Jacobians, ``J^T [C_1 grad x_1, ...]`` (eq. 3.2).
+    """
+
+    Options = VoxelCostOptions
+    has_gradient = True
+
+    def bind(self, context) -> None:
+        super().bind(context)
+        scene = self.require("scene")
+        self.robot = self.require("robot")
+        self.grid = VoxelGrid.from_scene(scene, self.options.padding)
+        self.classes, self.table = cost_tables(self.robot.point_materials(), self.grid.deformability,
+                                               self.grid.sensitivity, self.grid.occupied)
+        self._lower = np.ascontiguousarray(self.grid.lower, dtype=np.float64)
+        self._inv_res = 1.0 / self.grid.resolution
+        self._shape = np.asarray(self.grid.shape, dtype=np.int64)
+        self._object_of_voxel = np.append(self.grid.object_id.reshape(-1), FREE).astype(np.int64)
+
+    # --- evaluation ---------------------------------------------------------------------------
+
+    def _batch(self, q) -> np.ndarray:
+        q, _ = check_batch(q, self.robot.space)
+        return q
+
+    def cost(self, q):
+        q = self._batch(q)
+        out = np.empty(len(q))
+        placement = self.robot.rigid_placement(q)
+        if placement is not None:
+            rot, pos, local = placement
+            rigid_state_costs(np.ascontiguousarray(rot), np.ascontiguousarray(pos), local, self._lower,
+                              self._inv_res, self._shape, self.classes, self.table, out)
+        else:
+            state_costs(self.robot.body_points(q), self._lower, self._inv_res, self._shape, self.classes,
+                        self.table, out)
+        return out
+
+    def point_costs(self, q) -> np.ndarray:
+        """Cost of every robot point ``(n, m)`` (0 in free space, NaN where infeasible)."""
+        q = self._batch(q)
+        pts = self.robot.body_points(q)
+        out = np.empty(pts.shape[:2])
+        point_costs(pts, self._lower, self._inv_res, self._shape, self.classes, self.table, out)
+        return out
+
+    def breakdown(self, q):
+        q = self._batch(q)
+        pts = self.robot.body_points(q)
+        costs = np.empty(pts.shape[:2])
+        point_costs(pts, self._lower, self._inv_res, self._shape, self.classes, self.table, costs)
+        flat = self.grid.flat_index(pts)
+        obj = self._object_of_voxel[np.where(flat < 0, len(self._object_of_voxel) - 1, flat)]
+        k = len(self.grid.object_names)
+        out = np.zeros((len(q), k))
+        rows = np.repeat(np.arange(len(q)), pts.shape[1])
+        hit = obj.reshape(-1) >= 0
+        np.add.at(out, (rows[hit], obj.reshape(-1)[hit]), costs.reshape(-1)[hit])
+        bad = ~np.isfinite(costs).all(axis=1)
+        out[bad] = np.nan
+        return out
+
+    def feature_names(self):
+        return list(self.grid.object_names)
+
+    def gradient(self, q):
+        q = self._batch(q)
+        pts = self.robot.body_points(q)
+        costs = np.empty(pts.shape[:2])
+        point_costs(pts, self._lower, self._inv_res, self._shape, self.classes, self.table, costs)
+        weights = self.surrogate_weights(pts, costs)
+        if not weights.any():
+            return np.zeros((len(q), self.robot.space.tangent_dim))
+        jac = self.robot.point_jacobians(q)                             # (n, m, 3, t)
+        work = weights[..., None] * -self.grid.sdf_gradient_at(pts)      # (n, m, 3): C_i * grad x_i
+        return np.einsum("nmk,nmkt->nt", work, jac)
+
+    def surrogate_weights(self, points: np.ndarray, costs: np.ndarray) -> np.ndarray:
+        """``C_i`` for points that penetrate an object (sdf < 0) with a finite cost, else 0."""
+        inside = self.grid.sdf_at(points) < 0
+        return np.where(inside & np.isfinite(costs), costs, 0.0)
+
+    def surrogate(self, q) -> np.ndarray:
+        """The smooth surrogate ``S(q) = sum_i C_i max(0, -sdf(x_i))`` whose exact gradient is :meth:`gradient`.
+
+        ``C_i`` is evaluated at ``q``; finite differences of ``S`` hold ``C_i`` fixed by passing
+        ``fixed_costs``-free configurations close to ``q`` (see the tests).
+        """
+        q = self._batch(q)
+        pts = self.robot.body_points(q)
+        costs = self.point_costs(q)
+        return np.sum(np.where(np.isfinite(costs), costs, 0.0) * np.maximum(0.0, -self.grid.sdf_at(pts)), axis=1)
+
+    # --- translation lattices -----------------------------------------------------------------
+
+    def translation_costs(self, origin, spacing, shape, base=None):
+        """State costs of every translation on the grid's own lattice, by shifted-field summation.
+
+        For a pure-translation robot (an ``rn`` space of dimension 3 whose body moves rigidly with
+        ``q``) on the lattice of voxel centres, the state cost at cell ``x`` is
+        ``sum_i F_{c(i)}[x + o_i]`` where ``o_i`` is point ``i``'s voxel offset and ``F_c`` the
+        cost field of material class ``c`` (thesis 3.2.3: correlate the robot with the
+        environment).  Exact; other lattices fall back to batched :meth:`cost`.
+        """
+        origin = np.asarray(origin, dtype=np.float64)
+        grid = self.grid
+        offsets = self._translation_offsets()
+        aligned = (offsets is not None and tuple(shape) == grid.shape and abs(spacing - grid.resolution) < 1e-12
+                   and np.allclose(origin, grid.lower + 0.5 * grid.resolution, atol=1e-9 * grid.resolution))
+        if not aligned:
+            return super().translation_costs(origin, spacing, shape, base)
+        nx, ny, nz = grid.shape
+        pad = int(np.max(np.abs(offsets))) + 1
+        total = np.zeros(grid.shape)
+        for c in range(len(self.table)):
+            field_ = np.full((nx + 2 * pad, ny + 2 * pad, nz + 2 * pad), np.nan)
+            field_[pad:-pad, pad:-pad, pad:-pad] = self.table[c, :-1].reshape(grid.shape)
+            for o in offsets[self.classes == c]:
+                total += field_[pad + o[0]:pad + o[0] + nx, pad + o[1]:pad + o[1] + ny, pad + o[2]:pad + o[2] + nz]
+        return total
+
+    def _translation_offsets(self) -> np.ndarray | None:
+        space = self.robot.space
+        if space.kind != "rn" or space.dim != 3:
+            return None
+        probe = np.array([space.lower, (space.lower + space.upper) / 2])
+        pts = self.robot.body_points(probe)
+        rel = pts - probe[:, None, :]
+        if not np.allclose(rel[0], rel[1]):
+            return None
+        units = rel[0] / self.grid.resolution
+        offsets = np.round(units).astype(np.int64)
+        if not np.allclose(units, offsets, atol=1e-6):
+            raise DimensionError("robot points are not on the voxel lattice; translation_costs needs them there",
+                                 field="robot.parts", value=float(np.abs(units - offsets).max()))
+        return offsets

@@ -1,0 +1,40 @@
+"""The per-voxel cost of deformation, thesis eq. 3.1.
+
+``C(A, B) = D_A / (D_A + D_B) * S_A + D_B / (D_A + D_B) * S_B`` for a robot voxel ``A`` overlapping
+an environment voxel ``B``: the softer voxel (higher deformability ``D``) contributes more of its
+sensitivity ``S``.  Both rigid (``D_A = D_B = 0``) is undefined: NaN, the implicit collision of the
+thesis; a NaN sensitivity marks a forbidden object and propagates (IEEE NaN "poisons" the sum).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def deformation_cost(d_robot, s_robot, d_env, s_env) -> np.ndarray:
+    """Eq. 3.1, elementwise over broadcast arrays; NaN where both deformabilities are zero."""
+    d_robot, s_robot, d_env, s_env = (np.asarray(x, dtype=np.float64) for x in (d_robot, s_robot, d_env, s_env))
+    total = d_robot + d_env
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cost = (d_robot * s_robot + d_env * s_env) / total
+    return np.where(total > 0, cost, np.nan)
+
+
+def cost_tables(robot_materials: np.ndarray, deformability: np.ndarray, sensitivity: np.ndarray,
+                occupied: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-(robot material class, environment voxel) cost tables.
+
+    Returns ``classes`` ``(m,)`` (the class of each robot point) and ``table`` ``(c, N + 1)``: the cost
+    of a point of class ``c`` in flat voxel ``v``; free voxels cost 0; the extra last column
+    (index ``N``) is "outside the grid" and is NaN.
+    """
+    unique, classes = np.unique(np.asarray(robot_materials, dtype=np.float64), axis=0, return_inverse=True)
+    n = occupied.size
+    table = np.zeros((len(unique), n + 1))
+    occ = occupied.reshape(-1)
+    d_env = deformability.reshape(-1)[occ]
+    s_env = sensitivity.reshape(-1)[occ]
+    for c, (d, s) in enumerate(unique):
+        table[c, :n][occ] = deformation_cost(d, s, d_env, s_env)
+    table[:, n] = np.nan
+    return classes.reshape(-1).astype(np.int64), table
