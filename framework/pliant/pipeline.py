@@ -77,7 +77,7 @@ class RunRecord:
                 rows.append((kind, self.pipeline.components[kind].name))
         if self.result is not None:
             r = self.result
-            rows += [("status", r.status.value), ("cost", f"{r.cost:.6g}"), ("seed", str(r.seed))]
+            rows += [("status", r.status.value), ("result cost", f"{r.cost:.6g}"), ("seed", str(r.seed))]
             if r.path is not None:
                 rows.append(("waypoints", str(len(r.path))))
                 rows.append(("path length", f"{self.context.space.path_length(r.path.configurations):.6g}"))

@@ -1,6 +1,54 @@
+"""Entry point of the A* plugin: planners, the ``pliant pareto`` command and the sweep's report figures."""
+
+from __future__ import annotations
+
 from pliant.hookspecs import hookimpl
 
 
 @hookimpl
 def pliant_register(registrar):
-    """Registers nothing yet."""
+    registrar.add("planner", "astar", "pliant_astar.planner:AStarPlanner",
+                  description="exact A* over 3-D translations, f = (1-p)(g+h) + p*DEFORM (thesis Alg. 1)")
+    registrar.add("planner", "astar-pareto", "pliant_astar.planner:ParetoPlanner",
+                  description="sweep of A* over p: the distinct Pareto-optimal paths (thesis 3.3.1)")
+
+
+@hookimpl
+def pliant_report(run, directory):
+    if run.result is None or run.result.planner != "astar-pareto" or not run.result.statistics.get("pareto"):
+        return None
+    from pliant_astar.figures import draw_pareto
+
+    return draw_pareto(run, directory)
+
+
+@hookimpl
+def pliant_add_commands(subparsers):
+    parser = subparsers.add_parser(
+        "pareto", help="sweep A* over p on a scene: Pareto table and figures",
+        description="Run A* for evenly spaced values of p on a translation scene (cost model: voxel), print the "
+                    "distinct Pareto-optimal paths and write the front and the path classes as pictures.")
+    parser.add_argument("scene", help="bundled scene name or TOML file (e.g. triple-wall)")
+    parser.add_argument("--variant", help="scene variant (e.g. soft-robot-soft-walls)")
+    parser.add_argument("--values", type=int, default=101, help="number of p values in [0, 1] (default 101)")
+    parser.add_argument("--output", help="report directory (default out/pareto-<scene>)")
+    parser.set_defaults(handler=_pareto_command)
+
+
+def _pareto_command(args) -> int:
+    from pliant.pipeline import Pipeline
+
+    name = f"pareto-{args.scene}" + (f"-{args.variant}" if args.variant else "")
+    pipeline = Pipeline({"name": args.scene, "variant": args.variant} if args.variant else args.scene,
+                        name=name, output=args.output, cost="voxel",
+                        planner={"name": "astar-pareto", "values": args.values})
+    record = pipeline.run()
+    result = record.result
+    print(f"{'p values':<14}{'length (voxels)':>16}{'deformation':>14}")
+    for pt in result.statistics.get("pareto", []):
+        ps = pt["p_values"]
+        span = f"{min(ps):.2f}-{max(ps):.2f}"
+        print(f"{span:<14}{pt['length_voxels']:>16.2f}{pt['deformation']:>14.4g}")
+    print(f"\n{result.statistics.get('values_done', 0)} values of p in {result.statistics.get('time', 0):.2f} s; "
+          f"report: {record.output / 'report.md'}")
+    return 0 if result.solved else 1
