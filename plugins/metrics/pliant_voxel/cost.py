@@ -11,11 +11,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
 from pliant.errors import DimensionError
 from pliant.interfaces import CostModel, check_batch
 from pliant.options import option
 from pliant.voxelgrid import FREE, VoxelGrid
+
 from pliant_voxel.formula import cost_tables
 from pliant_voxel.kernels import point_costs, rigid_state_costs, state_costs
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-
 from pliant.termination import Termination
+
 from pliant_astar.search import path_deformation, path_length, search
 
 

@@ -7,12 +7,12 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-
 from pliant.errors import ConfigError, PlanningError
 from pliant.interfaces import Planner, PlanningProblem
 from pliant.options import option
 from pliant.results import Path, PlanResult, Status
 from pliant.termination import Termination
+
 from pliant_astar.pareto import ParetoPoint, pareto_front, sweep
 from pliant_astar.search import path_deformation, path_length, search
 

@@ -1,0 +1,71 @@
+"""Calibrating planner cost against measured deformation (thesis 3.3.2 and Table 3.1).
+
+The thesis scales the planner's cost to measured deformation (pixels of a camera, or m^3 of
+tetrahedral volume change in simulation) by the mean ratio of measured to planned deformation over
+every point of the calibration paths, then reports each path's calibrated cost against its
+measurement.  :func:`fit_calibration` does that and, as a second estimate, the least-squares scale
+through the origin.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pliant.errors import DimensionError
+
+
+@dataclass
+class Calibration:
+    """A fitted scale from planner cost to measured deformation.
+
+    scale: the thesis's estimate, mean of ``measured / planned`` over points with planned > 0.
+    least_squares_scale: ``argmin_k sum (k planned - measured)^2`` over every point.
+    path_errors: per path, ``|scale * sum(planned) - sum(measured)| / sum(measured)`` (NaN when a path
+        measured nothing).
+    """
+
+    scale: float
+    least_squares_scale: float
+    path_errors: np.ndarray
+
+    @property
+    def mean_error(self) -> float:
+        """Mean relative error over the paths with a measurement."""
+        finite = self.path_errors[np.isfinite(self.path_errors)]
+        return float(finite.mean()) if finite.size else float("nan")
+
+    def apply(self, planned_cost) -> np.ndarray:
+        """Planner costs in the measurement's units."""
+        return self.scale * np.asarray(planned_cost, dtype=np.float64)
+
+
+def fit_calibration(planned: list, measured: list) -> Calibration:
+    """Fit the scale from paired per-point data of several paths.
+
+    ``planned[k]`` and ``measured[k]`` are arrays of equal length: the planner's state cost and the
+    measured deformation at each point of path ``k``.
+    """
+    if len(planned) != len(measured) or not planned:
+        raise DimensionError("planned and measured need one array per path, the same number of paths",
+                             field="planned/measured", value=(len(planned), len(measured)))
+    p_all, m_all = [], []
+    for k, (p, m) in enumerate(zip(planned, measured)):
+        p = np.asarray(p, dtype=np.float64)
+        m = np.asarray(m, dtype=np.float64)
+        if p.shape != m.shape or p.ndim != 1:
+            raise DimensionError("each path's planned and measured arrays must be 1-D of equal length",
+                                 field=f"path[{k}]", value=(p.shape, m.shape))
+        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(m))) or np.any(p < 0):
+            raise DimensionError("costs must be finite and non-negative", field=f"path[{k}]")
+        p_all.append(p)
+        m_all.append(m)
+    p_cat, m_cat = np.concatenate(p_all), np.concatenate(m_all)
+    touched = p_cat > 0
+    if not touched.any():
+        raise DimensionError("no point has a positive planned cost: nothing to calibrate", field="planned")
+    scale = float(np.mean(m_cat[touched] / p_cat[touched]))
+    ls = float(np.dot(p_cat, m_cat) / np.dot(p_cat, p_cat))
+    errors = np.array([abs(scale * p.sum() - m.sum()) / m.sum() if m.sum() > 0 else np.nan
+                       for p, m in zip(p_all, m_all)])
+    return Calibration(scale, ls, errors)

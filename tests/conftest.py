@@ -1,0 +1,28 @@
+"""Shared fixtures: scenes with their robot (and cost model), built once per test session."""
+
+from __future__ import annotations
+
+import functools
+
+import pytest
+from hypothesis import settings
+from pliant import load_scene, registry
+from pliant.interfaces import Context
+
+settings.register_profile("pliant", deadline=None, print_blob=True)
+settings.load_profile("pliant")
+
+
+@functools.cache
+def _context(scene: str, cost: str | None = None) -> Context:
+    ctx = Context(scene=load_scene(scene))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    if cost:
+        ctx.cost = registry.create("cost", cost, ctx)
+    return ctx
+
+
+@pytest.fixture
+def scene_context():
+    """``scene_context(name, cost=None)`` -> a cached Context with the rigid robot (and the cost model)."""
+    return _context

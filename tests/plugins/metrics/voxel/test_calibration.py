@@ -1,0 +1,35 @@
+"""Calibration of planner cost to measured deformation (thesis 3.3.2) on synthetic data."""
+
+import numpy as np
+import pytest
+from pliant.errors import DimensionError
+from pliant_voxel.calibration import fit_calibration
+
+
+def test_exact_scale_is_recovered_with_zero_error():
+    rng = np.random.default_rng(0)
+    planned = [rng.uniform(0, 5, 30), rng.uniform(0, 5, 40)]
+    measured = [33.9 * p for p in planned]
+    cal = fit_calibration(planned, measured)
+    assert cal.scale == pytest.approx(33.9)
+    assert cal.least_squares_scale == pytest.approx(33.9)
+    assert np.allclose(cal.path_errors, 0.0)
+    assert np.allclose(cal.apply([1.0, 2.0]), [33.9, 67.8])
+
+
+def test_noisy_measurements_give_the_thesis_style_errors():
+    planned = [np.array([1.0, 2.0, 0.0]), np.array([2.0, 2.0])]
+    measured = [np.array([2.0, 4.4, 0.5]), np.array([3.6, 4.4])]
+    cal = fit_calibration(planned, measured)
+    # ratios over points with planned > 0: 2.0, 2.2, 1.8, 2.2 -> mean 2.05
+    assert cal.scale == pytest.approx(2.05)
+    assert cal.path_errors[0] == pytest.approx(abs(2.05 * 3 - 6.9) / 6.9)
+    assert cal.path_errors[1] == pytest.approx(abs(2.05 * 4 - 8.0) / 8.0)
+    assert cal.mean_error == pytest.approx(cal.path_errors.mean())
+
+
+def test_bad_input_names_the_path():
+    with pytest.raises(DimensionError, match=r"path\[1\]"):
+        fit_calibration([np.ones(3), np.ones(3)], [np.ones(3), np.ones(2)])
+    with pytest.raises(DimensionError):
+        fit_calibration([np.zeros(3)], [np.ones(3)])
