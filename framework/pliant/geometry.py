@@ -78,8 +78,11 @@ def quat_from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
 
 def quat_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Rotation angle (rad, in [0, pi]) between unit quaternions ``a`` and ``b`` (broadcast)."""
-    dot = np.abs(np.sum(np.asarray(a, dtype=np.float64) * np.asarray(b, dtype=np.float64), axis=-1))
-    return 2.0 * np.arccos(np.clip(dot, 0.0, 1.0))
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    sign = np.where(np.sum(a * b, axis=-1) < 0, -1.0, 1.0)[..., None]
+    # 2 atan2(|a - b|, |a + b|) is accurate near 0 and pi, unlike 2 acos(|a . b|)
+    return 2.0 * np.arctan2(np.linalg.norm(a - sign * b, axis=-1), np.linalg.norm(a + sign * b, axis=-1))
 
 
 def quat_slerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:

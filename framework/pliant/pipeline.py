@@ -118,7 +118,7 @@ class Pipeline:
             raise PipelineError("must be a non-negative integer", source=source, field="seed", value=seed)
         self.seed = int(seed)
         self.output = Path(output) if output is not None else Path("out") / name
-        if isinstance(disable, str) or not all(isinstance(d, str) for d in disable):
+        if not isinstance(disable, (list, tuple, set, frozenset)) or not all(isinstance(d, str) for d in disable):
             raise PipelineError("must be a list of plugin names", source=source, field="disable", value=disable)
         self.disable = frozenset(disable)
         self.scene_spec = scene
@@ -200,7 +200,10 @@ class Pipeline:
         if variant is not None and not isinstance(variant, str):
             raise PipelineError("must be a string", source=self.source, field="scene.variant", value=variant)
         candidate = self.base_dir / str(spec)
-        target = candidate if candidate.is_file() else spec
+        try:
+            target = candidate if candidate.is_file() else spec
+        except (OSError, ValueError):  # a name the OS rejects is no file; load_scene explains
+            target = spec
         return load_scene(target, variant=variant)
 
     def build(self) -> Context:
@@ -355,6 +358,9 @@ def apply_overrides(data: dict, overrides: list[str] | dict[str, Any], source: s
         if current is None:
             raise PipelineError(f"the pipeline has no {head}; set {head}=NAME first", source=source, field=key,
                                 value=value)
+        if not isinstance(current, (str, dict)):
+            raise PipelineError("must be a component name or a table with 'name' and options", source=source,
+                                field=head, value=current)
         table = {"name": current} if isinstance(current, str) else dict(current)
         table[rest] = value
         out[head] = table
@@ -374,11 +380,14 @@ def available_pipelines() -> list[str]:
 
 def _resolve_pipeline_path(path: str | Path) -> Path:
     p = Path(path)
-    if p.is_file():
-        return p
-    candidate = bundled_pipelines_dir() / f"{path}.toml"
-    if p.suffix != ".toml" and candidate.is_file():
-        return candidate
+    try:
+        if p.is_file():
+            return p
+        candidate = bundled_pipelines_dir() / f"{path}.toml"
+        if p.suffix != ".toml" and candidate.is_file():
+            return candidate
+    except (OSError, ValueError):
+        pass
     raise PipelineError(f"no pipeline file or bundled pipeline of that name (bundled: "
                         f"{', '.join(available_pipelines()) or 'none'})", source=str(path), field="<file>",
                         value=str(path))

@@ -203,15 +203,23 @@ def available_scenes() -> list[str]:
 def resolve_scene_path(name_or_path: str | Path) -> Path:
     """A bundled scene's file from its name, or the given path; raises if neither exists."""
     path = Path(name_or_path)
-    if path.suffix == ".toml" or path.exists():
-        if not path.is_file():
+    if path.suffix == ".toml" or _is_file(path):
+        if not _is_file(path):
             raise SceneError("scene file does not exist", source=str(path), field="<file>", value=str(path))
         return path
     candidate = bundled_scenes_dir() / f"{name_or_path}.toml"
-    if candidate.is_file():
+    if _is_file(candidate):
         return candidate
     raise SceneError(f"no bundled scene or file of that name (bundled: {', '.join(available_scenes())})",
                      source=str(name_or_path), field="<scene>", value=str(name_or_path))
+
+
+def _is_file(path: Path) -> bool:
+    """``path.is_file()`` that answers False for names the OS rejects (too long, NUL bytes)."""
+    try:
+        return path.is_file()
+    except (OSError, ValueError):
+        return False
 
 
 def load_scene(name_or_path: str | Path, variant: str | None = None) -> Scene:
@@ -221,7 +229,7 @@ def load_scene(name_or_path: str | Path, variant: str | None = None) -> Scene:
     ``"name:variant"`` is accepted as a shorthand.  Raises :class:`SceneError` on any bad field.
     """
     text = str(name_or_path)
-    if variant is None and ":" in text and not Path(text).exists() and not text.endswith(".toml"):
+    if variant is None and ":" in text and not _is_file(Path(text)) and not text.endswith(".toml"):
         text, variant = text.split(":", 1)
     path = resolve_scene_path(text)
     try:
