@@ -13,7 +13,6 @@ import math
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
 from pliant.errors import PipelineError, PliantError, SceneError
 from pliant.pipeline import Pipeline
 from pliant.scene import Scene

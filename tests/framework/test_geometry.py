@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-
 from pliant.geometry import (
     matrix_to_quat,
     quat_angle,

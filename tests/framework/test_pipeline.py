@@ -1,0 +1,83 @@
+"""Pipelines from dicts, files and Python; overrides; reports."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from pliant import Pipeline, PlanResult, Status, registry
+from pliant.errors import PipelineError
+from pliant.pipeline import apply_overrides, parse_override
+
+
+def test_parse_override_values():
+    assert parse_override("planner.max_time=5") == ("planner.max_time", 5)
+    assert parse_override("planner.p=0.25") == ("planner.p", 0.25)
+    assert parse_override("simulator=pybullet") == ("simulator", "pybullet")
+    assert parse_override("planner.flag=true") == ("planner.flag", True)
+    assert parse_override("planner.w=[1, 2]") == ("planner.w", [1, 2])
+    with pytest.raises(PipelineError, match="key=value"):
+        parse_override("planner.max_time")
+
+
+def test_overrides_replace_and_set():
+    data = {"scene": "triple-wall", "planner": {"name": "astar", "p": 0.5}}
+    out = apply_overrides(data, ["planner.p=0.7", "scene.variant=soft-robot-soft-walls", "seed=4"], "t")
+    assert out["planner"] == {"name": "astar", "p": 0.7}
+    assert out["scene"] == {"name": "triple-wall", "variant": "soft-robot-soft-walls"}
+    assert out["seed"] == 4
+    assert apply_overrides(data, ["planner=straight"], "t")["planner"] == "straight"
+    assert data["planner"]["p"] == 0.5   # the input is not modified
+
+
+def test_run_writes_the_report(tmp_path):
+    pipeline = Pipeline.from_dict({"name": "t", "scene": "triple-wall", "planner": {"name": "straight", "step": 0.01},
+                                   "cost": "voxel", "output": str(tmp_path)})
+    record = pipeline.run()
+    # the straight line from start to goal crosses the soft walls: feasible but costly
+    assert record.result.status is Status.SOLVED and record.result.cost > 0
+    for name in ("result.json", "run.json", "report.md", "path.png"):
+        assert (tmp_path / name).is_file()
+    loaded = PlanResult.load(tmp_path / "result.json")
+    assert np.allclose(loaded.path.configurations, record.result.path.configurations)
+    assert json.loads((tmp_path / "run.json").read_text())["pipeline"]["planner"]["step"] == 0.01
+    report = (tmp_path / "report.md").read_text()
+    assert "| status | solved |" in report and "![path](path.png)" in report
+
+
+def test_from_file_with_overrides(tmp_path):
+    path = tmp_path / "p.toml"
+    path.write_text('name = "f"\nscene = "triple-wall"\n[planner]\nname = "straight"\nstep = 0.5\n')
+    pipeline = Pipeline.from_file(path, overrides=["planner.step=0.02", "seed=9"])
+    assert pipeline.components["planner"].options == {"step": 0.02} and pipeline.seed == 9
+    assert pipeline.name == "f"
+
+
+def test_scene_relative_to_the_pipeline_file(tmp_path):
+    from pliant.scene import resolve_scene_path
+
+    (tmp_path / "my-scene.toml").write_text(resolve_scene_path("triple-wall").read_text())
+    (tmp_path / "p.toml").write_text('scene = "my-scene.toml"\nplanner = "straight"\n')
+    ctx = Pipeline.from_file(tmp_path / "p.toml").build()
+    assert ctx.scene.source == str(tmp_path / "my-scene.toml")
+
+
+def test_python_pipeline_with_instances():
+    planner = registry.create("planner", "straight", step=0.05)
+    record = Pipeline("triple-wall", planner=planner).run(write=False)
+    assert record.result.solved and record.result.options["step"] == 0.05
+
+
+def test_scene_file_given_as_pipeline_is_explained():
+    from pliant.scene import resolve_scene_path
+
+    with pytest.raises(PipelineError, match="scene file, not a pipeline"):
+        Pipeline.from_file(resolve_scene_path("triple-wall"))
+
+
+def test_bundled_pipelines_build():
+    from pliant.pipeline import available_pipelines
+
+    for name in available_pipelines():
+        assert Pipeline.from_file(name).build().scene is not None
