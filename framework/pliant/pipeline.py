@@ -174,9 +174,8 @@ class Pipeline:
             raise PipelineError(f"not valid TOML: {exc}", source=str(path), field="<file>") from None
         except (OSError, UnicodeDecodeError) as exc:
             raise PipelineError(f"cannot read file: {exc}", source=str(path), field="<file>") from None
-        if "robot" in data and "kind" in data.get("robot", {}):
-            raise PipelineError("this looks like a scene file, not a pipeline; run a pipeline that names it "
-                                "as scene = \"...\"", source=str(path), field="robot")
+        if isinstance(data.get("robot"), dict) and "kind" in data["robot"]:
+            data = _scene_pipeline(data, path)
         return cls.from_dict(data, source=str(path), base_dir=path.parent, overrides=overrides, registry=registry)
 
     # --- building and running -----------------------------------------------------------------
@@ -290,6 +289,18 @@ class Pipeline:
         for kind, spec in self.components.items():
             out[kind] = {"name": spec.name, **spec.options}
         return out
+
+
+def _scene_pipeline(scene_data: dict, path: Path) -> dict:
+    """The pipeline a scene file recommends in its ``[pipeline]`` table, run on that scene."""
+    table = scene_data.get("pipeline")
+    if not isinstance(table, dict) or not table:
+        raise PipelineError("this is a scene file without a [pipeline] table; add one, or run a pipeline file "
+                            "that names it as scene = \"...\"", source=str(path), field="pipeline")
+    if "scene" in table:
+        raise PipelineError("a scene's own pipeline runs on that scene; remove 'scene'", source=str(path),
+                            field="pipeline.scene", value=table["scene"])
+    return {"name": scene_data.get("name", path.stem), "scene": path.name, **table}
 
 
 def _component_spec(spec: Any, source: str, kind: str) -> ComponentSpec:

@@ -168,6 +168,7 @@ class Scene:
     source: str = "<dict>"
     variant: str | None = None
     variants: tuple[str, ...] = ()
+    pipeline: dict = field(default_factory=dict)
     raw: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -336,11 +337,12 @@ class _SceneReader:
         self._check_configuration(top, "start", start, robot, lower, upper)
         self._check_configuration(top, "goal", goal, robot, lower, upper)
         tol = top.number("goal_tolerance", 0.0, minimum=0.0)
+        pipeline = top.table("pipeline", default={})   # validated by the pipeline when it is run
         top.finish()
         return Scene(name=name, lower=lower, upper=upper, resolution=resolution, objects=objects, robot=robot,
                      start=start, goal=goal, regions=regions, planar=planar, goal_tolerance=tol,
                      description=description, source=self.source, variant=self.variant,
-                     variants=self.variant_names, raw=dict(top.data))
+                     variants=self.variant_names, pipeline=dict(pipeline.data), raw=dict(top.data))
 
     # --- pieces -------------------------------------------------------------------------------
 

@@ -69,11 +69,15 @@ def test_python_pipeline_with_instances():
     assert record.result.solved and record.result.options["step"] == 0.05
 
 
-def test_scene_file_given_as_pipeline_is_explained():
+def test_a_scene_file_runs_its_own_pipeline():
     from pliant.scene import resolve_scene_path
 
-    with pytest.raises(PipelineError, match="scene file, not a pipeline"):
-        Pipeline.from_file(resolve_scene_path("triple-wall"))
+    pipeline = Pipeline.from_file(resolve_scene_path("triple-wall"), overrides=["planner.p=0.7"])
+    assert pipeline.components["planner"].name == "astar" and pipeline.components["planner"].options["p"] == 0.7
+    record = pipeline.run(write=False)
+    assert record.result.solved and record.result.statistics["deformation"] == 0.0
+    with pytest.raises(PipelineError, match=r"se2-maze.toml:pipeline: this is a scene file without"):
+        Pipeline.from_file(resolve_scene_path("se2-maze"))
 
 
 def test_bundled_pipelines_build():
