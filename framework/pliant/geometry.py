@@ -127,3 +127,21 @@ def rotation_z(theta: np.ndarray) -> np.ndarray:
 def wrap_angle(theta: np.ndarray) -> np.ndarray:
     """Angles wrapped to [-pi, pi)."""
     return (np.asarray(theta, dtype=np.float64) + np.pi) % (2 * np.pi) - np.pi
+
+
+def quat_to_rotvec(q: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``(..., 3)`` (axis * angle, angle in [0, pi]) of unit quaternions ``(..., 4)``."""
+    q = np.asarray(q, dtype=np.float64)
+    q = np.where(q[..., 3:4] < 0, -q, q)
+    xyz = q[..., :3]
+    s = np.linalg.norm(xyz, axis=-1)
+    angle = 2.0 * np.arctan2(s, q[..., 3])
+    # angle / sin(angle / 2) -> 2 as s -> 0
+    scale = np.where(s > 1e-12, angle / np.where(s > 1e-12, s, 1.0), 2.0)
+    return xyz * scale[..., None]
+
+
+def quat_conjugate(q: np.ndarray) -> np.ndarray:
+    """The inverse of unit quaternions ``(..., 4)``."""
+    q = np.asarray(q, dtype=np.float64)
+    return np.concatenate([-q[..., :3], q[..., 3:]], axis=-1)

@@ -124,16 +124,29 @@ class RobotModel(Component):
         """The configuration space (bounds from joint limits or the scene)."""
 
     @abstractmethod
-    def body_points(self, q: np.ndarray) -> np.ndarray:
-        """World positions of the body points, ``(n, m, 3)`` for ``q`` ``(n, d)``; metres."""
+    def body_points(self, q: np.ndarray, indices: np.ndarray | None = None) -> np.ndarray:
+        """World positions of the body points, ``(n, m, 3)`` for ``q`` ``(n, d)``; metres.
+
+        ``indices`` ``(k,)`` selects a subset of the points (then ``(n, k, 3)``).
+        """
 
     @abstractmethod
     def point_materials(self) -> np.ndarray:
         """``(m, 2)``: deformability and sensitivity of each body point."""
 
     @abstractmethod
-    def point_jacobians(self, q: np.ndarray) -> np.ndarray:
-        """``(n, m, 3, t)``: d(point position)/d(tangent motion) at each configuration."""
+    def point_jacobians(self, q: np.ndarray, indices: np.ndarray | None = None) -> np.ndarray:
+        """``(n, m, 3, t)``: d(point position)/d(tangent motion) at each configuration.
+
+        ``indices`` ``(k,)`` selects a subset of the points (then ``(n, k, 3, t)``).
+        """
+
+    def surface_indices(self) -> np.ndarray:
+        """Indices of the body points on the body's surface (contact happens there first).
+
+        The default is every point; robots that know their interior override it.
+        """
+        return np.arange(self.point_count())
 
     def point_count(self) -> int:
         return len(self.point_materials())
@@ -228,8 +241,11 @@ class Simulator(Component):
 
     @abstractmethod
     def simulate(self, starts: np.ndarray, targets: np.ndarray, rng: np.random.Generator,
-                 duration: float) -> SimulationBatch:
-        """Drive each start ``(n, d)`` toward its target (``(n, d)`` or ``(d,)``) for ``duration`` s."""
+                 duration: float, record: bool = False) -> SimulationBatch:
+        """Drive each start ``(n, d)`` toward its target (``(n, d)`` or ``(d,)``) for ``duration`` s.
+
+        With ``record``, the result's ``trajectories`` hold the state after every control step.
+        """
 
     @abstractmethod
     def reset(self, q: np.ndarray) -> None:

@@ -19,9 +19,11 @@ from pliant.errors import DimensionError
 from pliant.geometry import (
     UNIT_QUATERNION_TOLERANCE,
     quat_angle,
+    quat_conjugate,
     quat_from_axis_angle,
     quat_multiply,
     quat_slerp,
+    quat_to_rotvec,
     random_quaternions,
     wrap_angle,
 )
@@ -84,6 +86,10 @@ class Space(ABC):
         ``(vx, vy, vz, wx, wy, wz)``: a translation plus a rotation vector applied in the world frame.
         """
         return np.asarray(q, dtype=np.float64) + np.asarray(delta, dtype=np.float64)
+
+    def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """The tangent vector ``delta`` with ``retract(b, delta) == a`` (the shortest one), ``(..., t)``."""
+        return np.asarray(a, dtype=np.float64) - np.asarray(b, dtype=np.float64)
 
     # --- shared behaviour -------------------------------------------------------------------
 
@@ -254,6 +260,11 @@ class SE2Space(Space):
         out[..., 2] = wrap_angle(out[..., 2])
         return out
 
+    def difference(self, a, b):
+        out = np.asarray(a, dtype=np.float64) - np.asarray(b, dtype=np.float64)
+        out[..., 2] = wrap_angle(out[..., 2])
+        return out
+
     def to_dict(self):
         return {"kind": self.kind, "lower": self.lower.tolist(), "upper": self.upper.tolist(),
                 "translation_weight": self.translation_weight, "rotation_weight": self.rotation_weight}
@@ -340,6 +351,14 @@ class SE3Space(Space):
         out[..., 3:] /= np.linalg.norm(out[..., 3:], axis=-1, keepdims=True)
         return out
 
+    def difference(self, a, b):
+        a = np.asarray(a, dtype=np.float64)
+        b = np.asarray(b, dtype=np.float64)
+        rot = quat_to_rotvec(quat_multiply(a[..., 3:], quat_conjugate(b[..., 3:])))
+        dp = a[..., :3] - b[..., :3]
+        dp, rot = np.broadcast_arrays(dp, rot)
+        return np.concatenate([dp, rot], axis=-1)
+
     def to_dict(self):
         return {"kind": self.kind, "lower": self.lower.tolist(), "upper": self.upper.tolist(),
                 "translation_weight": self.translation_weight, "rotation_weight": self.rotation_weight}
@@ -400,6 +419,11 @@ class CompoundSpace(Space):
     @property
     def tangent_dim(self) -> int:
         return sum(c.tangent_dim for c in self.components)
+
+    def difference(self, a, b):
+        parts = [c.difference(pa, pb) for c, pa, pb in zip(self.components, self._parts(a), self._parts(b))]
+        shape = np.broadcast_shapes(*(p.shape[:-1] for p in parts))
+        return np.concatenate([np.broadcast_to(p, shape + p.shape[-1:]) for p in parts], axis=-1)
 
     def retract(self, q, delta):
         delta = np.asarray(delta, dtype=np.float64)

@@ -77,6 +77,8 @@ class RigidBody(RobotModel):
             raise PlanningError("the robot's parts contain no point at this resolution", source=scene.source,
                                 field="robot.parts", value=res)
         self._space = self._make_space(scene)
+        self._spacing = res
+        self._surface = None
 
     def _make_space(self, scene: Scene) -> Space:
         o = self.options
@@ -116,18 +118,33 @@ class RigidBody(RobotModel):
         q, _ = check_batch(q, self._space)
         return self.rotations(q), self.positions(q), self._points
 
-    def body_points(self, q):
-        q, _ = check_batch(q, self._space)
-        return np.einsum("nij,mj->nmi", self.rotations(q), self._points) + self.positions(q)[:, None, :]
+    def surface_indices(self):
+        """Points with at least one of their six lattice neighbours outside the body."""
+        if self._surface is None:
+            keys = np.round(self._points / self._spacing).astype(np.int64)
+            present = set(map(tuple, keys))
+            steps = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
+            self._surface = np.array([i for i, k in enumerate(map(tuple, keys))
+                                      if any((k[0] + a, k[1] + b, k[2] + c) not in present for a, b, c in steps)],
+                                     dtype=np.int64)
+        return self._surface
 
-    def point_jacobians(self, q):
+    def _local(self, indices):
+        return self._points if indices is None else self._points[indices]
+
+    def body_points(self, q, indices=None):
         q, _ = check_batch(q, self._space)
-        n, m = len(q), len(self._points)
+        return np.matmul(self._local(indices)[None], np.swapaxes(self.rotations(q), 1, 2)) + self.positions(q)[:, None, :]
+
+    def point_jacobians(self, q, indices=None):
+        q, _ = check_batch(q, self._space)
+        local = self._local(indices)
+        n, m = len(q), len(local)
         jac = np.zeros((n, m, 3, self._space.tangent_dim))
         if self.spec.space == "r3":
             jac[..., 0, 0] = jac[..., 1, 1] = jac[..., 2, 2] = 1.0
             return jac
-        rel = np.einsum("nij,mj->nmi", self.rotations(q), self._points)  # p - c
+        rel = np.matmul(local[None], np.swapaxes(self.rotations(q), 1, 2))  # p - c
         if self.spec.space == "se2":
             jac[..., 0, 0] = jac[..., 1, 1] = 1.0
             jac[..., 0, 2] = -rel[..., 1]

@@ -1,0 +1,1 @@
+"""The fast kinematic simulator with contact and compliance (thesis app. B)."""

@@ -1,0 +1,9 @@
+"""Entry point of the kinematic simulator plugin."""
+
+from pliant.hookspecs import hookimpl
+
+
+@hookimpl
+def pliant_register(registrar):
+    registrar.add("simulator", "kinematic", "pliant_kinematic.simulator:KinematicSimulator",
+                  description="fast kinematic simulation with contact and compliance, batched particles (thesis app. B)")

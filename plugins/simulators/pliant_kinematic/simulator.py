@@ -1,0 +1,270 @@
+"""The simulator ``kinematic``: batched, compliant, contact-resolving kinematic simulation (thesis app. B).
+
+Each control step (``1 / frequency`` s) a P/PD law commands a tangent displacement toward the target
+(eq. 8.1-8.2: ``dq = kp e + kd de``), limited to the velocity limits; actuation noise (eq. 8.3's
+``F(dq)``, :mod:`pliant.noise`) is drawn per microstep.  The step is cut into microsteps so that no
+body point moves more than ``step_fraction`` of a voxel; after each, RESOLVECOLLISIONS (eq. 8.4-8.5)
+pushes penetrating points out along the face they entered through (:mod:`.contact`) and maps the
+point corrections to the configuration by least squares, ``dq = J^+ [dp_1; dp_2; ...]`` (or, with
+``solver = "qp"``, a quadratic program that forbids first-order penetration outright).  When the
+corrections do not converge, the microstep is reverted and the particle's step is halved (adaptive
+step scaling against oscillation); after ``max_halvings`` it stays where it is for the rest of the step.
+
+All particles advance together (batch first); ``simulate`` reports, per particle, the final
+configuration, whether it touched anything, whether it is stuck, and whether it reached the target.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pliant.errors import DimensionError
+from pliant.interfaces import SimulationBatch, Simulator, check_batch
+from pliant.noise import NOISE_MODELS, ActuationNoise
+from pliant.options import option
+from pliant.voxelgrid import VoxelGrid
+
+from pliant_kinematic.contact import ContactModel
+
+
+@dataclass(frozen=True)
+class KinematicOptions:
+    """Options of :class:`KinematicSimulator` (defaults: the se2-maze / peg experiments of thesis ch. 5)."""
+
+    frequency: float = option(10.0, "control frequency (Hz)", minimum=1e-6)
+    kp: float = option(0.5, "proportional gain: fraction of the error commanded per control step (eq. 8.2)",
+                       minimum=0.0)
+    kd: float = option(0.0, "derivative gain on the change of the error per control step (eq. 8.2)", minimum=0.0)
+    velocity_limit: float = option(1.0, "speed limit of translation (m/s), or of every joint (rad/s) for "
+                                   "joint-space robots", minimum=1e-9)
+    angular_velocity_limit: float = option(0.125, "rotation speed limit (rad/s) of SE(2)/SE(3) bodies", minimum=1e-9)
+    joint_velocity_limits: tuple[float, ...] = option((), "per-actuator speed limits (rad/s or m/s); "
+                                                      "overrides the two limits above when given")
+    noise: str = option("none", "actuation noise model (pliant.noise)", choices=NOISE_MODELS)
+    noise_linear: float = option(0.0, "noise parameter of translational / joint actuators: bound (m/s) for "
+                                 "'bounded', factor for 'proportional' and 'floor'", minimum=0.0)
+    noise_angular: float = option(0.0, "noise parameter of rotational actuators (rad/s or factor)", minimum=0.0)
+    step_fraction: float = option(0.5, "largest motion of any body point per microstep, in voxels", minimum=1e-3,
+                                  maximum=1.0)
+    max_corrections: int = option(8, "collision-resolution iterations per microstep", minimum=1)
+    max_halvings: int = option(4, "adaptive step scaling: halvings before a particle gives up", minimum=0)
+    clearance: float = option(0.01, "points are pushed this far past the surface, in voxels", minimum=0.0)
+    solver: str = option("least-squares", "contact correction: least-squares (eq. 8.5) or qp (no penetration)",
+                         choices=("least-squares", "qp"))
+    reach_tolerance: float | None = option(None, "distance to the target that counts as reached (space "
+                                           "metric); default: the scene's goal tolerance, else one voxel")
+    stuck_fraction: float = option(0.05, "stuck when a control step moves less than this fraction of what it "
+                                   "commanded", minimum=0.0, maximum=1.0)
+
+
+def _angular_mask(space) -> np.ndarray:
+    kinds = {"se2": [False, False, True], "se3": [False] * 3 + [True] * 3}
+    if space.kind in kinds:
+        return np.array(kinds[space.kind])
+    if space.kind == "compound":
+        return np.concatenate([_angular_mask(c) for c in space.components])
+    return np.zeros(space.tangent_dim, dtype=bool)
+
+
+class KinematicSimulator(Simulator):
+    """Fast kinematic simulation with contact and compliance for batches of particles (thesis app. B).
+
+    Works with any :class:`~pliant.interfaces.RobotModel` (body points and point Jacobians) in the
+    scene's voxelised environment.  Self-collision of multi-link robots is not modelled yet.
+    """
+
+    Options = KinematicOptions
+    example_scene = "se2-maze"
+
+    def bind(self, context) -> None:
+        super().bind(context)
+        scene = self.require("scene")
+        self.robot = self.require("robot")
+        self.space = self.robot.space
+        self.grid = VoxelGrid.from_scene(scene)
+        self.contact = ContactModel(self.grid)
+        self.surface = self.robot.surface_indices()
+        o = self.options
+        t = self.space.tangent_dim
+        self.angular = _angular_mask(self.space)
+        if o.joint_velocity_limits:
+            if len(o.joint_velocity_limits) != t:
+                raise DimensionError(f"needs one limit per actuator ({t})", field="simulator.joint_velocity_limits",
+                                     value=list(o.joint_velocity_limits))
+            self.limits = np.asarray(o.joint_velocity_limits, dtype=np.float64)
+        else:
+            self.limits = np.where(self.angular, o.angular_velocity_limit, o.velocity_limit)
+        scale = np.where(self.angular, o.noise_angular, o.noise_linear)
+        self.noise = ActuationNoise(o.noise, scale, self.limits)
+        self.per_actuator = bool(o.joint_velocity_limits) or self.robot.rigid_placement(
+            np.asarray(scene.start, dtype=np.float64)[None]) is None
+        self.dt = 1.0 / o.frequency
+        self.reach = o.reach_tolerance if o.reach_tolerance is not None else (
+            scene.goal_tolerance if scene.goal_tolerance > 0 else scene.resolution)
+        self._q = np.array(scene.start, dtype=np.float64)[None]
+        self._contact = False
+
+    # --- the control law ----------------------------------------------------------------------
+
+    def limit(self, velocity: np.ndarray) -> np.ndarray:
+        """Scale velocities ``(n, t)`` into the limits, keeping their direction.
+
+        Rigid bodies cap the norm of the translational and of the rotational part separately
+        (thesis ch. 5: 1.0 m/s and 0.125 rad/s); articulated robots, or per-actuator limits, cap every
+        component by one common factor.
+        """
+        v = np.array(velocity, dtype=np.float64)
+        if self.per_actuator:
+            ratio = np.max(np.abs(v) / self.limits, axis=1, keepdims=True)
+            return v / np.maximum(ratio, 1.0)
+        for mask, lim in ((~self.angular, self.options.velocity_limit),
+                          (self.angular, self.options.angular_velocity_limit)):
+            if mask.any():
+                norm = np.linalg.norm(v[:, mask], axis=1, keepdims=True)
+                v[:, mask] /= np.maximum(norm / lim, 1.0)
+        return v
+
+    # --- simulation ---------------------------------------------------------------------------
+
+    def simulate(self, starts, targets, rng, duration, record=False):
+        q, _ = check_batch(starts, self.space, "starts")
+        q = q.copy()
+        targets = np.broadcast_to(check_batch(targets, self.space, "targets")[0], q.shape)
+        if not (math.isfinite(duration) and duration > 0):
+            raise DimensionError("duration must be a positive number of seconds", field="duration", value=duration)
+        n = len(q)
+        steps = max(1, int(round(duration * self.options.frequency)))
+        touched = np.zeros(n, dtype=bool)
+        stuck = np.zeros(n, dtype=bool)
+        previous_error = None
+        trajectory = [q.copy()] if record else None
+        total_micro = 0
+        for _ in range(steps):
+            error = self.space.difference(targets, q)
+            command = self.options.kp * error
+            if self.options.kd and previous_error is not None:
+                command += self.options.kd * (error - previous_error)
+            previous_error = error
+            velocity = self.limit(command / self.dt)
+            before = q.copy()
+            q, contact, micro = self._advance(q, velocity, self.dt, rng)
+            touched |= contact
+            total_micro += micro
+            moved = self.space.distance(q, before)
+            commanded = np.linalg.norm(velocity * self.dt, axis=1)
+            stuck = (moved < self.options.stuck_fraction * commanded) & (commanded > 1e-12)
+            if record:
+                trajectory.append(q.copy())
+        reached = self.space.distance(q, targets) <= self.reach
+        return SimulationBatch(final=q, in_contact=touched, stuck=stuck & ~reached, reached=reached,
+                               trajectories=np.stack(trajectory, axis=1) if record else None, steps=total_micro)
+
+    def reset(self, q):
+        self._q = check_batch(q, self.space, "configuration")[0][:1].copy()
+        self._contact = False
+
+    def configuration(self):
+        return self._q[0].copy()
+
+    def in_contact(self):
+        return self._contact
+
+    def step(self, velocity, dt, rng):
+        v = np.atleast_2d(np.asarray(velocity, dtype=np.float64))
+        if v.shape != (1, self.space.tangent_dim) or not np.all(np.isfinite(v)):
+            raise DimensionError(f"velocity must be ({self.space.tangent_dim},) and finite", field="velocity",
+                                 value=np.asarray(velocity).tolist())
+        self._q, contact, _ = self._advance(self._q, self.limit(v), float(dt), rng)
+        self._contact = bool(contact[0])
+        return self._q[0].copy()
+
+    # --- microsteps and collision resolution ------------------------------------------------
+
+    def _advance(self, q, velocity, dt, rng):
+        """Apply ``velocity`` ``(n, t)`` for ``dt`` seconds in microsteps; returns (q, touched, microsteps)."""
+        n = len(q)
+        delta = velocity * dt
+        surface = self.surface
+        # the farthest any surface point can move this step, noise included, sets the microstep count
+        bound = delta + np.where(delta >= 0, 1.0, -1.0) * self.noise.limits(velocity) * dt
+        p0 = self.robot.body_points(q, surface)
+        p1 = self.robot.body_points(self.space.retract(q, bound), surface)
+        travel = float(np.max(np.linalg.norm(p1 - p0, axis=2))) if p0.size else 0.0
+        micro = max(1, int(math.ceil(travel / (self.options.step_fraction * self.grid.resolution))))
+        scale = np.ones(n)
+        halvings = np.zeros(n, dtype=int)
+        touched = np.zeros(n, dtype=bool)
+        sub_dt = dt / micro
+        for _ in range(micro):
+            noise = self.noise.sample(rng, velocity)
+            step = (velocity + noise) * sub_dt * scale[:, None]
+            q, ok, contact = self._microstep(q, step)
+            touched |= contact
+            failed = ~ok
+            if failed.any():
+                halvings[failed] += 1
+                scale[failed] = np.where(halvings[failed] > self.options.max_halvings, 0.0, scale[failed] * 0.5)
+        return q, touched, micro
+
+    def _microstep(self, q, step):
+        """One microstep with RESOLVECOLLISIONS; returns (q, converged, touched) per particle."""
+        surface = self.surface
+        before = self.robot.body_points(q, surface)
+        trial = self.space.retract(q, step)
+        touched = np.zeros(len(q), dtype=bool)
+        for _ in range(self.options.max_corrections):
+            pts = self.robot.body_points(trial, surface)
+            hit = self.contact.colliding(pts)
+            active = np.nonzero(hit.any(axis=1))[0]
+            if len(active) == 0:
+                return trial, np.ones(len(q), dtype=bool), touched
+            touched[active] = True
+            trial[active] = self._correct(trial[active], pts[active], before[active], hit[active])
+        pts = self.robot.body_points(trial, surface)
+        still = self.contact.colliding(pts).any(axis=1)
+        trial[still] = q[still]                      # revert: the step could not be made feasible
+        return trial, ~still, touched
+
+    def _correct(self, q, pts, before, hit):
+        """One correction ``dq = J^+ dp`` (eq. 8.5) for particles ``(a, d)`` with colliding points ``hit``."""
+        used = np.nonzero(hit.any(axis=0))[0]           # surface points colliding in some particle
+        hit = hit[:, used]
+        pts, before = pts[:, used], before[:, used]
+        a, k = hit.shape
+        rows, cols = np.nonzero(hit)
+        normals, depth = self.contact.penetration(pts[rows, cols], pts[rows, cols] - before[rows, cols])
+        push = depth + self.options.clearance * self.grid.resolution
+        dp = np.zeros((a, k, 3))
+        dp[rows, cols] = normals * push[:, None]
+        jac = self.robot.point_jacobians(q, self.surface[used])              # (a, k, 3, t)
+        t = jac.shape[-1]
+        masked = (jac * hit[..., None, None]).reshape(a, 3 * k, t)
+        if self.options.solver == "qp":
+            dq = self._qp_corrections(masked, dp, rows, cols, normals, push, jac)
+        else:
+            lhs = np.swapaxes(masked, 1, 2) @ masked
+            rhs = np.swapaxes(masked, 1, 2) @ dp.reshape(a, 3 * k, 1)
+            damping = 1e-10 * np.maximum(np.trace(lhs, axis1=1, axis2=2), 1e-12)
+            lhs += damping[:, None, None] * np.eye(t)
+            dq = np.linalg.solve(lhs, rhs)[..., 0]
+        return self.space.retract(q, dq)
+
+    def _qp_corrections(self, masked, dp, rows, cols, normals, push, jac):
+        """Least-squares corrections subject to ``n_i . J_i dq >= depth_i`` for every colliding point."""
+        from qpsolvers import solve_qp
+
+        a, _, t = masked.shape
+        out = np.zeros((a, t))
+        for p in range(a):
+            sel = rows == p
+            j = jac[p, cols[sel]]                                          # (c, 3, t)
+            g = -np.einsum("ck,ckt->ct", normals[sel], j)                  # -n^T J dq <= -depth
+            h = -push[sel]
+            m = masked[p]
+            lhs = m.T @ m + 1e-9 * np.eye(t)
+            rhs = m.T @ dp[p].reshape(-1)
+            sol = solve_qp(lhs, -rhs, g, h, solver="daqp")
+            out[p] = sol if sol is not None else np.linalg.lstsq(m, dp[p].reshape(-1), rcond=None)[0]
+        return out
