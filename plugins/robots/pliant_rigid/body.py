@@ -134,7 +134,8 @@ class RigidBody(RobotModel):
 
     def body_points(self, q, indices=None):
         q, _ = check_batch(q, self._space)
-        return np.matmul(self._local(indices)[None], np.swapaxes(self.rotations(q), 1, 2)) + self.positions(q)[:, None, :]
+        world = np.matmul(self._local(indices)[None], np.swapaxes(self.rotations(q), 1, 2))
+        return world + self.positions(q)[:, None, :]
 
     def point_jacobians(self, q, indices=None):
         q, _ = check_batch(q, self._space)

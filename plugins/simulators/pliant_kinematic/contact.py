@@ -61,7 +61,7 @@ class ContactModel:
         ins = np.nonzero(inside)[0]
         if len(ins):
             i = idx[ins]
-            nx, ny, nz = self.grid.shape
+            _, ny, nz = self.grid.shape
             flat = (i[:, 0] * ny + i[:, 1]) * nz + i[:, 2]
             exposed = self.exposed[flat]                                   # (k, 6)
             lo = self.lower + i * self.res

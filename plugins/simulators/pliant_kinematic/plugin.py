@@ -6,4 +6,4 @@ from pliant.hookspecs import hookimpl
 @hookimpl
 def pliant_register(registrar):
     registrar.add("simulator", "kinematic", "pliant_kinematic.simulator:KinematicSimulator",
-                  description="fast kinematic simulation with contact and compliance, batched particles (thesis app. B)")
+                  description="fast kinematic simulation with contact and compliance, batched (thesis app. B)")

@@ -135,7 +135,7 @@ class KinematicSimulator(Simulator):
         if not (math.isfinite(duration) and duration > 0):
             raise DimensionError("duration must be a positive number of seconds", field="duration", value=duration)
         n = len(q)
-        steps = max(1, int(round(duration * self.options.frequency)))
+        steps = max(1, round(duration * self.options.frequency))
         touched = np.zeros(n, dtype=bool)
         stuck = np.zeros(n, dtype=bool)
         previous_error = None
@@ -192,7 +192,7 @@ class KinematicSimulator(Simulator):
         p0 = self.robot.body_points(q, surface)
         p1 = self.robot.body_points(self.space.retract(q, bound), surface)
         travel = float(np.max(np.linalg.norm(p1 - p0, axis=2))) if p0.size else 0.0
-        micro = max(1, int(math.ceil(travel / (self.options.step_fraction * self.grid.resolution))))
+        micro = max(1, math.ceil(travel / (self.options.step_fraction * self.grid.resolution)))
         scale = np.ones(n)
         halvings = np.zeros(n, dtype=int)
         touched = np.zeros(n, dtype=bool)
