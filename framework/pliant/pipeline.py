@@ -29,16 +29,19 @@ from typing import Any
 import numpy as np
 
 from pliant.errors import ConfigError, PipelineError, PliantError
+from pliant.execution import ExecutionRecord, execute
 from pliant.interfaces import KINDS, Component, Context, PlanningProblem
 from pliant.registry import Registry, default_registry
 from pliant.results import PlanResult
 from pliant.scene import Scene, load_scene
+from pliant.validation import check_number
 
 log = logging.getLogger(__name__)
 
 #: the order in which components are built; each sees the ones before it in its Context
 BUILD_ORDER = ("robot", "cost", "simulator", "controller", "planner", "metric", "learner", "driver")
-TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable"}
+TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable", "execution"}
+EXECUTION_KEYS = {"period": 0.1, "time_limit": 60.0}
 DEFAULT_ROBOT = {"rigid": "rigid", "urdf": "pinocchio"}
 
 
@@ -67,6 +70,7 @@ class RunRecord:
     output: Path
     timings: dict[str, float]
     files: list[Path] = field(default_factory=list)
+    execution: ExecutionRecord | None = None
 
     def summary_rows(self) -> list[tuple[str, str]]:
         """``(quantity, value)`` rows for the report table."""
@@ -86,6 +90,11 @@ class RunRecord:
                     rows.append((key, f"{value:.6g}" if isinstance(value, (float, np.floating)) else str(value)))
         for key, value in sorted(self.metrics.items()):
             rows.append((f"metric {key}", f"{value:.6g}"))
+        if self.execution is not None:
+            e = self.execution
+            rows += [("execution", e.outcome), ("execution time (s)", f"{e.times[-1]:.2f}"),
+                     ("waypoints reached", str(e.waypoints_reached)),
+                     ("steps in contact", f"{int(e.contacts.sum())} of {len(e.contacts) - 1}")]
         for key, value in self.timings.items():
             rows.append((f"time {key} (s)", f"{value:.3f}"))
         return rows
@@ -107,7 +116,8 @@ class Pipeline:
     """
 
     def __init__(self, scene: Any = None, *, name: str = "pipeline", seed: int = 0, output: str | Path | None = None,
-                 disable: tuple[str, ...] | list[str] = (), description: str = "", source: str = "<python>",
+                 disable: tuple[str, ...] | list[str] = (), description: str = "", execution: dict | None = None,
+                 source: str = "<python>",
                  base_dir: Path | None = None, registry: Registry | None = None, **components: Any) -> None:
         self.source = source
         self.base_dir = base_dir or Path.cwd()
@@ -121,6 +131,7 @@ class Pipeline:
         if not isinstance(disable, (list, tuple, set, frozenset)) or not all(isinstance(d, str) for d in disable):
             raise PipelineError("must be a list of plugin names", source=source, field="disable", value=disable)
         self.disable = frozenset(disable)
+        self.execution = _execution_settings(execution, source)
         self.scene_spec = scene
         self.components: dict[str, ComponentSpec] = {}
         self.instances: dict[str, Component] = {}
@@ -160,7 +171,8 @@ class Pipeline:
             raise PipelineError("must be a path string", source=source, field="output", value=output)
         components = {k: data[k] for k in KINDS if k in data}
         return cls(data.get("scene"), name=name, seed=data.get("seed", 0), output=output,
-                   disable=data.get("disable", ()), description=description, source=source,
+                   disable=data.get("disable", ()), description=description, execution=data.get("execution"),
+                   source=source,
                    base_dir=base_dir, registry=registry, **components)
 
     @classmethod
@@ -250,7 +262,13 @@ class Pipeline:
                 t0 = time.perf_counter()
                 metrics = dict(metric.evaluate(result.path, problem, rng))
                 timings["metric"] = time.perf_counter() - t0
-        record = RunRecord(self, context, result, problem, metrics, self.output, timings)
+        execution = None
+        if result is not None and result.path is not None and context.simulator is not None \
+                and context.controller is not None:
+            t0 = time.perf_counter()
+            execution = execute(context.simulator, context.controller, result.path, rng, **self.execution)
+            timings["execute"] = time.perf_counter() - t0
+        record = RunRecord(self, context, result, problem, metrics, self.output, timings, execution=execution)
         if write:
             self.write_report(record)
         return record
@@ -265,6 +283,9 @@ class Pipeline:
         (out / "run.json").write_text(json.dumps({"pipeline": self.to_dict(), "metrics": record.metrics,
                                                   "timings": record.timings}, indent=1, default=str))
         record.files.append(out / "run.json")
+        if record.execution is not None:
+            (out / "execution.json").write_text(json.dumps(record.execution.to_dict()))
+            record.files.append(out / "execution.json")
         figures: list[Path] = []
         for produced in self.registry.report_hook()(run=record, directory=out):
             figures.extend(Path(p) for p in (produced or []))
@@ -286,6 +307,7 @@ class Pipeline:
                                "seed": self.seed, "output": str(self.output)}
         if self.disable:
             out["disable"] = sorted(self.disable)
+        out["execution"] = dict(self.execution)
         for kind, spec in self.components.items():
             out[kind] = {"name": spec.name, **spec.options}
         return out
@@ -301,6 +323,22 @@ def _scene_pipeline(scene_data: dict, path: Path) -> dict:
         raise PipelineError("a scene's own pipeline runs on that scene; remove 'scene'", source=str(path),
                             field="pipeline.scene", value=table["scene"])
     return {"name": scene_data.get("name", path.stem), "scene": path.name, **table}
+
+
+def _execution_settings(table: Any, source: str) -> dict[str, float]:
+    """The ``[execution]`` table: control ``period`` and ``time_limit`` in seconds."""
+    if table is None:
+        return dict(EXECUTION_KEYS)
+    if not isinstance(table, dict):
+        raise PipelineError("must be a table with period and time_limit", source=source, field="execution",
+                            value=table)
+    out = dict(EXECUTION_KEYS)
+    for key, value in table.items():
+        if key not in EXECUTION_KEYS:
+            raise PipelineError(f"unknown field (fields: {', '.join(EXECUTION_KEYS)})", source=source,
+                                field=f"execution.{key}", value=value)
+        out[key] = check_number(value, source, f"execution.{key}", positive=True, error=PipelineError)
+    return out
 
 
 def _component_spec(spec: Any, source: str, kind: str) -> ComponentSpec:

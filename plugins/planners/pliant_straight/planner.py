@@ -63,3 +63,43 @@ class StraightLinePlanner(Planner):
         if problem.cost is not None:
             cost = float(np.sum(problem.cost.cost(configs[1:]) * steps))
         return result(Status.SOLVED, Path(configs, space_kind=space.kind), cost, checked=len(configs))
+
+
+@dataclass(frozen=True)
+class WaypointOptions:
+    """Options of :class:`WaypointPlanner`."""
+
+    waypoints: tuple[tuple[float, ...], ...] = option((), "intermediate configurations between start and goal")
+
+
+class WaypointPlanner(Planner):
+    """A given motion: start, the ``waypoints`` option, goal — checked for validity, not searched.
+
+    For scripted motions: executing a known path through a simulator, or replaying a demonstration.
+    Statuses as :class:`StraightLinePlanner`, checking every waypoint (not the segments between them,
+    which a simulator may resolve through contact).
+    """
+
+    Options = WaypointOptions
+
+    def plan(self, problem: PlanningProblem, rng: np.random.Generator,
+             termination: Termination | None = None) -> PlanResult:
+        t0 = time.perf_counter()
+        space = problem.space
+        start = space.check(problem.start, field="start")
+        goal = space.check(problem.goal, field="goal")
+        middle = [space.check(w, field=f"planner.waypoints[{i}]") for i, w in enumerate(self.options.waypoints)]
+        configs = np.vstack([start, *middle, goal]) if middle else np.vstack([start, goal])
+        stats = {"waypoints": len(configs)}
+        if not problem.is_valid(start)[0]:
+            return PlanResult(Status.INVALID_START, planner="waypoints", statistics=stats)
+        if not problem.is_valid(goal)[0]:
+            return PlanResult(Status.INVALID_GOAL, planner="waypoints", statistics=stats)
+        valid = problem.is_valid(configs)
+        stats["time"] = time.perf_counter() - t0
+        if not valid.all():
+            return PlanResult(Status.INFEASIBLE, planner="waypoints", statistics=stats,
+                              message=f"waypoint {int(np.argmin(valid))} is not valid")
+        cost = float(np.sum(problem.cost.cost(configs))) if problem.cost is not None else 0.0
+        return PlanResult(Status.SOLVED, path=Path(configs, space_kind=space.kind), cost=cost, planner="waypoints",
+                          statistics=stats)

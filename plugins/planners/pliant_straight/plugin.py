@@ -7,3 +7,5 @@ from pliant.hookspecs import hookimpl
 def pliant_register(registrar):
     registrar.add("planner", "straight", "pliant_straight.planner:StraightLinePlanner",
                   description="straight-line interpolation with validity checking (a baseline)")
+    registrar.add("planner", "waypoints", "pliant_straight.planner:WaypointPlanner",
+                  description="a given motion: start, waypoints, goal (validity-checked, not searched)")

@@ -37,6 +37,9 @@ def draw_run(run, directory: Path) -> list[Path] | None:
     configs = run.result.path.configurations
     body = robot.body_points(configs[np.linspace(0, len(configs) - 1, min(6, len(configs))).astype(int)])
     reference = robot.body_points(configs).mean(axis=1)
+    executed = None
+    if run.execution is not None:
+        executed = robot.body_points(run.execution.configurations).mean(axis=1)
     obj_pts, obj_def = _object_points(scene)
     views = [("top view (x, y)", 0, 1)] if scene.planar else [("top view (x, y)", 0, 1), ("side view (y, z)", 1, 2)]
     fig, axes = plt.subplots(1, len(views), figsize=(6 * len(views), 5), squeeze=False)
@@ -47,6 +50,9 @@ def draw_run(run, directory: Path) -> list[Path] | None:
         for k, pts in enumerate(body):
             ax.scatter(pts[:, i], pts[:, j], s=2, color=plt.cm.viridis(k / max(1, len(body) - 1)), alpha=0.6)
         ax.plot(reference[:, i], reference[:, j], "r-", lw=1.5, label="path (body centre)")
+        if executed is not None:
+            ax.plot(executed[:, i], executed[:, j], "b-", lw=1.2, alpha=0.8,
+                    label=f"executed ({run.execution.outcome})")
         ax.plot(*reference[0, [i, j]], "go", label="start")
         ax.plot(*reference[-1, [i, j]], "b*", ms=10, label="goal")
         ax.set_xlim(scene.lower[i], scene.upper[i])

@@ -1,0 +1,87 @@
+"""Executing a path with a controller through any simulator, step by step (thesis 5.4, app. C).
+
+:func:`execute` resets the simulator at the path's first configuration, then for each waypoint asks
+the controller for velocity commands at the control period until the controller reports the
+waypoint reached, gives up (stuck), or the time limit passes.  Everything is recorded, so the
+outcome can be drawn and replayed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pliant.errors import DimensionError
+from pliant.interfaces import Controller, Simulator
+from pliant.results import Path
+
+
+@dataclass
+class ExecutionRecord:
+    """What happened during an execution.
+
+    configurations: ``(k, d)`` states after every control step (the first is the start).
+    times: ``(k,)`` seconds.  contacts: ``(k,)`` whether the robot touched anything in that step.
+    waypoints_reached: how many waypoints (after the start) were reached.
+    outcome: ``reached`` (the last waypoint), ``stuck`` (the controller gave up) or ``timeout``.
+    """
+
+    configurations: np.ndarray
+    times: np.ndarray
+    contacts: np.ndarray
+    waypoints_reached: int
+    outcome: str
+    events: list[str] = field(default_factory=list)
+
+    @property
+    def success(self) -> bool:
+        return self.outcome == "reached"
+
+    def to_dict(self) -> dict:
+        return {"configurations": self.configurations.tolist(), "times": self.times.tolist(),
+                "contacts": self.contacts.tolist(), "waypoints_reached": self.waypoints_reached,
+                "outcome": self.outcome, "events": list(self.events)}
+
+
+def execute(simulator: Simulator, controller: Controller, path: Path, rng: np.random.Generator, *,
+            period: float = 0.1, time_limit: float = 60.0) -> ExecutionRecord:
+    """Follow ``path`` waypoint by waypoint with ``controller`` in ``simulator``.
+
+    ``period`` is the control period (s); ``time_limit`` the total budget (s).
+    """
+    if not (period > 0 and time_limit > 0):
+        raise DimensionError("period and time_limit must be positive seconds", field="period/time_limit",
+                             value=(period, time_limit))
+    waypoints = np.atleast_2d(path.configurations)
+    simulator.reset(waypoints[0])
+    q = simulator.configuration()
+    states, times, contacts, events = [q.copy()], [0.0], [False], []
+    t = 0.0
+    reached = 0
+    outcome = "timeout"
+    for index, target in enumerate(waypoints[1:], start=1):
+        controller.reset()
+        while True:
+            if controller.reached(q, target):
+                reached = index
+                break
+            if getattr(controller, "gave_up", False):
+                outcome = "stuck"
+                events.append(f"t={t:.2f}s: stuck before waypoint {index}")
+                break
+            if t >= time_limit - 1e-12:
+                break
+            velocity = controller.command(q, target, period)
+            q = simulator.step(velocity, period, rng)
+            t += period
+            states.append(q.copy())
+            times.append(t)
+            contacts.append(simulator.in_contact())
+        if reached != index:
+            break
+    else:
+        outcome = "reached"
+    if outcome == "timeout" and reached != len(waypoints) - 1:
+        events.append(f"t={t:.2f}s: time limit before waypoint {reached + 1}")
+    return ExecutionRecord(np.array(states), np.array(times), np.array(contacts), reached, outcome, events)

@@ -1,0 +1,1 @@
+"""Controllers: the contact motion controller of thesis app. C."""

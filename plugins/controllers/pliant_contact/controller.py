@@ -1,0 +1,109 @@
+"""The contact motion controller (thesis app. C).
+
+It commands the target without modification and watches the recent trajectory.  When the total
+motion over a sliding window falls below ``stuck_distance``, the robot is stuck against a surface:
+
+* ``mode = "plane"`` (SE(2)/SE(3) bodies): fit a plane (point ``P``, normal ``N``) to the window's
+  configurations (in tangent coordinates) and move the target toward it, eq. 8.6:
+  ``q'_target = q_target + ((P - q_target) . N / (N . N)) N * (i eps_adjust)`` on the i-th
+  consecutive stuck iteration;
+* ``mode = "predict"`` (multi-link robots): forward-simulate from the stuck configuration toward the
+  target with the context's simulator for one period and interpolate from the target toward the
+  simulated configuration by ``i eps_adjust``.
+
+When the robot moves again the original target is commanded (i resets to 0).  When
+``i eps_adjust >= eps_adjust_max`` the controller gives up (``gave_up``): "completely stuck".
+The command is ``gain * difference(target', q)`` (tangent units per second); the simulator applies
+its velocity limits.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+from pliant.errors import PlanningError
+from pliant.interfaces import Controller
+from pliant.options import option
+
+
+@dataclass(frozen=True)
+class ContactControllerOptions:
+    """Options of :class:`ContactMotionController` (thesis app. C: eps_adjust 0.01, eps_adjust_max 1.0)."""
+
+    gain: float = option(5.0, "proportional gain (1/s): commanded velocity = gain * error", minimum=0.0)
+    tolerance: float = option(0.05, "distance (space metric) at which a target counts as reached", minimum=0.0)
+    window: int = option(5, "control steps in the stuck-detection window", minimum=2)
+    stuck_distance: float = option(0.01, "stuck when the window's total motion (space metric) is below this",
+                                   minimum=0.0)
+    eps_adjust: float = option(0.01, "fraction of the way to the plane added per stuck iteration", minimum=0.0)
+    eps_adjust_max: float = option(1.0, "give up when i * eps_adjust reaches this", minimum=0.0)
+    mode: str = option("plane", "target adjustment: plane (fit, eq. 8.6) or predict (kinematic simulator)",
+                       choices=("plane", "predict"))
+
+
+class ContactMotionController(Controller):
+    """P control toward a target with stuck detection and target adjustment (thesis app. C)."""
+
+    Options = ContactControllerOptions
+    example_scene = "se2-maze"
+
+    def bind(self, context) -> None:
+        super().bind(context)
+        self.space = self.require("robot").space
+        if self.options.mode == "predict" and context.simulator is None:
+            raise PlanningError("mode 'predict' needs a simulator in the pipeline", field="controller.mode",
+                                value="predict")
+        self.reset()
+
+    def reset(self) -> None:
+        self.history: deque[np.ndarray] = deque(maxlen=self.options.window + 1)
+        self.stuck_iterations = 0
+        self.gave_up = False
+        self.adjusted_target: np.ndarray | None = None
+
+    def reached(self, q, target) -> bool:
+        return bool(self.space.distance(q, target) <= self.options.tolerance)
+
+    def is_stuck(self) -> bool:
+        """Whether the window is full and its total motion is below ``stuck_distance``."""
+        if len(self.history) <= self.options.window:
+            return False
+        states = np.array(self.history)
+        return float(np.sum(self.space.distance(states[:-1], states[1:]))) < self.options.stuck_distance
+
+    def command(self, q, target, dt):
+        q = np.asarray(q, dtype=np.float64)
+        target = np.asarray(target, dtype=np.float64)
+        self.history.append(q.copy())
+        goal = target
+        if self.is_stuck():
+            self.stuck_iterations += 1
+            fraction = self.stuck_iterations * self.options.eps_adjust
+            if fraction >= self.options.eps_adjust_max:
+                self.gave_up = True
+                return np.zeros(self.space.tangent_dim)
+            goal = self._adjust(q, target, fraction, dt)
+        else:
+            self.stuck_iterations = 0
+        self.adjusted_target = goal
+        return self.options.gain * self.space.difference(goal, q)
+
+    def _adjust(self, q, target, fraction, dt):
+        if self.options.mode == "predict":
+            sim = self.context.simulator
+            predicted = sim.simulate(q[None], target, np.random.default_rng(self.stuck_iterations), dt).final[0]
+            return self.space.interpolate(target, predicted, min(fraction, 1.0))
+        states = np.array(self.history)
+        offsets = self.space.difference(states, states[0])        # tangent coordinates of the window
+        centre = offsets.mean(axis=0)
+        _, singular, vt = np.linalg.svd(offsets - centre)
+        normal = vt[-1]
+        if singular[0] < 1e-9:
+            # the window did not move at all: the blocked direction is the one toward the target
+            normal = self.space.difference(target, q)
+            centre = self.space.difference(q, states[0])
+        to_plane = centre - self.space.difference(target, states[0])
+        adjustment = (to_plane @ normal) / (normal @ normal) * normal
+        return self.space.retract(target, adjustment * fraction)

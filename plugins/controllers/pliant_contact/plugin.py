@@ -1,0 +1,9 @@
+"""Entry point of the controller plugin."""
+
+from pliant.hookspecs import hookimpl
+
+
+@hookimpl
+def pliant_register(registrar):
+    registrar.add("controller", "contact", "pliant_contact.controller:ContactMotionController",
+                  description="P control with stuck detection and target adjustment (thesis app. C, eq. 8.6)")
