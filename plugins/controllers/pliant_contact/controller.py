@@ -4,7 +4,9 @@ It commands the target without modification and watches the recent trajectory.  
 motion over a sliding window falls below ``stuck_distance``, the robot is stuck against a surface:
 
 * ``mode = "plane"`` (SE(2)/SE(3) bodies): fit a plane (point ``P``, normal ``N``) to the window's
-  configurations (in tangent coordinates) and move the target toward it, eq. 8.6:
+  configurations (in tangent coordinates: ``P`` their centroid, the plane spanned by the directions
+  they moved along, ``N`` the target error's component orthogonal to those) and move the target
+  toward it, eq. 8.6:
   ``q'_target = q_target + ((P - q_target) . N / (N . N)) N * (i eps_adjust)`` on the i-th
   consecutive stuck iteration;
 * ``mode = "predict"`` (multi-link robots): forward-simulate from the stuck configuration toward the
@@ -98,12 +100,16 @@ class ContactMotionController(Controller):
         states = np.array(self.history)
         offsets = self.space.difference(states, states[0])        # tangent coordinates of the window
         centre = offsets.mean(axis=0)
+        error = self.space.difference(target, states[0]) - centre
         _, singular, vt = np.linalg.svd(offsets - centre)
-        normal = vt[-1]
-        if singular[0] < 1e-9:
-            # the window did not move at all: the blocked direction is the one toward the target
-            normal = self.space.difference(target, q)
-            centre = self.space.difference(q, states[0])
-        to_plane = centre - self.space.difference(target, states[0])
-        adjustment = (to_plane @ normal) / (normal @ normal) * normal
+        # The fitted plane contains the directions the window actually moved along; its normal is the
+        # part of the target error orthogonal to them (in more than two dimensions a window of sliding
+        # motion spans too few directions to fix a plane by itself).  A window that did not move at
+        # all leaves the whole error as the normal.
+        significant = vt[: self.space.tangent_dim - 1][singular[: self.space.tangent_dim - 1]
+                                                       > 1e-6 * max(1.0, singular[0])]
+        normal = error - significant.T @ (significant @ error)
+        if normal @ normal < 1e-18:
+            return target
+        adjustment = ((-error) @ normal) / (normal @ normal) * normal
         return self.space.retract(target, adjustment * fraction)

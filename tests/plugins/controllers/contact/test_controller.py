@@ -1,0 +1,94 @@
+"""The contact motion controller (thesis app. C) and execution through a simulator."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pliant import Pipeline, load_scene, registry
+from pliant.errors import PlanningError
+from pliant.execution import execute
+from pliant.interfaces import Context
+from pliant.results import Path
+
+
+@pytest.fixture(scope="module")
+def peg():
+    ctx = Context(scene=load_scene("se3-peg-in-hole"))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    ctx.simulator = registry.create("simulator", "kinematic", ctx, kp=1.0, angular_velocity_limit=0.25)
+    return ctx
+
+
+def pose(x, y, z):
+    return np.array([x, y, z, 0.0, 0.0, 0.0, 1.0])
+
+
+def test_stuck_detection_and_eq_8_6_adjustment(scene_context):
+    ctx = scene_context("se2-maze")
+    ctrl = registry.create("controller", "contact", ctx, window=2, stuck_distance=0.01, eps_adjust=0.1)
+    target = np.array([5.0, 5.0, 0.0])
+    # sliding along the wall y = 2 (theta = 0), slowing down until stuck at x = 4.0
+    for x in (3.0, 3.5, 3.9):
+        ctrl.command(np.array([x, 2.0, 0.0]), target, 0.1)
+    assert not ctrl.is_stuck()
+    for x in (3.997, 3.999, 4.0):
+        ctrl.command(np.array([x, 2.0, 0.0]), target, 0.1)
+    assert ctrl.is_stuck() and ctrl.stuck_iterations == 1
+    adjusted = ctrl.adjusted_target
+    # eq. 8.6: the target moves toward the line y = 2 by i * eps_adjust = 0.1 of the way, x unchanged
+    assert adjusted[1] == pytest.approx(5.0 - 0.1 * 3.0) and adjusted[0] == pytest.approx(5.0)
+
+
+def test_gives_up_after_eps_adjust_max(scene_context):
+    ctx = scene_context("se2-maze")
+    ctrl = registry.create("controller", "contact", ctx, window=2, eps_adjust=0.25, eps_adjust_max=1.0)
+    q = np.array([4.0, 2.0, 0.0])
+    for _ in range(10):
+        ctrl.command(q, np.array([5.0, 5.0, 0.0]), 0.1)
+    assert ctrl.gave_up
+    ctrl.reset()
+    assert not ctrl.gave_up and ctrl.stuck_iterations == 0
+
+
+def test_execution_slides_the_peg_into_the_hole(peg):
+    ctrl = registry.create("controller", "contact", peg, gain=2.0)
+    path = Path(np.array([pose(7, 7, 5), pose(5.6, 5.6, 3.5), pose(5, 5, 3.3), pose(5, 5, 0.625)]))
+    record = execute(peg.simulator, ctrl, path, np.random.default_rng(0), period=0.1, time_limit=60)
+    assert record.success and record.waypoints_reached == 3
+    assert record.contacts.any()
+    assert record.configurations[-1, 2] == pytest.approx(0.625, abs=0.06)
+
+
+def test_execution_into_the_block_gets_stuck(peg):
+    ctrl = registry.create("controller", "contact", peg, gain=2.0, eps_adjust=0.1)
+    path = Path(np.array([pose(7, 7, 4), pose(7, 7, 1)]))
+    record = execute(peg.simulator, ctrl, path, np.random.default_rng(0), period=0.1, time_limit=60)
+    assert record.outcome == "stuck" and record.waypoints_reached == 0 and record.events
+
+
+def test_execution_time_limit(peg):
+    ctrl = registry.create("controller", "contact", peg, gain=0.1)
+    record = execute(peg.simulator, ctrl, Path(np.array([pose(8, 8, 8), pose(2, 2, 8)])), np.random.default_rng(0),
+                     period=0.1, time_limit=1.0)
+    assert record.outcome == "timeout" and record.times[-1] == pytest.approx(1.0)
+
+
+def test_predict_mode_needs_a_simulator(scene_context):
+    with pytest.raises(PlanningError, match="predict"):
+        registry.create("controller", "contact", scene_context("se2-maze"), mode="predict")
+
+
+def test_predict_mode_uses_the_simulator(peg):
+    ctrl = registry.create("controller", "contact", peg, mode="predict", window=2, eps_adjust=0.5)
+    q = pose(7, 7, 3.5)
+    for _ in range(4):
+        ctrl.command(q, pose(6, 7, 1.0), 0.1)
+    # the kinematic simulator predicts sliding toward -x on the surface: the adjusted target moves there
+    assert ctrl.adjusted_target[2] > 1.0
+
+
+def test_peg_slide_pipeline_end_to_end(tmp_path):
+    record = Pipeline.from_file("peg-slide", overrides=[f'output="{tmp_path}"']).run()
+    assert record.execution is not None and record.execution.success
+    assert (tmp_path / "execution.json").is_file() and (tmp_path / "path.png").is_file()
+    assert "| execution | reached |" in (tmp_path / "report.md").read_text()

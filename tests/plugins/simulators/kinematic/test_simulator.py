@@ -1,0 +1,157 @@
+"""The kinematic simulator: free motion, sliding contact, edges, noise bounds, determinism, batches."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+from pliant import Scene, load_scene, registry
+from pliant.errors import DimensionError
+from pliant.interfaces import Context
+from pliant.noise import ActuationNoise, truncated_normal
+from pliant.testing import check_component
+from pliant_kinematic.contact import ContactModel
+
+
+@functools.cache
+def peg(**options):
+    ctx = Context(scene=load_scene("se3-peg-in-hole"))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    ctx.simulator = registry.create("simulator", "kinematic", ctx, kp=1.0, angular_velocity_limit=0.25,
+                                    **dict(options))
+    return ctx
+
+
+def pose(x, y, z):
+    return np.array([x, y, z, 0.0, 0.0, 0.0, 1.0])
+
+
+BLOCK_TOP = 3.0
+HALF_HEIGHT = 0.5
+
+
+def test_free_motion_converges_to_the_target():
+    sim = peg().simulator
+    out = sim.simulate(pose(8, 8, 8)[None], pose(7, 7.5, 6), np.random.default_rng(0), 6.0)
+    assert out.reached[0] and not out.in_contact[0] and not out.stuck[0]
+    assert np.allclose(out.final[0, :3], [7, 7.5, 6], atol=0.01)
+
+
+def test_velocity_limit_bounds_each_step():
+    sim = peg().simulator
+    out = sim.simulate(pose(8, 8, 8)[None], pose(1, 1, 8), np.random.default_rng(0), 1.0, record=True)
+    steps = np.linalg.norm(np.diff(out.trajectories[0, :, :3], axis=0), axis=1)
+    assert np.all(steps <= 1.0 * 0.1 + 1e-9)       # 1 m/s at 10 Hz
+
+
+def test_sliding_along_the_block_never_penetrates():
+    ctx = peg()
+    out = ctx.simulator.simulate(pose(7.5, 7.5, 3.6)[None], pose(6.5, 6.5, 2.0), np.random.default_rng(0), 2.0,
+                                 record=True)
+    traj = out.trajectories[0]
+    assert out.in_contact[0]
+    # the bottom face rests on the top of the block (within a clearance), and the peg slid toward the target
+    bottom = traj[:, 2] - HALF_HEIGHT
+    assert np.all(bottom >= BLOCK_TOP - 1e-9)
+    assert traj[-1, 2] - HALF_HEIGHT < BLOCK_TOP + 0.02 * ctx.scene.resolution + 1e-6
+    assert traj[-1, 0] < 7.0
+    pts = ctx.robot.body_points(traj)
+    assert not ContactModel(ctx.simulator.grid).colliding(pts).any()
+
+
+def test_a_peg_pushed_into_a_wall_stops_at_contact():
+    out = peg().simulator.simulate(pose(7, 7, 4)[None], pose(7, 7, 1), np.random.default_rng(0), 3.0)
+    assert out.in_contact[0] and out.stuck[0] and not out.reached[0]
+    assert out.final[0, 2] == pytest.approx(BLOCK_TOP + HALF_HEIGHT, abs=0.02 * 0.0625 + 1e-9)
+    assert np.allclose(out.final[0, :2], [7, 7], atol=1e-9)     # straight down: no sideways slip
+
+
+def test_the_peg_drops_into_the_hole_when_above_it():
+    out = peg().simulator.simulate(pose(5, 5, 3.6)[None], pose(5, 5, 0.625), np.random.default_rng(0), 5.0)
+    assert out.reached[0] and out.final[0, 2] == pytest.approx(0.625, abs=0.05)
+
+
+def test_normal_at_an_edge_follows_the_direction_of_motion():
+    grid = peg().simulator.grid
+    contact = ContactModel(grid)
+    # a point just inside the block's top edge at the hole's rim (x = 4.6875 .. voxel boundary)
+    res = grid.resolution
+    corner = np.array([4.6875 - 0.2 * res, 5.0, BLOCK_TOP - 0.2 * res])   # in the rim voxel at the hole's edge
+    assert contact.colliding(corner[None, None])[0, 0]
+    down = contact.penetration(corner[None], np.array([[0.0, 0.0, -1.0]]))[0][0]
+    sideways = contact.penetration(corner[None], np.array([[-1.0, 0.0, 0.0]]))[0][0]
+    assert np.allclose(down, [0, 0, 1]) and np.allclose(sideways, [1, 0, 0])
+
+
+def test_same_seed_same_particles_and_batch_equals_one_by_one():
+    ctx = peg(noise="bounded", noise_linear=0.125, noise_angular=0.03125)
+    starts = np.repeat(pose(6, 6, 3.6)[None], 6, axis=0)
+    a = ctx.simulator.simulate(starts, pose(5, 5, 2), np.random.default_rng(7), 1.0)
+    b = ctx.simulator.simulate(starts, pose(5, 5, 2), np.random.default_rng(7), 1.0)
+    assert np.array_equal(a.final, b.final)
+    assert len(np.unique(a.final.round(9), axis=0)) > 1        # the noise does spread the particles
+    quiet = peg()
+    batch = quiet.simulator.simulate(np.vstack([pose(6, 6, 3.6), pose(8, 8, 8), pose(5, 5, 3.6)]), pose(5, 5, 2),
+                                     np.random.default_rng(0), 1.0)
+    for k, start in enumerate([pose(6, 6, 3.6), pose(8, 8, 8), pose(5, 5, 3.6)]):
+        one = quiet.simulator.simulate(start[None], pose(5, 5, 2), np.random.default_rng(0), 1.0)
+        assert np.allclose(one.final[0], batch.final[k], atol=1e-9)
+
+
+def test_noise_stays_inside_its_bounds():
+    rng = np.random.default_rng(0)
+    limit = np.array([0.125, 0.125, 0.125, 0.03125, 0.03125, 0.03125])
+    draws = truncated_normal(rng, np.broadcast_to(limit, (20000, 6)))
+    assert np.all(np.abs(draws) <= limit) and np.allclose(draws.mean(axis=0), 0, atol=3e-3)
+    assert np.allclose(draws.std(axis=0) / limit, 0.44, atol=0.02)   # sigma = limit / 2, truncated at 2 sigma
+    eq614 = ActuationNoise("floor", np.full(2, 0.25), velocity_limit=np.array([1.0, 2.0]))
+    assert np.allclose(eq614.limits(np.array([[1.0, 0.0]])), [[0.25, 0.125]])
+    prop = ActuationNoise("proportional", np.full(2, 0.1))
+    assert np.all(np.abs(prop.sample(rng, np.array([[0.5, 0.0]]) * np.ones((100, 1)))) <= [0.05, 0.0])
+
+
+def test_qp_solver_also_resolves_contact():
+    ctx = peg(solver="qp")
+    out = ctx.simulator.simulate(pose(7.5, 7.5, 3.6)[None], pose(6.5, 6.5, 2.0), np.random.default_rng(0), 1.0)
+    assert out.in_contact[0] and out.final[0, 2] - HALF_HEIGHT >= BLOCK_TOP - 1e-9
+
+
+def test_planar_maze_motion_stays_in_the_corridor(scene_context):
+    ctx = scene_context("se2-maze")
+    sim = registry.create("simulator", "kinematic", ctx)
+    start = np.array([7.75, 7.75, 0.0])
+    out = sim.simulate(start[None], np.array([7.75, 0.75, 0.0]), np.random.default_rng(0), 20.0, record=True)
+    pts = ctx.robot.body_points(out.trajectories[0])
+    assert not ContactModel(sim.grid).colliding(pts).any()
+    assert out.final[0, 1] < 2.0
+
+
+def test_stepping_api_and_bad_input():
+    sim = peg().simulator
+    sim.reset(pose(8, 8, 8))
+    q = sim.step(np.array([1.0, 0, 0, 0, 0, 0]), 0.1, np.random.default_rng(0))
+    assert q[0] == pytest.approx(8.1)
+    with pytest.raises(DimensionError):
+        sim.step(np.zeros(3), 0.1, np.random.default_rng(0))
+    with pytest.raises(DimensionError):
+        sim.simulate(np.zeros((2, 3)), pose(1, 1, 1), np.random.default_rng(0), 1.0)
+    with pytest.raises(DimensionError):
+        sim.simulate(pose(8, 8, 8)[None], pose(np.nan, 1, 1), np.random.default_rng(0), 1.0)
+
+
+def test_conformance():
+    assert check_component("simulator", "kinematic", scene="se2-maze")
+
+
+def test_scene_objects_of_any_shape_block_motion():
+    data = {"name": "ball", "start": [0.5, 0.5, 0.5], "goal": [0.5, 0.5, 0.5],
+            "bounds": {"lower": [0, 0, 0], "upper": [1, 1, 1], "resolution": 0.05},
+            "objects": [{"name": "ball", "shape": "sphere", "radius": 0.2, "position": [0.5, 0.5, 0.5],
+                         "deformability": 0.0, "sensitivity": 1.0}],
+            "robot": {"kind": "rigid", "space": "r3", "parts": [{"shape": "box", "size": [0.1, 0.1, 0.1]}]}}
+    ctx = Context(scene=Scene.from_dict(data))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    sim = registry.create("simulator", "kinematic", ctx, kp=1.0)
+    out = sim.simulate(np.array([[0.5, 0.5, 0.9]]), np.array([0.5, 0.5, 0.5]), np.random.default_rng(0), 2.0)
+    assert out.in_contact[0] and out.final[0, 2] > 0.5 + 0.2
