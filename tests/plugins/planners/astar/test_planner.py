@@ -119,3 +119,16 @@ def test_pareto_command(tmp_path, capsys):
     assert main(["pareto", "multi-cost", "--values", "11", "--output", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "length (voxels)" in out and (tmp_path / "pareto_front.png").is_file()
+
+
+def test_a_robot_that_fits_nowhere_is_a_planning_error():
+    from pliant import Scene
+
+    data = {"name": "tiny", "start": [0.5, 0.5, 0.5], "goal": [1.5, 0.5, 0.5],
+            "bounds": {"lower": [0, 0, 0], "upper": [2, 1, 1], "resolution": 1.0},
+            "robot": {"kind": "rigid", "space": "r3", "parts": [{"cells": [[0, 3], [0, 1], [0, 1]]}]}}
+    ctx = Context(scene=Scene.from_dict(data))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    ctx.cost = registry.create("cost", "voxel", ctx)
+    with pytest.raises(PlanningError, match="does not fit"):
+        registry.create("planner", "astar", ctx).plan(PlanningProblem.from_context(ctx), np.random.default_rng(0))
