@@ -134,7 +134,8 @@ class RigidBody(RobotModel):
 
     def body_points(self, q, indices=None):
         q, _ = check_batch(q, self._space)
-        world = np.matmul(self._local(indices)[None], np.swapaxes(self.rotations(q), 1, 2))
+        # one BLAS product for the whole batch: (n, 3, 3) x (m, 3) -> (n, 3, m)
+        world = np.tensordot(self.rotations(q), self._local(indices), axes=([2], [1])).transpose(0, 2, 1)
         return world + self.positions(q)[:, None, :]
 
     def point_jacobians(self, q, indices=None):
@@ -145,7 +146,7 @@ class RigidBody(RobotModel):
         if self.spec.space == "r3":
             jac[..., 0, 0] = jac[..., 1, 1] = jac[..., 2, 2] = 1.0
             return jac
-        rel = np.matmul(local[None], np.swapaxes(self.rotations(q), 1, 2))  # p - c
+        rel = np.tensordot(self.rotations(q), local, axes=([2], [1])).transpose(0, 2, 1)  # p - c
         if self.spec.space == "se2":
             jac[..., 0, 0] = jac[..., 1, 1] = 1.0
             jac[..., 0, 2] = -rel[..., 1]

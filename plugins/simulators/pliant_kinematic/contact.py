@@ -37,6 +37,16 @@ class ContactModel:
         self.upper = grid.lower + np.array(grid.shape) * grid.resolution
         self.res = grid.resolution
         self._shape = np.asarray(grid.shape, dtype=np.int64)
+        # voxels with no exposed face: the SDF's normal and depth at their centre
+        self.deep_normal = np.zeros((occ.size, 3))
+        self.deep_depth = np.zeros(occ.size)
+        deep = np.nonzero(occ.reshape(-1) & ~self.exposed.any(axis=1))[0]
+        if len(deep):
+            idx = np.column_stack(np.unravel_index(deep, occ.shape))
+            centres = grid.centres(idx)
+            g = grid.sdf_gradient_at(centres)
+            self.deep_normal[deep] = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
+            self.deep_depth[deep] = np.maximum(-grid.sdf_at(centres), 0.5 * grid.resolution)
 
     def colliding(self, points: np.ndarray) -> np.ndarray:
         """Bool ``(n, k)``: points ``(n, k, 3)`` inside an occupied voxel or outside the grid."""

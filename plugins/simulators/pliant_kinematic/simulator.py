@@ -27,6 +27,7 @@ from pliant.options import option
 from pliant.voxelgrid import VoxelGrid
 
 from pliant_kinematic.contact import ContactModel
+from pliant_kinematic.rigid_kernel import KIND_R3, KIND_SE2, KIND_SE3, fused_microstep
 
 
 @dataclass(frozen=True)
@@ -57,6 +58,7 @@ class KinematicOptions:
                                            "metric); default: the scene's goal tolerance, else one voxel")
     stuck_fraction: float = option(0.05, "stuck when a control step moves less than this fraction of what it "
                                    "commanded", minimum=0.0, maximum=1.0)
+    fused_kernel: bool = option(True, "use the fused numba kernel for rigid bodies (least-squares solver only)")
 
 
 def _angular_mask(space) -> np.ndarray:
@@ -98,8 +100,14 @@ class KinematicSimulator(Simulator):
             self.limits = np.where(self.angular, o.angular_velocity_limit, o.velocity_limit)
         scale = np.where(self.angular, o.noise_angular, o.noise_linear)
         self.noise = ActuationNoise(o.noise, scale, self.limits)
-        self.per_actuator = bool(o.joint_velocity_limits) or self.robot.rigid_placement(
-            np.asarray(scene.start, dtype=np.float64)[None]) is None
+        placement = self.robot.rigid_placement(np.asarray(scene.start, dtype=np.float64)[None])
+        self.per_actuator = bool(o.joint_velocity_limits) or placement is None
+        kinds = {"rn": KIND_R3, "se2": KIND_SE2, "se3": KIND_SE3}
+        self.kernel_kind = kinds.get(self.space.kind) if (placement is not None and o.fused_kernel
+                                                          and o.solver == "least-squares") else None
+        if self.kernel_kind is not None:
+            self.surface_local = np.ascontiguousarray(placement[2][self.surface])
+            self.reach_radius = float(np.max(np.linalg.norm(self.surface_local, axis=1)))
         self.dt = 1.0 / o.frequency
         self.reach = o.reach_tolerance if o.reach_tolerance is not None else (
             scene.goal_tolerance if scene.goal_tolerance > 0 else scene.resolution)
@@ -189,9 +197,15 @@ class KinematicSimulator(Simulator):
         surface = self.surface
         # the farthest any surface point can move this step, noise included, sets the microstep count
         bound = delta + np.where(delta >= 0, 1.0, -1.0) * self.noise.limits(velocity) * dt
-        p0 = self.robot.body_points(q, surface)
-        p1 = self.robot.body_points(self.space.retract(q, bound), surface)
-        travel = float(np.max(np.linalg.norm(p1 - p0, axis=2))) if p0.size else 0.0
+        if self.kernel_kind is not None:
+            # a rigid body's points move at most |translation| + |rotation| * (farthest point's radius)
+            linear = np.linalg.norm(bound[:, ~self.angular], axis=1)
+            angular = np.linalg.norm(bound[:, self.angular], axis=1) if self.angular.any() else 0.0
+            travel = float(np.max(linear + angular * self.reach_radius))
+        else:
+            p0 = self.robot.body_points(q, surface)
+            p1 = self.robot.body_points(self.space.retract(q, bound), surface)
+            travel = float(np.max(np.linalg.norm(p1 - p0, axis=2))) if p0.size else 0.0
         micro = max(1, math.ceil(travel / (self.options.step_fraction * self.grid.resolution)))
         scale = np.ones(n)
         halvings = np.zeros(n, dtype=int)
@@ -210,6 +224,8 @@ class KinematicSimulator(Simulator):
 
     def _microstep(self, q, step):
         """One microstep with RESOLVECOLLISIONS; returns (q, converged, touched) per particle."""
+        if self.kernel_kind is not None:
+            return self._microstep_fused(q, step)
         surface = self.surface
         before = self.robot.body_points(q, surface)
         trial = self.space.retract(q, step)
@@ -226,6 +242,18 @@ class KinematicSimulator(Simulator):
         still = self.contact.colliding(pts).any(axis=1)
         trial[still] = q[still]                      # revert: the step could not be made feasible
         return trial, ~still, touched
+
+    def _microstep_fused(self, q, step):
+        """:meth:`_microstep` for rigid bodies, compiled end to end (same mathematics, see rigid_kernel)."""
+        n = len(q)
+        out = np.empty_like(q)
+        converged = np.empty(n, dtype=np.bool_)
+        touched = np.empty(n, dtype=np.bool_)
+        c = self.contact
+        fused_microstep(self.kernel_kind, np.ascontiguousarray(q), np.ascontiguousarray(step), self.surface_local,
+                        c.lower, c.res, c._shape, c.occupied_flat, c.exposed, c.deep_normal, c.deep_depth,
+                        self.options.clearance, self.options.max_corrections, out, converged, touched)
+        return out, converged, touched
 
     def _correct(self, q, pts, before, hit):
         """One correction ``dq = J^+ dp`` (eq. 8.5) for particles ``(a, d)`` with colliding points ``hit``."""

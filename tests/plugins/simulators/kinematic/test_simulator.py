@@ -155,3 +155,21 @@ def test_scene_objects_of_any_shape_block_motion():
     sim = registry.create("simulator", "kinematic", ctx, kp=1.0)
     out = sim.simulate(np.array([[0.5, 0.5, 0.9]]), np.array([0.5, 0.5, 0.5]), np.random.default_rng(0), 2.0)
     assert out.in_contact[0] and out.final[0, 2] > 0.5 + 0.2
+
+
+@pytest.mark.parametrize("scene", ["se3-peg-in-hole", "se2-maze"])
+def test_fused_kernel_equals_the_generic_path(scene):
+    ctx = Context(scene=load_scene(scene))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    options = {"noise": "bounded", "noise_linear": 0.125, "noise_angular": 0.03}
+    fused = registry.create("simulator", "kinematic", ctx, **options)
+    generic = registry.create("simulator", "kinematic", ctx, fused_kernel=False, **options)
+    if scene == "se2-maze":
+        starts, target = np.repeat([[7.75, 7.75, 0.0]], 8, axis=0), np.array([9.0, 0.75, 0.5])
+    else:
+        starts, target = np.repeat(pose(6, 6, 3.55)[None], 8, axis=0), pose(5, 5, 2)
+    a = fused.simulate(starts, target, np.random.default_rng(3), 2.0)
+    b = generic.simulate(starts, target, np.random.default_rng(3), 2.0)
+    assert a.in_contact.any()
+    assert np.allclose(a.final, b.final, atol=1e-9)
+    assert np.array_equal(a.in_contact, b.in_contact)
