@@ -105,7 +105,8 @@ class KinematicSimulator(Simulator):
         kinds = {"rn": KIND_R3, "se2": KIND_SE2, "se3": KIND_SE3}
         self.kernel_kind = kinds.get(self.space.kind) if (placement is not None and o.fused_kernel
                                                           and o.solver == "least-squares") else None
-        if self.kernel_kind is not None:
+        self.reach_radius = None
+        if placement is not None:
             self.surface_local = np.ascontiguousarray(placement[2][self.surface])
             self.reach_radius = float(np.max(np.linalg.norm(self.surface_local, axis=1)))
         self.dt = 1.0 / o.frequency
@@ -197,7 +198,7 @@ class KinematicSimulator(Simulator):
         surface = self.surface
         # the farthest any surface point can move this step, noise included, sets the microstep count
         bound = delta + np.where(delta >= 0, 1.0, -1.0) * self.noise.limits(velocity) * dt
-        if self.kernel_kind is not None:
+        if self.reach_radius is not None:
             # a rigid body's points move at most |translation| + |rotation| * (farthest point's radius)
             linear = np.linalg.norm(bound[:, ~self.angular], axis=1)
             angular = np.linalg.norm(bound[:, self.angular], axis=1) if self.angular.any() else 0.0
