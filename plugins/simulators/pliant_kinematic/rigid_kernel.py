@@ -190,7 +190,7 @@ def _retract(kind, q, delta, out):
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def fused_microstep(kind, q, step, local, lower, res, shape, occupied_flat, exposed, deep_normal, deep_depth,
-                    clearance, max_corrections, out, converged, touched):
+                    clearance, max_corrections, damping, out, converged, touched):
     """One microstep with RESOLVECOLLISIONS for every particle (thesis eq. 8.3-8.5), fully compiled.
 
     ``q`` (n, d) moves by ``step`` (n, t); corrections ``dq = (J^T J)^-1 J^T dp`` repeat up to
@@ -227,7 +227,7 @@ def fused_microstep(kind, q, step, local, lower, res, shape, occupied_flat, expo
             for c in range(t):
                 trace += lhs[c, c]
             for c in range(t):
-                lhs[c, c] += 1e-10 * max(trace, 1e-12)
+                lhs[c, c] += damping * max(trace / t, 1e-12)
             dq = np.linalg.solve(lhs, rhs)
             _retract(kind, trial, dq, moved)
             trial[:] = moved

@@ -59,6 +59,8 @@ class KinematicOptions:
     stuck_fraction: float = option(0.05, "stuck when a control step moves less than this fraction of what it "
                                    "commanded", minimum=0.0, maximum=1.0)
     fused_kernel: bool = option(True, "use the fused numba kernel for rigid bodies (least-squares solver only)")
+    damping: float = option(1e-6, "Levenberg-Marquardt damping of eq. 8.5, relative to the mean diagonal of "
+                            "J^T J (keeps redundant robots from moving in their null space)", minimum=0.0)
 
 
 def _angular_mask(space) -> np.ndarray:
@@ -253,7 +255,8 @@ class KinematicSimulator(Simulator):
         c = self.contact
         fused_microstep(self.kernel_kind, np.ascontiguousarray(q), np.ascontiguousarray(step), self.surface_local,
                         c.lower, c.res, c._shape, c.occupied_flat, c.exposed, c.deep_normal, c.deep_depth,
-                        self.options.clearance, self.options.max_corrections, out, converged, touched)
+                        self.options.clearance, self.options.max_corrections, self.options.damping, out, converged,
+                        touched)
         return out, converged, touched
 
     def _correct(self, q, pts, before, hit):
@@ -275,10 +278,11 @@ class KinematicSimulator(Simulator):
         else:
             lhs = np.swapaxes(masked, 1, 2) @ masked
             rhs = np.swapaxes(masked, 1, 2) @ dp.reshape(a, 3 * k, 1)
-            damping = 1e-10 * np.maximum(np.trace(lhs, axis1=1, axis2=2), 1e-12)
+            damping = self.options.damping * np.maximum(np.trace(lhs, axis1=1, axis2=2) / t, 1e-12)
             lhs += damping[:, None, None] * np.eye(t)
             dq = np.linalg.solve(lhs, rhs)[..., 0]
-        return self.space.retract(q, dq)
+        moved = self.space.retract(q, dq)
+        return self.space.enforce_bounds(moved) if self.space.kind == "rn" else moved
 
     def _qp_corrections(self, masked, dp, rows, cols, normals, push, jac):
         """Least-squares corrections subject to ``n_i . J_i dq >= depth_i`` for every colliding point."""

@@ -173,3 +173,19 @@ def test_fused_kernel_equals_the_generic_path(scene):
     assert a.in_contact.any()
     assert np.allclose(a.final, b.final, atol=1e-9)
     assert np.array_equal(a.in_contact, b.in_contact)
+
+
+def test_an_arm_pushed_into_a_board_stops_in_contact_within_its_limits():
+    ctx = Context(scene=load_scene("iiwa-shelf"))
+    ctx.robot = registry.create("robot", "pinocchio", ctx)
+    sim = registry.create("simulator", "kinematic", ctx)
+    start = np.array([[0.0, 0.3, 0.0, -1.2, 0.0, 0.6, 0.0]])
+    out = sim.simulate(start, np.array([0.0, 1.7, 0.0, -0.3, 0.0, 0.6, 0.0]), np.random.default_rng(0), 4.0,
+                       record=True)
+    assert out.in_contact[0] and out.stuck[0] and not out.reached[0]
+    assert np.all(out.trajectories >= ctx.robot.space.lower - 1e-12)
+    assert np.all(out.trajectories <= ctx.robot.space.upper + 1e-12)
+    # the voxel model keeps penetration within a voxel of the board
+    assert ctx.robot.environment_distance(out.final)[0] > -ctx.scene.resolution
+    free = sim.simulate(start, np.array([0.0, 1.2, 0.0, 0.3, 0.0, 1.2, 0.0]), np.random.default_rng(0), 4.0)
+    assert free.reached[0] and not free.in_contact[0]
