@@ -1,8 +1,9 @@
 """The named robots: where their URDF / SRDF live, their joint groups, and published limits.
 
 PR2 and Baxter come from the ``example-robot-data`` package (data only, installed under the cmeel
-prefix); the KUKA LBR iiwa 7 R800 from ``pybullet_data``.  The iiwa URDF's velocity limits (10 rad/s)
-are placeholders: the robot's data sheet gives 98, 98, 100, 130, 140, 180, 180 deg/s.
+prefix ``<site-packages>/cmeel.prefix/share/example-robot-data/robots``); the KUKA LBR iiwa 7 R800
+from ``pybullet_data`` (``kuka_iiwa/model.urdf``).  The iiwa URDF's velocity limits (10 rad/s) are
+placeholders: the robot's data sheet gives 98, 98, 100, 130, 140, 180, 180 deg/s, used here.
 """
 
 from __future__ import annotations
@@ -12,12 +13,23 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pliant.errors import PluginError
+from pliant.errors import SceneError
+
+NAMED_ROBOTS = ("baxter", "iiwa", "pr2")
+
+#: LBR iiwa 7 R800 axis speeds from the KUKA data sheet, deg/s (axes A1..A7)
+IIWA_VELOCITY_LIMITS_DEG = (98.0, 98.0, 100.0, 130.0, 140.0, 180.0, 180.0)
 
 
 @dataclass(frozen=True)
 class RobotEntry:
-    """A named robot: files, package directories for meshes, joint groups, velocity limits (rad/s)."""
+    """A named robot's description.
+
+    urdf / srdf: files (``srdf`` None: adjacent links are the allowed collision pairs).
+    package_dirs: directories searched for ``package://`` mesh paths.
+    groups: joint groups by name (``"all"`` is added by the robot for every single-DoF joint).
+    velocity_limits: per-joint overrides of the URDF's velocity limits, rad/s.
+    """
 
     urdf: Path
     srdf: Path | None
@@ -26,46 +38,56 @@ class RobotEntry:
     velocity_limits: dict[str, float] = field(default_factory=dict)
 
 
-def _example_robot_data() -> Path:
+def example_robot_data_dir(source: str | None = None) -> Path:
+    """The ``robots`` directory of the installed ``example-robot-data`` (found via the package's file list)."""
     try:
         dist = importlib.metadata.distribution("example-robot-data")
     except importlib.metadata.PackageNotFoundError:
-        raise PluginError("example-robot-data is not installed (it provides the PR2 and Baxter URDFs)",
-                          field="robot.model", value="example-robot-data") from None
-    robots = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
-    if not robots.is_dir():
-        raise PluginError("example-robot-data is installed but its robots directory is missing",
-                          field="robot.model", value=str(robots))
-    return robots
+        raise SceneError("example-robot-data is not installed (it provides the PR2 and Baxter URDFs)",
+                         source=source, field="robot.model", value="example-robot-data") from None
+    candidates = [Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))]
+    for f in dist.files or ():
+        text = str(f).replace("\\", "/")
+        marker = "share/example-robot-data/robots/"
+        if marker in text:
+            candidates.append(Path(str(dist.locate_file(text[: text.index(marker) + len(marker) - 1]))))
+            break
+    for robots in candidates:
+        if robots.is_dir():
+            return robots
+    raise SceneError("example-robot-data is installed but its robots directory was not found",
+                     source=source, field="robot.model", value=str(candidates[0]))
 
 
-def _arm(prefix: str, names: tuple[str, ...]) -> tuple[str, ...]:
+def _prefixed(prefix: str, names: tuple[str, ...]) -> tuple[str, ...]:
     return tuple(prefix + n for n in names)
 
 
-def named_robot(name: str) -> RobotEntry:
-    """The catalogue entry of ``pr2``, ``baxter`` or ``iiwa``; raises :class:`PluginError` otherwise."""
+def named_robot(name: str, source: str | None = None) -> RobotEntry:
+    """The catalogue entry of ``pr2``, ``baxter`` or ``iiwa``; raises :class:`SceneError` otherwise."""
     if name == "baxter":
-        base = _example_robot_data()
+        base = example_robot_data_dir(source)
         arm = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
         return RobotEntry(base / "baxter_description/urdf/baxter.urdf",
                           base / "baxter_description/srdf/baxter_manipulation.srdf",
-                          (base.parent.parent, base.parent),
-                          {"left_arm": _arm("left_", arm), "right_arm": _arm("right_", arm)})
+                          (base.parent.parent, base.parent, base),
+                          {"left_arm": _prefixed("left_", arm), "right_arm": _prefixed("right_", arm)})
     if name == "pr2":
-        base = _example_robot_data()
+        base = example_robot_data_dir(source)
         arm = ("shoulder_pan_joint", "shoulder_lift_joint", "upper_arm_roll_joint", "elbow_flex_joint",
                "forearm_roll_joint", "wrist_flex_joint", "wrist_roll_joint")
         return RobotEntry(base / "pr2_description/urdf/pr2.urdf", base / "pr2_description/srdf/pr2.srdf",
-                          (base.parent.parent, base.parent),
-                          {"left_arm": _arm("l_", arm), "right_arm": _arm("r_", arm)})
+                          (base.parent.parent, base.parent, base),
+                          {"left_arm": _prefixed("l_", arm), "right_arm": _prefixed("r_", arm)})
     if name == "iiwa":
-        import pybullet_data
-
+        try:
+            import pybullet_data
+        except ImportError:
+            raise SceneError("pybullet (its pybullet_data package) is not installed; it provides the iiwa URDF",
+                             source=source, field="robot.model", value=name) from None
         data = Path(pybullet_data.getDataPath())
         joints = tuple(f"lbr_iiwa_joint_{i}" for i in range(1, 8))
-        published = (98, 98, 100, 130, 140, 180, 180)     # deg/s, LBR iiwa 7 R800 data sheet
         return RobotEntry(data / "kuka_iiwa/model.urdf", None, (data, data / "kuka_iiwa"), {"arm": joints},
-                          {j: math.radians(v) for j, v in zip(joints, published)})
-    raise PluginError("unknown robot (named robots: baxter, iiwa, pr2; or give a .urdf path)", field="robot.model",
-                      value=name)
+                          {j: math.radians(v) for j, v in zip(joints, IIWA_VELOCITY_LIMITS_DEG)})
+    raise SceneError(f"unknown robot (named robots: {', '.join(NAMED_ROBOTS)}; or give a .urdf file path)",
+                     source=source, field="robot.model", value=name)

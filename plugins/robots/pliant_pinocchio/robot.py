@@ -33,6 +33,8 @@ class PinocchioOptions:
     acceleration_factor: float = option(4.0, "acceleration limits = this (1/s) x velocity limits; vendors do "
                                         "not publish them", minimum=1e-6)
     jerk_factor: float = option(20.0, "jerk limits = this (1/s) x acceleration limits", minimum=1e-6)
+    body: str = option("moving", "which links carry body points: moving (those the group moves; static links "
+                       "can neither cause nor resolve a new contact) or all", choices=("moving", "all"))
     deformability: float = option(0.0, "deformability of the robot's points (thesis eq. 3.1)", minimum=0.0,
                                   maximum=1.0)
     sensitivity: float = option(1.0, "sensitivity of the robot's points (thesis eq. 3.1)", minimum=0.0)
@@ -152,9 +154,24 @@ class PinocchioRobot(RobotModel):
         else:
             full[idx] = value
 
+    def moving_joints(self) -> set[int]:
+        """Joint ids whose placement depends on the group's joints (the group's joints and their descendants)."""
+        moving = set()
+        for j in range(1, self.model.njoints):
+            k = j
+            while k > 0:
+                if k in self.joint_ids:
+                    moving.add(j)
+                    break
+                k = self.model.parents[k]
+        return moving
+
     def _sample_body(self, spacing: float) -> None:
         pts, joints = [], []
+        moving = self.moving_joints() if self.options.body == "moving" else None
         for geom in self.geometry.geometryObjects:
+            if moving is not None and geom.parentJoint not in moving:
+                continue
             local = surface_points(geom.geometry, spacing)
             if len(local) == 0:
                 continue

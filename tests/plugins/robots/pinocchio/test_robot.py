@@ -138,3 +138,19 @@ def test_wrong_configuration_length(iiwa):
         iiwa.body_points(np.zeros(6))
     with pytest.raises(DimensionError):
         iiwa.body_points(np.full(7, np.nan))
+
+
+def test_baxter_reach_start_and_goal_are_free_and_the_goal_reaches_into_the_hole():
+    from pliant.voxelgrid import VoxelGrid
+    from pliant_kinematic.contact import ContactModel
+
+    scene = load_scene("baxter-reach")
+    ctx = Context(scene=scene)
+    robot = registry.create("robot", "pinocchio", ctx)
+    everything = registry.create("robot", "pinocchio", ctx, body="all")
+    assert robot.point_count() < everything.point_count()          # static links carry no points
+    contact = ContactModel(VoxelGrid.from_scene(scene))
+    points = robot.body_points(np.vstack([scene.start, scene.goal]))
+    assert not contact.colliding(points).any()
+    assert points[1, :, 0].max() > 1.03                             # past the wall's face, inside the hole
+    assert np.allclose(robot.space.weights, 1 / np.array([0.27, 0.27, 0.27, 0.27, 0.3, 0.3, 0.5]), rtol=1e-4)
