@@ -37,6 +37,13 @@ class ContactModel:
         self.upper = grid.lower + np.array(grid.shape) * grid.resolution
         self.res = grid.resolution
         self._shape = np.asarray(grid.shape, dtype=np.int64)
+        # a lower bound on the distance from any point of a free voxel to any obstacle (the grid's
+        # boundary included): centre-to-centre distance minus a voxel diagonal
+        from scipy.ndimage import distance_transform_edt
+
+        solid = np.pad(occ, 1, constant_values=True)
+        centre_distance = distance_transform_edt(~solid, sampling=grid.resolution)[1:-1, 1:-1, 1:-1]
+        self.free_clearance = np.maximum(centre_distance - np.sqrt(3.0) * grid.resolution, 0.0).reshape(-1)
         # voxels with no exposed face: the SDF's normal and depth at their centre
         self.deep_normal = np.zeros((occ.size, 3))
         self.deep_depth = np.zeros(occ.size)

@@ -43,11 +43,14 @@ def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal,
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat, exposed, deep_normal, deep_depth,
-                clearance, lhs, rhs, p, motion, nrm):
+                clearance, lhs, rhs, p, motion, nrm, free_clearance, distance, reach):
     """Normal equations of one body placed by ``r_`` (3, 3) / ``pos`` (3,); returns the colliding count.
 
     ``r0`` / ``pos0`` place the body before the microstep: a colliding point's motion is measured
-    from there (computed only for colliding points).
+    from there (computed only for colliding points).  Points with ``distance[i] > reach`` are skipped:
+    they were that far from every obstacle and have moved less since (``distance`` and ``reach`` are
+    "odometer" readings: a point measured with clearance ``c`` when the body had moved ``m`` in total
+    stores ``c + m``; it is safe while the body's total motion stays below that).
     """
     k = local.shape[0]
     nx, ny, nz = shape[0], shape[1], shape[2]
@@ -57,6 +60,8 @@ def _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat
     rhs[:] = 0.0
     hits = 0
     for i in range(k):
+        if distance[i] > reach:
+            continue
         for c in range(3):
             p[c] = r_[c, 0] * local[i, 0] + r_[c, 1] * local[i, 1] + r_[c, 2] * local[i, 2] + pos[c]
         ix = int(np.floor((p[0] - lower[0]) * inv))
@@ -65,6 +70,7 @@ def _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat
         if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
             flat = (ix * ny + iy) * nz + iz
             if not occupied_flat[flat]:
+                distance[i] = free_clearance[flat] + reach
                 continue
             for c in range(3):
                 motion[c] = p[c] - (r0[c, 0] * local[i, 0] + r0[c, 1] * local[i, 1] + r0[c, 2] * local[i, 2]
@@ -77,6 +83,7 @@ def _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat
             depth = np.sqrt(nrm[0] ** 2 + nrm[1] ** 2 + nrm[2] ** 2)
             for c in range(3):
                 nrm[c] /= max(depth, 1e-300)
+        distance[i] = reach
         hits += 1
         push = depth + clearance * res
         dp0, dp1, dp2 = nrm[0] * push, nrm[1] * push, nrm[2] * push
@@ -189,13 +196,26 @@ def _retract(kind, q, delta, out):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
+def _motion_bound(kind, delta, radius):
+    """No body point moves farther than |translation| + |rotation| * radius under tangent motion ``delta``."""
+    if kind == KIND_R3:
+        return np.sqrt(delta[0] ** 2 + delta[1] ** 2 + delta[2] ** 2)
+    if kind == KIND_SE2:
+        return np.sqrt(delta[0] ** 2 + delta[1] ** 2) + abs(delta[2]) * radius
+    return (np.sqrt(delta[0] ** 2 + delta[1] ** 2 + delta[2] ** 2)
+            + np.sqrt(delta[3] ** 2 + delta[4] ** 2 + delta[5] ** 2) * radius)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def fused_microstep(kind, q, step, local, lower, res, shape, occupied_flat, exposed, deep_normal, deep_depth,
-                    clearance, max_corrections, damping, out, converged, touched):
+                    free_clearance, radius, clearance, max_corrections, damping, odometer, distances, out,
+                    converged, touched):
     """One microstep with RESOLVECOLLISIONS for every particle (thesis eq. 8.3-8.5), fully compiled.
 
     ``q`` (n, d) moves by ``step`` (n, t); corrections ``dq = (J^T J)^-1 J^T dp`` repeat up to
     ``max_corrections`` times; a particle that still collides is put back at ``q`` (``converged``
-    False).  ``touched`` reports whether any correction was needed.
+    False).  ``touched`` reports whether any correction was needed.  ``odometer`` (n,) and
+    ``distances`` (n, k) carry the broad phase between microsteps: zeros check every point.
     """
     n, d = q.shape
     t = step.shape[1]
@@ -215,10 +235,14 @@ def fused_microstep(kind, q, step, local, lower, res, shape, occupied_flat, expo
         _retract(kind, q[a], step[a], trial)
         converged[a] = False
         touched[a] = False
+        distance = distances[a]
+        start_reading = odometer[a]
+        reach = odometer[a] + _motion_bound(kind, step[a], radius)
         for _ in range(max_corrections + 1):
             _placement(kind, trial, r_, pos)
             hits = _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat, exposed,
-                               deep_normal, deep_depth, clearance, lhs, rhs, p, motion, nrm)
+                               deep_normal, deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance,
+                               distance, reach)
             if hits == 0:
                 converged[a] = True
                 break
@@ -231,7 +255,10 @@ def fused_microstep(kind, q, step, local, lower, res, shape, occupied_flat, expo
             dq = np.linalg.solve(lhs, rhs)
             _retract(kind, trial, dq, moved)
             trial[:] = moved
+            reach += _motion_bound(kind, dq, radius)
         if converged[a]:
             out[a] = trial
+            odometer[a] = reach
         else:
             out[a] = q[a]
+            odometer[a] = reach + (reach - start_reading)   # jumping back is a motion too

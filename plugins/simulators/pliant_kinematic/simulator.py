@@ -108,6 +108,7 @@ class KinematicSimulator(Simulator):
         self.kernel_kind = kinds.get(self.space.kind) if (placement is not None and o.fused_kernel
                                                           and o.solver == "least-squares") else None
         self.reach_radius = None
+        self._broad_phase = None
         if placement is not None:
             self.surface_local = np.ascontiguousarray(placement[2][self.surface])
             self.reach_radius = float(np.max(np.linalg.norm(self.surface_local, axis=1)))
@@ -212,6 +213,7 @@ class KinematicSimulator(Simulator):
         micro = max(1, math.ceil(travel / (self.options.step_fraction * self.grid.resolution)))
         scale = np.ones(n)
         halvings = np.zeros(n, dtype=int)
+        self._broad_phase = None          # distances are measured afresh each control step
         touched = np.zeros(n, dtype=bool)
         sub_dt = dt / micro
         for _ in range(micro):
@@ -249,14 +251,16 @@ class KinematicSimulator(Simulator):
     def _microstep_fused(self, q, step):
         """:meth:`_microstep` for rigid bodies, compiled end to end (same mathematics, see rigid_kernel)."""
         n = len(q)
+        if self._broad_phase is None or self._broad_phase[0].shape[0] != n:
+            self._broad_phase = (np.zeros(n), np.zeros((n, len(self.surface_local))))
         out = np.empty_like(q)
         converged = np.empty(n, dtype=np.bool_)
         touched = np.empty(n, dtype=np.bool_)
         c = self.contact
         fused_microstep(self.kernel_kind, np.ascontiguousarray(q), np.ascontiguousarray(step), self.surface_local,
                         c.lower, c.res, c._shape, c.occupied_flat, c.exposed, c.deep_normal, c.deep_depth,
-                        self.options.clearance, self.options.max_corrections, self.options.damping, out, converged,
-                        touched)
+                        c.free_clearance, self.reach_radius, self.options.clearance, self.options.max_corrections,
+                        self.options.damping, *self._broad_phase, out, converged, touched)
         return out, converged, touched
 
     def _correct(self, q, pts, before, hit):
