@@ -21,7 +21,7 @@ import numpy as np
 
 from pliant.errors import DimensionError, PlanningError
 from pliant.options import NoOptions, build_options
-from pliant.results import Path, PlanResult
+from pliant.results import Path, PlanResult, Status
 from pliant.spaces import Space
 from pliant.termination import Termination
 
@@ -322,6 +322,19 @@ class PlanningProblem:
         if self.validity is not None and ok.any():
             ok &= np.asarray(self.validity(q), dtype=bool)
         return ok
+
+    def checked_endpoints(self) -> tuple[np.ndarray, np.ndarray, Status | None]:
+        """Start and goal as ``(d,)`` arrays, and ``invalid start`` / ``invalid goal`` if one is infeasible.
+
+        Malformed endpoints (wrong length, NaN) raise :class:`~pliant.errors.DimensionError`.
+        """
+        start = self.space.check(self.start, field="start")
+        goal = self.space.check(self.goal, field="goal")
+        if not self.is_valid(start)[0]:
+            return start, goal, Status.INVALID_START
+        if self.goal_region is None and not self.is_valid(goal)[0]:
+            return start, goal, Status.INVALID_GOAL
+        return start, goal, None
 
     def in_goal(self, q: np.ndarray) -> np.ndarray:
         """Bool ``(n,)``: within ``goal_tolerance`` of the goal, or inside ``goal_region``."""

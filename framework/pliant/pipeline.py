@@ -34,7 +34,7 @@ from pliant.interfaces import KINDS, Component, Context, PlanningProblem
 from pliant.registry import Registry, default_registry
 from pliant.results import PlanResult
 from pliant.scene import Scene, load_scene
-from pliant.validation import check_number
+from pliant.validation import check_number, read_toml
 
 log = logging.getLogger(__name__)
 
@@ -180,12 +180,7 @@ class Pipeline:
                   registry: Registry | None = None) -> Pipeline:
         """Read a pipeline TOML file (a bundled pipeline may be named without ``.toml``)."""
         path = _resolve_pipeline_path(path)
-        try:
-            data = tomllib.loads(path.read_text())
-        except tomllib.TOMLDecodeError as exc:
-            raise PipelineError(f"not valid TOML: {exc}", source=str(path), field="<file>") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise PipelineError(f"cannot read file: {exc}", source=str(path), field="<file>") from None
+        data = read_toml(path, PipelineError)
         if isinstance(data.get("robot"), dict) and "kind" in data["robot"]:
             data = _scene_pipeline(data, path)
         return cls.from_dict(data, source=str(path), base_dir=path.parent, overrides=overrides, registry=registry)

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import copy
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,7 +23,7 @@ import numpy as np
 from pliant.errors import SceneError
 from pliant.geometry import UNIT_QUATERNION_TOLERANCE, quat_to_matrix
 from pliant.shapes import Box, Cylinder, Mesh, Shape, Sphere, VoxelArray
-from pliant.validation import Fields
+from pliant.validation import Fields, read_toml
 
 ROBOT_SPACES = ("r3", "se2", "se3")
 
@@ -233,12 +232,7 @@ def load_scene(name_or_path: str | Path, variant: str | None = None) -> Scene:
     if variant is None and ":" in text and not _is_file(Path(text)) and not text.endswith(".toml"):
         text, variant = text.split(":", 1)
     path = resolve_scene_path(text)
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"not valid TOML: {exc}", source=str(path), field="<file>") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"cannot read file: {exc}", source=str(path), field="<file>") from None
+    data = read_toml(path, SceneError)
     return Scene.from_dict(data, source=str(path), base_dir=path.parent, variant=variant)
 
 

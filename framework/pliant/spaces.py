@@ -200,19 +200,15 @@ class RealVectorSpace(Space):
                 "weights": self.weights.tolist()}
 
 
-class SE2Space(Space):
-    """The plane of rigid motions ``(x, y, theta)``.
+class _RigidMotionSpace(Space):
+    """Shared parts of SE(2) and SE(3): bounded positions, translation and rotation weights."""
 
-    ``d = sqrt(wt^2 (dx^2 + dy^2) + wr^2 dtheta^2)`` with ``dtheta`` the wrapped angle difference.
-    ``lower``/``upper`` bound ``(x, y)`` in metres; ``theta`` is free (wrapped to [-pi, pi)).
-    """
-
-    kind = "se2"
-    dim = 3
+    _position_dims = 3
 
     def __init__(self, lower, upper, translation_weight: float = 1.0, rotation_weight: float = 1.0) -> None:
-        self.position = RealVectorSpace(_as_vector(lower, 2, "lower bounds", "lower"),
-                                        _as_vector(upper, 2, "upper bounds", "upper"))
+        n = self._position_dims
+        self.position = RealVectorSpace(_as_vector(lower, n, "lower bounds", "lower"),
+                                        _as_vector(upper, n, "upper bounds", "upper"))
         self.translation_weight = _positive(translation_weight, "translation_weight")
         self.rotation_weight = _positive(rotation_weight, "rotation_weight")
 
@@ -223,6 +219,22 @@ class SE2Space(Space):
     @property
     def upper(self):
         return self.position.upper
+
+    def to_dict(self):
+        return {"kind": self.kind, "lower": self.lower.tolist(), "upper": self.upper.tolist(),
+                "translation_weight": self.translation_weight, "rotation_weight": self.rotation_weight}
+
+
+class SE2Space(_RigidMotionSpace):
+    """The plane of rigid motions ``(x, y, theta)``.
+
+    ``d = sqrt(wt^2 (dx^2 + dy^2) + wr^2 dtheta^2)`` with ``dtheta`` the wrapped angle difference.
+    ``lower``/``upper`` bound ``(x, y)`` in metres; ``theta`` is free (wrapped to [-pi, pi)).
+    """
+
+    kind = "se2"
+    dim = 3
+    _position_dims = 2
 
     def sample(self, rng, n):
         xy = self.position.sample(rng, n)
@@ -265,12 +277,8 @@ class SE2Space(Space):
         out[..., 2] = wrap_angle(out[..., 2])
         return out
 
-    def to_dict(self):
-        return {"kind": self.kind, "lower": self.lower.tolist(), "upper": self.upper.tolist(),
-                "translation_weight": self.translation_weight, "rotation_weight": self.rotation_weight}
 
-
-class SE3Space(Space):
+class SE3Space(_RigidMotionSpace):
     """Rigid motions in space ``(x, y, z, qx, qy, qz, qw)``.
 
     ``d = sqrt(wt^2 |dp|^2 + wr^2 angle^2)`` where ``angle`` (rad) is the rotation between the two
@@ -279,20 +287,6 @@ class SE3Space(Space):
 
     kind = "se3"
     dim = 7
-
-    def __init__(self, lower, upper, translation_weight: float = 1.0, rotation_weight: float = 1.0) -> None:
-        self.position = RealVectorSpace(_as_vector(lower, 3, "lower bounds", "lower"),
-                                        _as_vector(upper, 3, "upper bounds", "upper"))
-        self.translation_weight = _positive(translation_weight, "translation_weight")
-        self.rotation_weight = _positive(rotation_weight, "rotation_weight")
-
-    @property
-    def lower(self):
-        return self.position.lower
-
-    @property
-    def upper(self):
-        return self.position.upper
 
     def sample(self, rng, n):
         return np.column_stack([self.position.sample(rng, n), random_quaternions(rng, n)])
@@ -358,10 +352,6 @@ class SE3Space(Space):
         dp = a[..., :3] - b[..., :3]
         dp, rot = np.broadcast_arrays(dp, rot)
         return np.concatenate([dp, rot], axis=-1)
-
-    def to_dict(self):
-        return {"kind": self.kind, "lower": self.lower.tolist(), "upper": self.upper.tolist(),
-                "translation_weight": self.translation_weight, "rotation_weight": self.rotation_weight}
 
 
 class CompoundSpace(Space):

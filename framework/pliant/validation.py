@@ -8,7 +8,9 @@
 from __future__ import annotations
 
 import math
+import tomllib
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -162,3 +164,13 @@ def check_vector(value: Any, source: str, field: str, *, size: int | None = None
     for i, item in enumerate(items):
         check_number(item, source, f"{field}[{i}]", allow_nan=allow_nan, positive=positive, error=error)
     return np.asarray(items, dtype=np.float64)
+
+
+def read_toml(path: Path, error: type[ConfigError] = ConfigError) -> dict:
+    """Parse a TOML file; unreadable or invalid files raise ``error`` naming the file."""
+    try:
+        return tomllib.loads(Path(path).read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"not valid TOML: {exc}", source=str(path), field="<file>") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(f"cannot read file: {exc}", source=str(path), field="<file>") from None

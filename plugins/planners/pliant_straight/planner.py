@@ -40,18 +40,15 @@ class StraightLinePlanner(Planner):
              termination: Termination | None = None) -> PlanResult:
         t0 = time.perf_counter()
         space = problem.space
-        start = space.check(problem.start, field="start")
-        goal = space.check(problem.goal, field="goal")
+        start, goal, invalid = problem.checked_endpoints()
 
         def result(status, path=None, cost=float("nan"), message="", checked=0):
             return PlanResult(status, path=path, cost=cost, planner="straight", message=message,
                               options={"step": self.options.step},
                               statistics={"checked": checked, "time": time.perf_counter() - t0})
 
-        if not problem.is_valid(start)[0]:
-            return result(Status.INVALID_START, message="the start configuration is not valid")
-        if not problem.is_valid(goal)[0]:
-            return result(Status.INVALID_GOAL, message="the goal configuration is not valid")
+        if invalid is not None:
+            return result(invalid, message=f"the {invalid.value.split()[1]} configuration is not valid")
         configs = space.discretize(start, goal, self.options.step)
         valid = problem.is_valid(configs)
         if not valid.all():
@@ -86,15 +83,12 @@ class WaypointPlanner(Planner):
              termination: Termination | None = None) -> PlanResult:
         t0 = time.perf_counter()
         space = problem.space
-        start = space.check(problem.start, field="start")
-        goal = space.check(problem.goal, field="goal")
+        start, goal, invalid = problem.checked_endpoints()
         middle = [space.check(w, field=f"planner.waypoints[{i}]") for i, w in enumerate(self.options.waypoints)]
         configs = np.vstack([start, *middle, goal]) if middle else np.vstack([start, goal])
         stats = {"waypoints": len(configs)}
-        if not problem.is_valid(start)[0]:
-            return PlanResult(Status.INVALID_START, planner="waypoints", statistics=stats)
-        if not problem.is_valid(goal)[0]:
-            return PlanResult(Status.INVALID_GOAL, planner="waypoints", statistics=stats)
+        if invalid is not None:
+            return PlanResult(invalid, planner="waypoints", statistics=stats)
         valid = problem.is_valid(configs)
         stats["time"] = time.perf_counter() - t0
         if not valid.all():
