@@ -417,8 +417,9 @@ class _SceneReader:
         if kind == "urdf":
             model = t.string("model")
             group = t.string("group", None)
+            material = self._material(t, Material())
             t.finish()
-            return RobotSpec(kind=kind, name=name, model=model, group=group, weights=weights)
+            return RobotSpec(kind=kind, name=name, model=model, group=group, weights=weights, material=material)
         space = t.string("space", choices=set(ROBOT_SPACES))
         material = self._material(t, Material())
         ref = t.vector("reference_cell", 3, np.zeros(3))

@@ -1,18 +1,29 @@
 """URDF robots through pinocchio (kinematics) and coal (collision geometry).
 
-Configurations are the values of one joint group (rad for revolute and continuous joints, m for
-prismatic ones); every other joint stays at a fixed posture.  The body is represented by points
-sampled on every collision geometry's surface at the scene resolution (thesis 3.2.1), each attached
-to its joint, so that the voxel cost model and the kinematic simulator can use any URDF robot.
+Configurations are the values of one joint group, ``(d,)`` or ``(n, d)``: radians for revolute and
+continuous joints, metres for prismatic ones; every other joint stays at a fixed posture (zero, or the
+middle of its range when zero is outside it; the ``posture`` option overrides any joint by name).
+The body is represented by points sampled on every collision geometry's surface at the scene
+resolution (thesis 3.2.1), each attached to its joint, so that the voxel cost model and the
+kinematic simulator can use any URDF robot as they use a rigid body.
+
+Point Jacobians: after ``computeJointJacobians`` the columns of ``data.J`` are the joints' motion
+subspaces as world-frame twists ``(v_O, w)`` (``v_O`` the velocity of the body point at the world
+origin), so a point ``p`` carried by joint ``j`` moves with ``v_O + w x p`` for every column whose
+joint supports ``j`` — equal to ``J_lin - [p - o]x J_ang`` of the link frame in LOCAL_WORLD_ALIGNED,
+and vectorised over all points at once.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import coal
 import numpy as np
-from pliant.errors import DimensionError, PlanningError, PluginError
+import pinocchio as pin
+from pliant.errors import ConfigError, DimensionError, PlanningError, SceneError
 from pliant.interfaces import RobotModel, check_batch
 from pliant.options import option
 from pliant.spaces import RealVectorSpace
@@ -23,54 +34,104 @@ from pliant_pinocchio.sampling import surface_points
 
 @dataclass(frozen=True)
 class PinocchioOptions:
-    """Options of :class:`PinocchioRobot`."""
+    """Options of :class:`PinocchioRobot` (units in each ``doc``)."""
 
     group: str | None = option(None, "joint group to plan for (default: the scene's robot.group, else 'all')")
-    resolution: float | None = option(None, "spacing of body surface points (m); default the scene resolution",
-                                      minimum=1e-4)
-    posture: tuple[float, ...] = option((), "values of all single-DoF joints in model order for the joints "
-                                        "outside the group (default: zero, or the limits' middle if 0 is out)")
-    acceleration_factor: float = option(4.0, "acceleration limits = this (1/s) x velocity limits; vendors do "
-                                        "not publish them", minimum=1e-6)
-    jerk_factor: float = option(20.0, "jerk limits = this (1/s) x acceleration limits", minimum=1e-6)
+    resolution: float | None = option(None, "spacing of the body's surface points (m); default the scene "
+                                      "resolution", minimum=1e-4)
+    posture: dict[str, float] = option(None, "values (rad or m) of joints outside the group, by name; "  # noqa: RUF009
+                                       "unnamed joints sit at 0 (or mid-range when 0 is outside their limits)",
+                                       default_factory=dict)
+    continuous_range: float = option(math.pi, "continuous joints are bounded to [-this, this] (rad)",
+                                     minimum=1e-3, maximum=100.0)
+    acceleration_factor: float = option(4.0, "acceleration limits = this x velocity limits (1/s): full speed in "
+                                        "1/this s; vendors publish no acceleration limits", minimum=1e-6)
+    jerk_factor: float = option(20.0, "jerk limits = this x acceleration limits (1/s): full acceleration in "
+                                "1/this s", minimum=1e-6)
+    acceleration_limits: tuple[float, ...] = option((), "explicit per-group-joint acceleration limits "
+                                                    "(rad/s^2 or m/s^2); replaces acceleration_factor")
+    jerk_limits: tuple[float, ...] = option((), "explicit per-group-joint jerk limits (rad/s^3 or m/s^3); "
+                                            "replaces jerk_factor")
     body: str = option("moving", "which links carry body points: moving (those the group moves; static links "
                        "can neither cause nor resolve a new contact) or all", choices=("moving", "all"))
-    deformability: float = option(0.0, "deformability of the robot's points (thesis eq. 3.1)", minimum=0.0,
-                                  maximum=1.0)
-    sensitivity: float = option(1.0, "sensitivity of the robot's points (thesis eq. 3.1)", minimum=0.0)
+    deformability: float | None = option(None, "deformability of the robot's points in [0, 1] (thesis eq. 3.1); "
+                                         "default the scene robot's material (0)", minimum=0.0, maximum=1.0)
+    sensitivity: float | None = option(None, "sensitivity of the robot's points (>= 0, thesis eq. 3.1); default "
+                                       "the scene robot's material (1)", minimum=0.0)
+
+
+@dataclass
+class _Obstacle:
+    """A scene object as coal sees it: its geometry and world placement (cut-outs ignored)."""
+
+    name: str
+    geometry: object            # a coal collision geometry
+    transform: object           # coal.Transform3s, world placement
 
 
 class PinocchioRobot(RobotModel):
     """A URDF robot (``pr2``, ``baxter``, ``iiwa`` or a ``.urdf`` path) with pinocchio kinematics.
 
-    Provides, batched over configurations ``(n, d)``: body points ``(n, m, 3)`` and their Jacobians
-    ``(n, m, 3, d)`` (from the joint Jacobians in the world-aligned frame), self-collision through
-    coal with the SRDF's allowed pairs removed, distance to the scene's primitive objects, joint
-    position / velocity / acceleration / jerk limits.
+    Bound to a scene whose ``[robot]`` has ``kind = "urdf"``.  Batched over configurations
+    ``(n, d)``: body points ``(n, m, 3)`` (m) and their Jacobians ``(n, m, 3, d)`` (m/rad, m/m);
+    frame placements and point Jacobians of named frames; self-collision through coal with the
+    SRDF's allowed pairs removed (adjacent links for robots without an SRDF); distance (m) to the
+    scene's objects.  Attributes after binding:
+
+    - ``joint_names`` (d,), ``lower`` / ``upper`` (d,) position limits (rad or m),
+    - ``velocity_limits`` (rad/s), ``acceleration_limits`` (rad/s^2), ``jerk_limits`` (rad/s^3), each (d,),
+    - ``groups``: the joint groups of this robot by name,
+    - ``model`` / ``geometry``: the pinocchio model and collision model.
     """
 
     Options = PinocchioOptions
     example_scene = "iiwa-shelf"
 
     def bind(self, context) -> None:
+        """Load the robot of the context's scene, choose the group, sample the body, build the space."""
         super().bind(context)
-        import pinocchio as pin
-
-        self.pin = pin
         scene = self.require("scene")
         spec = scene.robot
+        self._source = scene.source
         if spec.kind != "urdf":
             raise PlanningError("the pinocchio robot needs a scene whose [robot] kind is 'urdf'", source=scene.source,
                                 field="robot.kind", value=spec.kind)
-        entry = self._entry(spec.model, scene)
+        entry = self._entry(spec.model, scene.source)
         self.model_name = spec.model
+        self.entry = entry
+        self._load(entry, scene.source, spec.model)
+        self._choose_group(entry, self.options.group or spec.group or "all", from_option=bool(self.options.group))
+        self._set_limits(entry)
+        self.base_configuration = self._posture()
+        self._sample_body(self.options.resolution or scene.resolution, spec.material)
+        self._space = self._make_space(spec.weights)
+        self._obstacles = self._build_obstacles(scene)
+        for key in ("start", "goal"):
+            self._check_scene_configuration(key, getattr(scene, key))
+
+    # --- construction -------------------------------------------------------------------------
+
+    @staticmethod
+    def _entry(model: str, source: str) -> RobotEntry:
+        """The catalogue entry of a named robot, or an entry for a URDF file (relative to the scene file)."""
+        path = Path(model).expanduser()
+        if path.suffix.lower() == ".urdf" or path.is_absolute() or "/" in model:
+            full = path if path.is_absolute() else Path(source).parent / path
+            if not full.is_file() and path.is_file():
+                full = path
+            if not full.is_file():
+                raise SceneError("URDF file not found", source=source, field="robot.model", value=model)
+            return RobotEntry(full.resolve(), None, (full.parent, full.parent.parent))
+        return named_robot(model, source)
+
+    def _load(self, entry: RobotEntry, source: str, model_name: str) -> None:
         try:
             self.model = pin.buildModelFromUrdf(str(entry.urdf))
             self.geometry = pin.buildGeomFromUrdf(self.model, str(entry.urdf), pin.GeometryType.COLLISION,
                                                   package_dirs=[str(p) for p in entry.package_dirs])
-        except (ValueError, RuntimeError) as exc:
-            raise PluginError(f"cannot load the URDF: {exc}", source=scene.source, field="robot.model",
-                              value=str(entry.urdf)) from None
+        except (ValueError, RuntimeError, OSError) as exc:
+            raise SceneError(f"cannot load the URDF {entry.urdf}: {exc}", source=source, field="robot.model",
+                             value=model_name) from None
         self.geometry.addAllCollisionPairs()
         if entry.srdf is not None:
             pin.removeCollisionPairs(self.model, self.geometry, str(entry.srdf))
@@ -78,21 +139,6 @@ class PinocchioRobot(RobotModel):
             self._remove_adjacent_pairs()
         self.data = self.model.createData()
         self.geometry_data = pin.GeometryData(self.geometry)
-        self._joints(entry, self.options.group or spec.group or "all", scene.source)
-        self._sample_body(self.options.resolution or scene.resolution)
-        self._space = RealVectorSpace(self.lower, self.upper, spec.weights)
-
-    # --- construction -------------------------------------------------------------------------
-
-    @staticmethod
-    def _entry(model: str, scene) -> RobotEntry:
-        path = Path(model)
-        if path.suffix == ".urdf":
-            full = path if path.is_absolute() else Path(scene.source).parent / path
-            if not full.is_file():
-                raise PluginError("URDF file not found", source=scene.source, field="robot.model", value=model)
-            return RobotEntry(full, None, (full.parent, full.parent.parent))
-        return named_robot(model)
 
     def _remove_adjacent_pairs(self) -> None:
         """Without an SRDF, allow contact between geometries of the same or adjacent (parent/child) joints."""
@@ -104,69 +150,89 @@ class PinocchioRobot(RobotModel):
             if a == b or parents[a] == b or parents[b] == a:
                 self.geometry.removeCollisionPair(pair)
 
-    def _joints(self, entry: RobotEntry, group: str, source: str) -> None:
+    def _choose_group(self, entry: RobotEntry, group: str, from_option: bool) -> None:
         model = self.model
         single = [j for j in range(1, model.njoints) if model.joints[j].nv == 1]
+        self._single = single
         names = [model.names[j] for j in single]
-        groups = {"all": tuple(names), **entry.groups}
-        if group not in groups:
-            raise PluginError(f"unknown joint group (groups: {', '.join(sorted(groups))})", source=source,
-                              field="robot.group", value=group)
-        missing = [n for n in groups[group] if n not in names]
+        self.groups = {"all": tuple(names), **entry.groups}
+        where = dict(source="<options>", field="robot.options.group") if from_option else dict(
+            source=self._source, field="robot.group")
+        if group not in self.groups:
+            raise ConfigError(f"unknown joint group for {self.model_name} (groups: {', '.join(sorted(self.groups))})",
+                              value=group, **where)
+        missing = [n for n in self.groups[group] if n not in names]
         if missing:
-            raise PluginError("the group names joints the URDF does not have", source=source, field="robot.group",
-                              value=missing)
+            raise ConfigError("the group names joints the URDF does not have", value=missing, **where)
         self.group = group
-        self.joint_names = list(groups[group])
-        self.joint_ids = [int(model.getJointId(n)) for n in self.joint_names]
-        self.idx_q = np.array([model.joints[j].idx_q for j in self.joint_ids])
-        self.idx_v = np.array([model.joints[j].idx_v for j in self.joint_ids])
-        self.continuous = np.array([model.joints[j].nq == 2 for j in self.joint_ids])
-        lower = np.array([model.lowerPositionLimit[i] for i in self.idx_q])
-        upper = np.array([model.upperPositionLimit[i] for i in self.idx_q])
+        self.joint_names = list(self.groups[group])
+        self.joint_ids = np.array([int(model.getJointId(n)) for n in self.joint_names], dtype=np.int64)
+        self.idx_q = np.array([model.joints[int(j)].idx_q for j in self.joint_ids], dtype=np.int64)
+        self.idx_v = np.array([model.joints[int(j)].idx_v for j in self.joint_ids], dtype=np.int64)
+        #: joints with an unbounded angle (pinocchio stores them as (cos, sin))
+        self.continuous = np.array([model.joints[int(j)].nq == 2 for j in self.joint_ids], dtype=bool)
+
+    def _set_limits(self, entry: RobotEntry) -> None:
+        model, o = self.model, self.options
+        lower = model.lowerPositionLimit[self.idx_q].astype(np.float64)
+        upper = model.upperPositionLimit[self.idx_q].astype(np.float64)
         unbounded = self.continuous | ~np.isfinite(lower) | ~np.isfinite(upper) | (upper <= lower)
-        self.lower = np.where(unbounded, -np.pi, lower)
-        self.upper = np.where(unbounded, np.pi, upper)
-        velocity = np.array([model.velocityLimit[i] for i in self.idx_v])
-        velocity = np.array([entry.velocity_limits.get(n, v) for n, v in zip(self.joint_names, velocity)])
-        self.velocity_limits = velocity
-        self.acceleration_limits = velocity * self.options.acceleration_factor
-        self.jerk_limits = self.acceleration_limits * self.options.jerk_factor
-        # the posture of the other joints
-        base = self.pin.neutral(model)
-        posture = self.options.posture
-        if posture and len(posture) != len(single):
-            raise DimensionError(f"posture needs one value per single-DoF joint ({len(single)})",
-                                 field="robot.posture", value=list(posture))
-        for k, j in enumerate(single):
+        self.lower = np.where(unbounded, -o.continuous_range, lower)
+        self.upper = np.where(unbounded, o.continuous_range, upper)
+        velocity = model.velocityLimit[self.idx_v].astype(np.float64)
+        self.velocity_limits = np.array([entry.velocity_limits.get(n, v) for n, v in zip(self.joint_names, velocity)])
+        if np.any(~np.isfinite(self.velocity_limits)) or np.any(self.velocity_limits <= 0):
+            raise SceneError("the URDF's velocity limits of the group must be positive", source=self._source,
+                             field="robot.model", value=dict(zip(self.joint_names, self.velocity_limits.tolist())))
+        self.acceleration_limits = self._explicit("acceleration_limits", o.acceleration_limits,
+                                                  self.velocity_limits * o.acceleration_factor)
+        self.jerk_limits = self._explicit("jerk_limits", o.jerk_limits, self.acceleration_limits * o.jerk_factor)
+
+    def _explicit(self, name: str, values: tuple[float, ...], derived: np.ndarray) -> np.ndarray:
+        if not values:
+            return derived
+        arr = np.asarray(values, dtype=np.float64)
+        if arr.shape != derived.shape:
+            raise ConfigError(f"needs one value per joint of the group ({len(derived)})", source="<options>",
+                              field=f"robot.options.{name}", value=list(values))
+        if np.any(~np.isfinite(arr)) or np.any(arr <= 0):
+            raise ConfigError("limits must be positive and finite", source="<options>",
+                              field=f"robot.options.{name}", value=list(values))
+        return arr
+
+    def _posture(self) -> np.ndarray:
+        """The full pinocchio configuration (``model.nq``) holding the joints outside the group."""
+        model = self.model
+        base = pin.neutral(model)
+        posture = dict(self.options.posture or {})
+        known = {model.names[j] for j in self._single}
+        unknown = sorted(set(posture) - known)
+        if unknown:
+            raise ConfigError("posture names joints the model does not have", source="<options>",
+                              field="robot.options.posture", value=unknown)
+        for name, value in posture.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ConfigError("posture values must be finite numbers (rad or m)", source="<options>",
+                                  field=f"robot.options.posture.{name}", value=value)
+        for j in self._single:
             joint = model.joints[j]
             lo, hi = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
-            value = posture[k] if posture else 0.0
-            if not posture and joint.nq == 1 and np.isfinite(lo) and np.isfinite(hi) and not lo <= 0.0 <= hi:
+            value = float(posture.get(model.names[j], 0.0))
+            if model.names[j] not in posture and joint.nq == 1 and np.isfinite(lo) and np.isfinite(hi) \
+                    and not lo <= 0.0 <= hi:
                 value = 0.5 * (lo + hi)
-            self._set(base, joint.idx_q, joint.nq == 2, value)
-        self.base_configuration = base
-
-    @staticmethod
-    def _set(full: np.ndarray, idx: int, continuous: bool, value: float) -> None:
-        if continuous:
-            full[idx], full[idx + 1] = np.cos(value), np.sin(value)
-        else:
-            full[idx] = value
+            if joint.nq == 2:
+                base[joint.idx_q], base[joint.idx_q + 1] = math.cos(value), math.sin(value)
+            else:
+                base[joint.idx_q] = value
+        return base
 
     def moving_joints(self) -> set[int]:
         """Joint ids whose placement depends on the group's joints (the group's joints and their descendants)."""
-        moving = set()
-        for j in range(1, self.model.njoints):
-            k = j
-            while k > 0:
-                if k in self.joint_ids:
-                    moving.add(j)
-                    break
-                k = self.model.parents[k]
-        return moving
+        group = {int(j) for j in self.joint_ids}
+        return {j for j in range(1, self.model.njoints) if group & {int(s) for s in self.model.supports[j]}}
 
-    def _sample_body(self, spacing: float) -> None:
+    def _sample_body(self, spacing: float, material) -> None:
         pts, joints = [], []
         moving = self.moving_joints() if self.options.body == "moving" else None
         for geom in self.geometry.geometryObjects:
@@ -175,137 +241,225 @@ class PinocchioRobot(RobotModel):
             local = surface_points(geom.geometry, spacing)
             if len(local) == 0:
                 continue
-            placement = geom.placement
+            placement = geom.placement      # geometry frame in its parent joint's frame
             pts.append(local @ np.asarray(placement.rotation).T + np.asarray(placement.translation))
-            joints.append(np.full(len(local), geom.parentJoint))
-        self.local_points = np.concatenate(pts)
-        self.point_joint = np.concatenate(joints).astype(np.int64)
-        self._materials = np.tile([self.options.deformability, self.options.sensitivity], (len(self.local_points), 1))
+            joints.append(np.full(len(local), geom.parentJoint, dtype=np.int64))
+        if not pts:
+            raise SceneError("the URDF has no collision geometry to sample body points from", source=self._source,
+                             field="robot.model", value=self.model_name)
+        #: body points in their joint's frame (m), and the joint that carries each
+        self.local_points = np.ascontiguousarray(np.concatenate(pts), dtype=np.float64)
+        self.point_joint = np.concatenate(joints)
+        self._used, self._slot = np.unique(self.point_joint, return_inverse=True)
+        self._used_support = self._support_mask(self._used)
+        o = self.options
+        deformability = material.deformability if o.deformability is None else o.deformability
+        sensitivity = material.sensitivity if o.sensitivity is None else o.sensitivity
+        self._materials = np.tile(np.array([deformability, sensitivity], dtype=np.float64),
+                                  (len(self.local_points), 1))
+
+    def _support_mask(self, joints) -> np.ndarray:
+        """Float ``(len(joints), d)``: 1 where the group joint of the column moves the given joint."""
+        mask = np.zeros((len(joints), len(self.joint_ids)))
+        for r, j in enumerate(joints):
+            support = set(int(s) for s in self.model.supports[int(j)])
+            mask[r] = [float(int(g) in support) for g in self.joint_ids]
+        return mask
+
+    def _make_space(self, weights) -> RealVectorSpace:
+        if weights is not None and np.asarray(weights).shape != (len(self.joint_names),):
+            raise SceneError(f"needs one weight per joint of group '{self.group}' ({len(self.joint_names)})",
+                             source=self._source, field="robot.weights", value=np.asarray(weights).tolist())
+        return RealVectorSpace(self.lower, self.upper, weights)
+
+    def _check_scene_configuration(self, key: str, q) -> None:
+        q = np.asarray(q, dtype=np.float64)
+        if q.shape != (self._space.dim,):
+            raise SceneError(f"needs one value per joint of group '{self.group}' ({self._space.dim}: "
+                             f"{', '.join(self.joint_names)})", source=self._source, field=key, value=q.tolist())
+        if not np.all(np.isfinite(q)):
+            raise SceneError("must be finite", source=self._source, field=key, value=q.tolist())
+        if not self._space.is_valid(q):
+            bad = [n for n, v, lo, hi in zip(self.joint_names, q, self.lower, self.upper) if not lo <= v <= hi]
+            raise SceneError(f"outside the joint limits at {', '.join(bad)}", source=self._source, field=key,
+                             value=q.tolist())
+
+    def _build_obstacles(self, scene) -> list[_Obstacle]:
+        out = []
+        for obj in scene.objects:
+            s = obj.part.shape
+            if s.kind == "box":
+                geom = coal.Box(*np.asarray(s.size, dtype=np.float64))
+            elif s.kind == "sphere":
+                geom = coal.Sphere(float(s.radius))
+            elif s.kind == "cylinder":
+                geom = coal.Cylinder(float(s.radius), float(s.length))
+            elif s.kind == "mesh":
+                tris = np.asarray(s.triangles, dtype=np.float64)
+                geom = coal.BVHModelOBBRSS()
+                geom.beginModel(len(tris), 3 * len(tris))
+                geom.addVertices(np.ascontiguousarray(tris.reshape(-1, 3)))
+                geom.addTriangles(np.arange(3 * len(tris), dtype=np.int64).reshape(-1, 3))
+                geom.endModel()
+            else:                       # voxel arrays have no coal counterpart here
+                continue
+            pose = obj.part.pose
+            out.append(_Obstacle(obj.name, geom, coal.Transform3s(pose.rotation, pose.position)))
+        return out
+
+    # --- configurations -----------------------------------------------------------------------
+
+    @property
+    def space(self) -> RealVectorSpace:
+        """The group's joint space: joint limits as bounds, the scene's per-joint weights (else 1)."""
+        return self._space
+
+    def _batch(self, q, field: str = "configurations") -> np.ndarray:
+        arr, _ = check_batch(q, self._space, field)
+        return arr
+
+    def full_configurations(self, q: np.ndarray) -> np.ndarray:
+        """Pinocchio configurations ``(n, model.nq)`` of group configurations ``(n, d)`` (or ``(d,)``)."""
+        q = self._batch(q)
+        full = np.repeat(self.base_configuration[None], len(q), axis=0)
+        plain = ~self.continuous
+        full[:, self.idx_q[plain]] = q[:, plain]
+        full[:, self.idx_q[self.continuous]] = np.cos(q[:, self.continuous])
+        full[:, self.idx_q[self.continuous] + 1] = np.sin(q[:, self.continuous])
+        return full
+
+    def distance(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Weighted joint-space distance ``|| w * (a - b) ||`` (broadcast), via :attr:`space`."""
+        return self._space.distance(self._batch(a, "a"), self._batch(b, "b"))
 
     # --- RobotModel ---------------------------------------------------------------------------
 
-    @property
-    def space(self):
-        return self._space
-
-    def point_materials(self):
+    def point_materials(self) -> np.ndarray:
+        """``(m, 2)``: deformability and sensitivity of each body point."""
         return self._materials
-
-    def full_configuration(self, q: np.ndarray) -> np.ndarray:
-        """The pinocchio configuration (``model.nq``) of one group configuration ``(d,)``."""
-        full = self.base_configuration.copy()
-        for k in range(len(q)):
-            self._set(full, self.idx_q[k], self.continuous[k], q[k])
-        return full
-
-    def _placements(self, full: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        self.pin.forwardKinematics(self.model, self.data, full)
-        rot = np.array([self.data.oMi[j].rotation for j in range(self.model.njoints)])
-        pos = np.array([self.data.oMi[j].translation for j in range(self.model.njoints)])
-        return rot, pos
 
     def _select(self, indices):
         if indices is None:
-            return self.local_points, self.point_joint
-        return self.local_points[indices], self.point_joint[indices]
+            return self.local_points, self._slot
+        indices = np.asarray(indices, dtype=np.int64)
+        if indices.ndim != 1 or (indices.size and (indices.min() < -len(self.local_points)
+                                                   or indices.max() >= len(self.local_points))):
+            raise DimensionError(f"point indices must be a 1-d array within [0, {len(self.local_points)})",
+                                 field="indices", value=indices.tolist() if indices.size < 50 else indices.shape)
+        return self.local_points[indices], self._slot[indices]
+
+    def _placements(self, joints) -> tuple[np.ndarray, np.ndarray]:
+        """Rotations ``(u, 3, 3)`` and origins ``(u, 3)`` of joints after a kinematics call."""
+        oMi = self.data.oMi
+        rot = np.array([oMi[int(j)].rotation for j in joints])
+        pos = np.array([oMi[int(j)].translation for j in joints])
+        return rot, pos
 
     def body_points(self, q, indices=None):
-        q, _ = check_batch(q, self._space)
-        local, joint = self._select(indices)
-        out = np.empty((len(q), len(local), 3))
-        for a, x in enumerate(q):
-            rot, pos = self._placements(self.full_configuration(x))
-            out[a] = np.einsum("mij,mj->mi", rot[joint], local) + pos[joint]
+        """World positions ``(n, m, 3)`` (m) of the body points at configurations ``(n, d)``."""
+        full = self.full_configurations(q)
+        local, slot = self._select(indices)
+        out = np.empty((len(full), len(local), 3))
+        for a, x in enumerate(full):
+            pin.forwardKinematics(self.model, self.data, x)
+            rot, pos = self._placements(self._used)
+            out[a] = np.einsum("mij,mj->mi", rot[slot], local) + pos[slot]
         return out
 
     def point_jacobians(self, q, indices=None):
-        q, _ = check_batch(q, self._space)
-        pin = self.pin
-        local, joint = self._select(indices)
-        used = np.unique(joint)
-        out = np.empty((len(q), len(local), 3, len(self.joint_ids)))
-        for a, x in enumerate(q):
-            full = self.full_configuration(x)
-            pin.computeJointJacobians(self.model, self.data, full)
-            rot = np.array([self.data.oMi[j].rotation for j in range(self.model.njoints)])
-            origin = np.array([self.data.oMi[j].translation for j in range(self.model.njoints)])
-            lin = np.zeros((self.model.njoints, 3, len(self.joint_ids)))
-            ang = np.zeros_like(lin)
-            for j in used:
-                jac = pin.getJointJacobian(self.model, self.data, int(j), pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-                lin[j] = jac[:3, self.idx_v]
-                ang[j] = jac[3:, self.idx_v]
-            world = np.einsum("mij,mj->mi", rot[joint], local) + origin[joint]
-            r = world - origin[joint]
-            # v_p = v_o + w x r for every joint column
-            out[a] = lin[joint] + np.cross(np.swapaxes(ang[joint], 1, 2), r[:, None, :]).swapaxes(1, 2)
+        """``(n, m, 3, d)``: d(point position)/d(joint value) (m/rad or m/m) at configurations ``(n, d)``."""
+        full = self.full_configurations(q)
+        local, slot = self._select(indices)
+        mask = self._used_support[slot][:, None, :]                       # (m, 1, d)
+        out = np.empty((len(full), len(local), 3, len(self.joint_ids)))
+        for a, x in enumerate(full):
+            pin.computeJointJacobians(self.model, self.data, x)           # also the forward kinematics
+            rot, pos = self._placements(self._used)
+            world = np.einsum("mij,mj->mi", rot[slot], local) + pos[slot]
+            out[a] = self._point_columns(world) * mask
         return out
 
-    # --- extras -------------------------------------------------------------------------------
+    def _point_columns(self, world: np.ndarray) -> np.ndarray:
+        """``(k, 3, d)``: ``v_O + w x p`` of every group column at world points ``(k, 3)`` (after Jacobians)."""
+        jac = self.data.J[:, self.idx_v]                                  # (6, d) world-frame twists
+        lin, ang = jac[:3], jac[3:]
+        # (w x p)_i for each column: cross of ang (d, 3) with p (k, 1, 3) -> (k, d, 3)
+        cross = np.cross(ang.T[None, :, :], world[:, None, :])
+        return lin[None] + cross.transpose(0, 2, 1)
 
-    def frame_position(self, q: np.ndarray, frame: str) -> np.ndarray:
-        """World position ``(n, 3)`` of a named frame (link or joint) at configurations ``(n, d)``."""
-        q, _ = check_batch(q, self._space)
-        if not self.model.existFrame(frame):
-            raise PluginError("no frame of that name in the model", field="frame", value=frame)
-        fid = self.model.getFrameId(frame)
-        out = np.empty((len(q), 3))
-        for a, x in enumerate(q):
-            self.pin.framesForwardKinematics(self.model, self.data, self.full_configuration(x))
-            out[a] = self.data.oMf[fid].translation
+    # --- frames -------------------------------------------------------------------------------
+
+    def _frame(self, frame: str) -> int:
+        if not isinstance(frame, str) or not self.model.existFrame(frame):
+            raise ConfigError("no link, joint or frame of that name in the model", field="frame", value=frame)
+        return int(self.model.getFrameId(frame))
+
+    def frame_placements(self, q: np.ndarray, frame: str) -> np.ndarray:
+        """Homogeneous world placements ``(n, 4, 4)`` (m) of a named link / joint frame at configurations ``(n, d)``."""
+        fid = self._frame(frame)
+        full = self.full_configurations(q)
+        out = np.empty((len(full), 4, 4))
+        for a, x in enumerate(full):
+            pin.forwardKinematics(self.model, self.data, x)
+            out[a] = pin.updateFramePlacement(self.model, self.data, fid).homogeneous
         return out
 
-    def jacobian_at(self, q: np.ndarray, frame: str, point: np.ndarray) -> np.ndarray:
-        """``(3, d)`` Jacobian of a world point ``(3,)`` rigidly attached to ``frame``, at configuration ``(d,)``."""
-        pin = self.pin
-        q, _ = check_batch(q, self._space)
-        if not self.model.existFrame(frame):
-            raise PluginError("no frame of that name in the model", field="frame", value=frame)
-        joint = int(self.model.frames[self.model.getFrameId(frame)].parentJoint)
-        pin.computeJointJacobians(self.model, self.data, self.full_configuration(q[0]))
-        jac = pin.getJointJacobian(self.model, self.data, joint, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-        r = np.asarray(point, dtype=np.float64) - self.data.oMi[joint].translation
-        lin, ang = jac[:3, self.idx_v], jac[3:, self.idx_v]
-        return lin + np.cross(ang.T, r).T
+    def frame_position(self, q: np.ndarray, frame: str, offset=(0.0, 0.0, 0.0)) -> np.ndarray:
+        """World position ``(n, 3)`` (m) of the point at ``offset`` (m, frame coordinates) in a named frame."""
+        placement = self.frame_placements(q, frame)
+        return placement[:, :3, :3] @ np.asarray(offset, dtype=np.float64) + placement[:, :3, 3]
+
+    def frame_jacobians(self, q: np.ndarray, frame: str, offset=(0.0, 0.0, 0.0)) -> np.ndarray:
+        """``(n, 3, d)``: linear Jacobian (m/rad) of the point at ``offset`` (m, frame coordinates) in ``frame``."""
+        fid = self._frame(frame)
+        offset = np.asarray(offset, dtype=np.float64)
+        if offset.shape != (3,) or not np.all(np.isfinite(offset)):
+            raise DimensionError("offset must be 3 finite numbers (m)", field="offset", value=offset.tolist())
+        joint = int(self.model.frames[fid].parentJoint)
+        mask = self._support_mask([joint])                                 # (1, d)
+        full = self.full_configurations(q)
+        out = np.empty((len(full), 3, len(self.joint_ids)))
+        for a, x in enumerate(full):
+            pin.computeJointJacobians(self.model, self.data, x)
+            placement = pin.updateFramePlacement(self.model, self.data, fid)
+            world = placement.rotation @ offset + placement.translation
+            out[a] = self._point_columns(world[None])[0] * mask
+        return out
+
+    # --- collision ----------------------------------------------------------------------------
 
     def self_collision(self, q: np.ndarray) -> np.ndarray:
-        """Bool ``(n,)``: whether any non-allowed pair of the robot's geometries collides."""
-        q, _ = check_batch(q, self._space)
-        return np.array([self.pin.computeCollisions(self.model, self.data, self.geometry, self.geometry_data,
-                                                    self.full_configuration(x), True) for x in q])
+        """Bool ``(n,)``: whether any pair of the robot's collision geometries not allowed by the SRDF collides."""
+        full = self.full_configurations(q)
+        return np.array([bool(pin.computeCollisions(self.model, self.data, self.geometry, self.geometry_data,
+                                                    x, True)) for x in full], dtype=bool)
 
     def environment_distance(self, q: np.ndarray) -> np.ndarray:
-        """Smallest distance (m) between the robot and the scene's box/sphere/cylinder objects, ``(n,)``."""
-        import coal
+        """Smallest distance (m) between the robot's collision geometry and the scene's objects, ``(n,)``.
 
-        q, _ = check_batch(q, self._space)
-        obstacles = self._obstacles(coal)
-        out = np.full(len(q), np.inf)
+        Boxes, spheres, cylinders and meshes count (cut-outs are ignored, so a part with cut-outs is
+        treated as solid; voxel-array objects are skipped).  Negative or zero where they overlap
+        (then coal's penetration estimate); ``inf`` when the scene has no such object.
+        """
+        full = self.full_configurations(q)
+        out = np.full(len(full), np.inf)
+        if not self._obstacles:
+            return out
         request, result = coal.DistanceRequest(), coal.DistanceResult()
-        for a, x in enumerate(q):
-            self.pin.updateGeometryPlacements(self.model, self.data, self.geometry, self.geometry_data,
-                                              self.full_configuration(x))
-            for k, geom in enumerate(self.geometry.geometryObjects):
+        geoms = self.geometry.geometryObjects
+        for a, x in enumerate(full):
+            pin.updateGeometryPlacements(self.model, self.data, self.geometry, self.geometry_data, x)
+            best = np.inf
+            for k, geom in enumerate(geoms):
                 placement = self.geometry_data.oMg[k]
                 tf = coal.Transform3s(placement.rotation, placement.translation)
-                for shape, obstacle_tf in obstacles:
+                for obstacle in self._obstacles:
                     result.clear()
-                    out[a] = min(out[a], coal.distance(geom.geometry, tf, shape, obstacle_tf, request, result))
+                    best = min(best, coal.distance(geom.geometry, tf, obstacle.geometry, obstacle.transform,
+                                                   request, result))
+            out[a] = best
         return out
 
-    def _obstacles(self, coal):
-        if getattr(self, "_obstacle_cache", None) is None:
-            shapes = []
-            for obj in self.require("scene").objects:
-                s = obj.part.shape
-                if s.kind == "box":
-                    geom = coal.Box(*s.size)
-                elif s.kind == "sphere":
-                    geom = coal.Sphere(s.radius)
-                elif s.kind == "cylinder":
-                    geom = coal.Cylinder(s.radius, s.length)
-                else:
-                    continue
-                shapes.append((geom, coal.Transform3s(obj.part.pose.rotation, obj.part.pose.position)))
-            self._obstacle_cache = shapes
-        return self._obstacle_cache
+    def in_collision(self, q: np.ndarray) -> np.ndarray:
+        """Bool ``(n,)``: self-collision, or touching / penetrating a scene object (distance <= 0)."""
+        return self.self_collision(q) | (self.environment_distance(q) <= 0.0)
