@@ -109,6 +109,29 @@ def check_batch(q: Any, space: Space, field: str = "configurations") -> tuple[np
     return arr, single
 
 
+@dataclass
+class SelfContacts:
+    """Contacts between a robot's own links at one configuration (``c`` contacts, ``d`` joints).
+
+    point_a / point_b: ``(c, 3)`` world points (m) on the two links; normal: ``(c, 3)`` unit, from
+    link a toward link b; depth: ``(c,)`` penetration (m, >= 0); mass_a / mass_b: ``(c,)`` mass (kg)
+    of each link with everything it carries further down the chain (thesis app. B); jacobian_a /
+    jacobian_b: ``(c, 3, d)`` Jacobians of the two points.
+    """
+
+    point_a: np.ndarray
+    point_b: np.ndarray
+    normal: np.ndarray
+    depth: np.ndarray
+    mass_a: np.ndarray
+    mass_b: np.ndarray
+    jacobian_a: np.ndarray
+    jacobian_b: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.depth)
+
+
 class RobotModel(Component):
     """A robot: its configuration space and the points of its body.
 
@@ -150,6 +173,10 @@ class RobotModel(Component):
 
     def point_count(self) -> int:
         return len(self.point_materials())
+
+    def self_contacts(self, q: np.ndarray) -> SelfContacts | None:
+        """Contacts between the robot's own links at one configuration ``(d,)``; ``None`` if it has no links."""
+        return None
 
     def rigid_placement(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """For a single rigid body: ``(R (n, 3, 3), t (n, 3), local (m, 3))`` with points ``R @ local + t``.

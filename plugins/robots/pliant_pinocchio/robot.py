@@ -24,7 +24,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 from pliant.errors import ConfigError, DimensionError, PlanningError, SceneError
-from pliant.interfaces import RobotModel, check_batch
+from pliant.interfaces import RobotModel, SelfContacts, check_batch
 from pliant.options import option
 from pliant.spaces import RealVectorSpace
 
@@ -433,6 +433,42 @@ class PinocchioRobot(RobotModel):
         full = self.full_configurations(q)
         return np.array([bool(pin.computeCollisions(self.model, self.data, self.geometry, self.geometry_data,
                                                     x, True)) for x in full], dtype=bool)
+
+    def self_contacts(self, q: np.ndarray) -> SelfContacts:
+        """Contacts between non-allowed pairs of the robot's geometries at one configuration ``(d,)``.
+
+        From coal's collision results: nearest points on both geometries, the normal from the first
+        toward the second, the penetration depth; masses are pinocchio's subtree masses of the two
+        joints (the link and everything after it, as thesis app. B prescribes).
+        """
+        full = self.full_configurations(np.atleast_2d(q))[0]
+        pin.computeCollisions(self.model, self.data, self.geometry, self.geometry_data, full, False)
+        rows = []
+        for k, result in enumerate(self.geometry_data.collisionResults):
+            if not result.isCollision():
+                continue
+            pair = self.geometry.collisionPairs[k]
+            contact = result.getContact(0)
+            ja = self.geometry.geometryObjects[pair.first].parentJoint
+            jb = self.geometry.geometryObjects[pair.second].parentJoint
+            rows.append((ja, jb, np.array(contact.getNearestPoint1()), np.array(contact.getNearestPoint2()),
+                         np.array(contact.normal), max(0.0, -float(contact.penetration_depth))))
+        d = len(self.joint_ids)
+        if not rows:
+            empty = np.zeros((0, 3))
+            return SelfContacts(empty, empty, empty, np.zeros(0), np.zeros(0), np.zeros(0), np.zeros((0, 3, d)),
+                                np.zeros((0, 3, d)))
+        pin.computeJointJacobians(self.model, self.data, full)
+        pin.computeSubtreeMasses(self.model, self.data)
+        ja, jb = [r[0] for r in rows], [r[1] for r in rows]
+        pa, pb = np.array([r[2] for r in rows]), np.array([r[3] for r in rows])
+        jac_a = self._point_columns(pa) * self._support_mask(ja)[:, None, :]
+        jac_b = self._point_columns(pb) * self._support_mask(jb)[:, None, :]
+        normal = np.array([r[4] for r in rows])
+        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+        return SelfContacts(pa, pb, normal, np.array([r[5] for r in rows]),
+                            np.array([self.data.mass[j] for j in ja]), np.array([self.data.mass[j] for j in jb]),
+                            jac_a, jac_b)
 
     def environment_distance(self, q: np.ndarray) -> np.ndarray:
         """Smallest distance (m) between the robot's collision geometry and the scene's objects, ``(n,)``.

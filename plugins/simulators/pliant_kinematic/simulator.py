@@ -59,6 +59,8 @@ class KinematicOptions:
     stuck_fraction: float = option(0.05, "stuck when a control step moves less than this fraction of what it "
                                    "commanded", minimum=0.0, maximum=1.0)
     fused_kernel: bool = option(True, "use the fused numba kernel for rigid bodies (least-squares solver only)")
+    self_collision: bool = option(True, "resolve contacts between a multi-link robot's own links (app. B's "
+                                  "momentum model); robots without links ignore it")
     damping: float = option(1e-6, "Levenberg-Marquardt damping of eq. 8.5, relative to the mean diagonal of "
                             "J^T J (keeps redundant robots from moving in their null space)", minimum=0.0)
 
@@ -109,6 +111,8 @@ class KinematicSimulator(Simulator):
                                                           and o.solver == "least-squares") else None
         self.reach_radius = None
         self._broad_phase = None
+        self.self_collision = o.self_collision and self.robot.self_contacts(
+            np.asarray(scene.start, dtype=np.float64)) is not None
         if placement is not None:
             self.surface_local = np.ascontiguousarray(placement[2][self.surface])
             self.reach_radius = float(np.max(np.linalg.norm(self.surface_local, axis=1)))
@@ -240,13 +244,48 @@ class KinematicSimulator(Simulator):
             hit = self.contact.colliding(pts)
             active = np.nonzero(hit.any(axis=1))[0]
             if len(active) == 0:
-                return trial, np.ones(len(q), dtype=bool), touched
+                break
             touched[active] = True
             trial[active] = self._correct(trial[active], pts[active], before[active], hit[active])
-        pts = self.robot.body_points(trial, surface)
-        still = self.contact.colliding(pts).any(axis=1)
+        still = self.contact.colliding(self.robot.body_points(trial, surface)).any(axis=1)
+        if self.self_collision:
+            for a in np.nonzero(~still)[0]:
+                trial[a], ok, hit_self = self._resolve_self_collision(trial[a], step[a])
+                still[a] = not ok
+                touched[a] |= hit_self
         trial[still] = q[still]                      # revert: the step could not be made feasible
         return trial, ~still, touched
+
+    def _resolve_self_collision(self, q, step):
+        """Thesis app. B's momentum model of self-collisions for one particle; returns (q, resolved, touched).
+
+        Each contact between links a and b is an inelastic collision of their momenta along the
+        contact normal: with ``M`` the mass of a link and everything after it in the chain and ``u``
+        its contact point's motion along the normal during the microstep (``J step . n``), both
+        points take the common motion ``u* = (M_a u_a + M_b u_b) / (M_a + M_b)``.  The differences,
+        plus half the penetration each, are the point corrections, mapped to the joints by damped
+        least squares (eq. 8.5).
+        """
+        touched = False
+        for _ in range(self.options.max_corrections):
+            c = self.robot.self_contacts(q)
+            if len(c) == 0:
+                return q, True, touched
+            touched = True
+            n = c.normal
+            ua = np.einsum("cij,j,ci->c", c.jacobian_a, step, n)
+            ub = np.einsum("cij,j,ci->c", c.jacobian_b, step, n)
+            total = np.maximum(c.mass_a + c.mass_b, 1e-12)
+            common = (c.mass_a * ua + c.mass_b * ub) / total
+            separate = 0.5 * (c.depth + self.options.clearance * self.grid.resolution)
+            dp = np.concatenate([((common - ua) - separate)[:, None] * n, ((common - ub) + separate)[:, None] * n])
+            jac = np.concatenate([c.jacobian_a, c.jacobian_b]).reshape(-1, self.space.tangent_dim)
+            lhs = jac.T @ jac
+            lhs += self.options.damping * max(np.trace(lhs) / len(lhs), 1e-12) * np.eye(len(lhs))
+            q = self.space.retract(q, np.linalg.solve(lhs, jac.T @ dp.reshape(-1)))
+            if self.space.kind == "rn":
+                q = self.space.enforce_bounds(q)
+        return q, len(self.robot.self_contacts(q)) == 0, touched
 
     def _microstep_fused(self, q, step):
         """:meth:`_microstep` for rigid bodies, compiled end to end (same mathematics, see rigid_kernel)."""

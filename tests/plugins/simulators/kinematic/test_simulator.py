@@ -189,3 +189,22 @@ def test_an_arm_pushed_into_a_board_stops_in_contact_within_its_limits():
     assert ctx.robot.environment_distance(out.final)[0] > -ctx.scene.resolution
     free = sim.simulate(start, np.array([0.0, 1.2, 0.0, 0.3, 0.0, 1.2, 0.0]), np.random.default_rng(0), 4.0)
     assert free.reached[0] and not free.in_contact[0]
+
+
+def test_self_collision_momentum_model_keeps_an_arm_out_of_itself():
+    ctx = Context(scene=load_scene("iiwa-shelf"))
+    ctx.robot = registry.create("robot", "pinocchio", ctx)
+    folded = np.array([2.9, 2.0, 0.0, -2.0, 0.0, 2.0, 0.0])           # folds the forearm into the upper arm
+    assert ctx.robot.self_collision(folded[None])[0]
+    start = np.array([[2.9, 0.0, 0.0, -0.5, 0.0, 0.5, 0.0]])
+    modelled = registry.create("simulator", "kinematic", ctx).simulate(start, folded, np.random.default_rng(0), 5.0,
+                                                                       record=True)
+    ignored = registry.create("simulator", "kinematic", ctx, self_collision=False).simulate(
+        start, folded, np.random.default_rng(0), 5.0, record=True)
+    assert ignored.reached[0] and ctx.robot.self_collision(ignored.trajectories[0]).any()
+    assert modelled.in_contact[0] and not modelled.reached[0]
+    assert not ctx.robot.self_collision(modelled.trajectories[0]).any()
+
+
+def test_self_contacts_of_a_rigid_body_are_none(scene_context):
+    assert scene_context("se2-maze").robot.self_contacts(np.array([7.75, 7.75, 0.0])) is None
