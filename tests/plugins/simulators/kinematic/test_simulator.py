@@ -208,3 +208,12 @@ def test_self_collision_momentum_model_keeps_an_arm_out_of_itself():
 
 def test_self_contacts_of_a_rigid_body_are_none(scene_context):
     assert scene_context("se2-maze").robot.self_contacts(np.array([7.75, 7.75, 0.0])) is None
+
+
+def test_forward_and_back_batches():
+    sim = peg().simulator
+    starts = np.vstack([pose(8, 8, 8), pose(7, 8, 6), pose(6.5, 6.5, 3.6)])
+    forward = sim.simulate(starts, pose(7, 7, 6), np.random.default_rng(0), 4.0)
+    back = sim.simulate(forward.final, starts, np.random.default_rng(0), 4.0)
+    assert forward.reached.all() and back.reached.all()
+    assert np.allclose(back.final[:, :3], starts[:, :3], atol=0.07)
