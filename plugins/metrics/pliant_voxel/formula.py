@@ -16,7 +16,9 @@ def deformation_cost(d_robot, s_robot, d_env, s_env) -> np.ndarray:
     d_robot, s_robot, d_env, s_env = (np.asarray(x, dtype=np.float64) for x in (d_robot, s_robot, d_env, s_env))
     total = d_robot + d_env
     with np.errstate(invalid="ignore", divide="ignore"):
-        cost = (d_robot * s_robot + d_env * s_env) / total
+        # the weights first, as eq. 3.1 writes them: they stay in [0, 1] even for subnormal deformabilities
+        weight = d_robot / total
+        cost = weight * s_robot + (1.0 - weight) * s_env
     return np.where(total > 0, cost, np.nan)
 
 

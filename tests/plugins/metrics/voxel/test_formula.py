@@ -52,3 +52,7 @@ def test_tables_free_space_is_zero_and_outside_is_nan():
     assert table.shape == (2, 3)
     assert table[0, 0] == pytest.approx(0.3) and table[0, 1] == 0.0 and math.isnan(table[0, 2])
     assert table[1, 0] == pytest.approx(0.4)
+
+
+def test_subnormal_deformability_keeps_the_cost_between_the_sensitivities():
+    assert deformation_cost(5e-324, 0.75, 0.0, 0.0) == pytest.approx(0.75)
