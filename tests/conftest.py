@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import functools
+import os
 
 import pytest
 from hypothesis import settings
 from pliant import load_scene, registry
 from pliant.interfaces import Context
 
+# Local runs explore new examples every time; CI (CI=true) replays a fixed sequence, so that a
+# submission's result does not depend on the draw.  Failures found locally are kept as explicit tests.
 settings.register_profile("pliant", deadline=None, print_blob=True)
-settings.load_profile("pliant")
+settings.register_profile("ci", deadline=None, print_blob=True, derandomize=True)
+settings.load_profile("ci" if os.environ.get("CI") else "pliant")
 
 
 @functools.cache
