@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from pliant.actuation import angular_mask, limit_velocity
 from pliant.errors import DimensionError
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
 from pliant.noise import NOISE_MODELS, ActuationNoise
@@ -65,15 +66,6 @@ class KinematicOptions:
                             "J^T J (keeps redundant robots from moving in their null space)", minimum=0.0)
 
 
-def _angular_mask(space) -> np.ndarray:
-    kinds = {"se2": [False, False, True], "se3": [False] * 3 + [True] * 3}
-    if space.kind in kinds:
-        return np.array(kinds[space.kind])
-    if space.kind == "compound":
-        return np.concatenate([_angular_mask(c) for c in space.components])
-    return np.zeros(space.tangent_dim, dtype=bool)
-
-
 class KinematicSimulator(Simulator):
     """Fast kinematic simulation with contact and compliance for batches of particles (thesis app. B).
 
@@ -94,7 +86,7 @@ class KinematicSimulator(Simulator):
         self.surface = self.robot.surface_indices()
         o = self.options
         t = self.space.tangent_dim
-        self.angular = _angular_mask(self.space)
+        self.angular = angular_mask(self.space)
         if o.joint_velocity_limits:
             if len(o.joint_velocity_limits) != t:
                 raise DimensionError(f"needs one limit per actuator ({t})", field="simulator.joint_velocity_limits",
@@ -131,16 +123,8 @@ class KinematicSimulator(Simulator):
         (thesis ch. 5: 1.0 m/s and 0.125 rad/s); articulated robots, or per-actuator limits, cap every
         component by one common factor.
         """
-        v = np.array(velocity, dtype=np.float64)
-        if self.per_actuator:
-            ratio = np.max(np.abs(v) / self.limits, axis=1, keepdims=True)
-            return v / np.maximum(ratio, 1.0)
-        for mask, lim in ((~self.angular, self.options.velocity_limit),
-                          (self.angular, self.options.angular_velocity_limit)):
-            if mask.any():
-                norm = np.linalg.norm(v[:, mask], axis=1, keepdims=True)
-                v[:, mask] /= np.maximum(norm / lim, 1.0)
-        return v
+        return limit_velocity(velocity, self.angular, self.options.velocity_limit,
+                              self.options.angular_velocity_limit, self.limits if self.per_actuator else None)
 
     # --- simulation ---------------------------------------------------------------------------
 

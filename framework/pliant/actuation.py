@@ -1,0 +1,39 @@
+"""The actuator model shared by every simulator: which tangent directions rotate, and velocity limits.
+
+Thesis ch. 5 limits rigid bodies by the norm of their translation (m/s) and of their rotation
+(rad/s) separately; articulated robots are limited per joint.  Scaling keeps the command's direction.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pliant.spaces import Space
+
+
+def angular_mask(space: Space) -> np.ndarray:
+    """Bool ``(t,)``: which tangent directions of ``space`` are rotations (SE(2)'s theta, SE(3)'s w)."""
+    kinds = {"se2": [False, False, True], "se3": [False] * 3 + [True] * 3}
+    if space.kind in kinds:
+        return np.array(kinds[space.kind])
+    if space.kind == "compound":
+        return np.concatenate([angular_mask(c) for c in space.components])
+    return np.zeros(space.tangent_dim, dtype=bool)
+
+
+def limit_velocity(velocity: np.ndarray, angular: np.ndarray, linear_limit: float, angular_limit: float,
+                   per_actuator: np.ndarray | None = None) -> np.ndarray:
+    """Velocities ``(n, t)`` scaled into the limits, keeping their direction.
+
+    With ``per_actuator`` limits ``(t,)`` every component is capped by one common factor; otherwise
+    the norms of the translational and of the rotational parts are capped separately.
+    """
+    v = np.array(velocity, dtype=np.float64)
+    if per_actuator is not None:
+        ratio = np.max(np.abs(v) / per_actuator, axis=1, keepdims=True)
+        return v / np.maximum(ratio, 1.0)
+    for mask, lim in ((~angular, linear_limit), (angular, angular_limit)):
+        if mask.any():
+            norm = np.linalg.norm(v[:, mask], axis=1, keepdims=True)
+            v[:, mask] /= np.maximum(norm / lim, 1.0)
+    return v
