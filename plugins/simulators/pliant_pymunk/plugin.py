@@ -1,0 +1,9 @@
+"""Entry point of the pymunk backend (pymunk is imported only when the simulator is created)."""
+
+from pliant.hookspecs import hookimpl
+
+
+@hookimpl
+def pliant_register(registrar):
+    registrar.add("simulator", "pymunk", "pliant_pymunk.simulator:PymunkSimulator",
+                  description="2-D rigid-body dynamics (pymunk) for planar scenes: compliant control, friction")

@@ -1,0 +1,71 @@
+"""Building a pymunk space from a planar pliant scene.
+
+Static geometry comes from the scene's voxel grid (one layer): every row of occupied voxels along x
+becomes one static box, so boxes, cut-outs, cylinders and meshes are all represented, exactly at the
+scene's resolution.  The robot is a dynamic body made of its parts' boxes and circles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pliant.errors import SimulationError
+from pliant.scene import Scene
+from pliant.voxelgrid import VoxelGrid
+
+
+def check_planar(scene: Scene) -> None:
+    """Raise :class:`SimulationError` unless the scene and its robot are planar (a 2-D backend)."""
+    if not scene.planar or scene.shape[2] != 1:
+        raise SimulationError("pymunk is a 2-D backend: the scene must be planar (planar = true, one voxel layer)",
+                              source=scene.source, field="planar", value=scene.planar)
+    if scene.robot.kind != "rigid" or scene.robot.space != "se2":
+        raise SimulationError("pymunk simulates SE(2) rigid robots only", source=scene.source, field="robot.space",
+                              value=scene.robot.space or scene.robot.kind)
+
+
+def static_rectangles(grid: VoxelGrid) -> list[tuple[float, float, float, float]]:
+    """Occupied voxels of the single layer as ``(x0, y0, x1, y1)`` rectangles, one per run along x."""
+    occ = grid.occupied[:, :, 0]
+    res = grid.resolution
+    rects = []
+    for j in range(occ.shape[1]):
+        column = occ[:, j]
+        if not column.any():
+            continue
+        edges = np.diff(np.concatenate([[0], column.astype(np.int8), [0]]))
+        starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+        for a, b in zip(starts, stops):
+            rects.append((grid.lower[0] + a * res, grid.lower[1] + j * res, grid.lower[0] + b * res,
+                          grid.lower[1] + (j + 1) * res))
+    return rects
+
+
+def robot_shapes(scene: Scene, pymunk, body, friction: float):
+    """pymunk shapes of the robot's parts (boxes and circles, in the robot frame), attached to ``body``."""
+    shapes = []
+    for k, rp in enumerate(scene.robot.parts):
+        part = rp.part
+        if part.cutouts:
+            raise SimulationError("robot parts with cut-outs cannot be represented in pymunk", source=scene.source,
+                                  field=f"robot.parts[{k}].cutouts")
+        q = part.pose.orientation
+        if abs(q[0]) > 1e-9 or abs(q[1]) > 1e-9:
+            raise SimulationError("a planar robot's parts may only rotate about z", source=scene.source,
+                                  field=f"robot.parts[{k}].orientation", value=q.tolist())
+        angle = 2 * np.arctan2(q[2], q[3])
+        centre = tuple(part.pose.position[:2])
+        kind = part.shape.kind
+        if kind == "box":
+            hx, hy = part.shape.size[0] / 2, part.shape.size[1] / 2
+            c, s = np.cos(angle), np.sin(angle)
+            corners = [(centre[0] + c * x - s * y, centre[1] + s * x + c * y)
+                       for x, y in ((-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy))]
+            shape = pymunk.Poly(body, corners)
+        elif kind in ("sphere", "cylinder"):
+            shape = pymunk.Circle(body, part.shape.radius, centre)
+        else:
+            raise SimulationError(f"robot part shape '{kind}' cannot be represented in pymunk", source=scene.source,
+                                  field=f"robot.parts[{k}].shape", value=kind)
+        shape.friction = friction
+        shapes.append(shape)
+    return shapes

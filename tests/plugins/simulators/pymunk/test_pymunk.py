@@ -1,0 +1,73 @@
+"""The pymunk backend: planar scenes only, free-space agreement with the kinematic simulator, contact."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pliant import Pipeline, load_scene, registry
+from pliant.errors import SimulationError
+from pliant.interfaces import Context
+from pliant.testing import check_component
+from pliant.voxelgrid import VoxelGrid
+from pliant_kinematic.contact import ContactModel
+
+
+@pytest.fixture(scope="module")
+def maze():
+    ctx = Context(scene=load_scene("se2-maze"))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    return ctx
+
+
+def test_free_motion_agrees_with_the_kinematic_simulator(maze):
+    pm = registry.create("simulator", "pymunk", maze)
+    kin = registry.create("simulator", "kinematic", maze)
+    start, target = np.array([[4.0, 4.0, 0.0]]), np.array([4.6, 5.0, 0.2])
+    a = pm.simulate(start, target, np.random.default_rng(0), 6.0, record=True)
+    b = kin.simulate(start, target, np.random.default_rng(0), 6.0, record=True)
+    assert a.reached[0] and b.reached[0] and not a.in_contact[0]
+    assert np.abs(a.trajectories - b.trajectories).max() < 0.06       # the compliant pull lags a little
+
+
+def test_commanded_into_a_wall_it_stops_at_contact_with_bounded_force(maze):
+    pm = registry.create("simulator", "pymunk", maze, max_force=500.0)
+    pm.reset(np.array([8.0, 8.0, 0.0]))
+    grid = ContactModel(VoxelGrid.from_scene(maze.scene))
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        q = pm.step(np.array([0.0, 1.0, 0.0]), 0.1, rng)
+        pivot = next(c for c in pm.world.constraints if type(c).__name__ == "PivotJoint")
+        assert pivot.impulse / (0.1 / pm.substeps) <= 500.0 * (1 + 1e-6)
+    assert pm.in_contact()
+    points = maze.robot.body_points(q)
+    # the L's top arm ends 1.5 above the reference: it rests against the top wall (y = 9.5) without entering it
+    assert q[1] + 1.5 == pytest.approx(9.5 - 0.125 / 2, abs=0.1)
+    assert grid.colliding(points).sum() <= 0.1 * points.shape[1]
+
+
+def test_same_seed_same_trajectory(maze):
+    pm = registry.create("simulator", "pymunk", maze, noise="bounded", noise_linear=0.125, noise_angular=0.0156)
+    starts = np.array([[4.0, 4.0, 0.0], [5.0, 4.0, 0.0]])
+    a = pm.simulate(starts, np.array([4.6, 5.0, 0.2]), np.random.default_rng(5), 3.0)
+    b = pm.simulate(starts, np.array([4.6, 5.0, 0.2]), np.random.default_rng(5), 3.0)
+    assert np.array_equal(a.final, b.final)
+    c = pm.simulate(starts, np.array([4.6, 5.0, 0.2]), np.random.default_rng(6), 3.0)
+    assert not np.array_equal(a.final, c.final)
+
+
+def test_a_3d_scene_is_refused_with_the_reason():
+    ctx = Context(scene=load_scene("se3-peg-in-hole"))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    with pytest.raises(SimulationError, match="planar"):
+        registry.create("simulator", "pymunk", ctx)
+
+
+def test_conformance():
+    assert check_component("simulator", "pymunk", scene="se2-maze")
+
+
+@pytest.mark.parametrize("simulator", ["kinematic", "pymunk"])
+def test_swapping_the_simulator_by_name(simulator, tmp_path):
+    record = Pipeline.from_file("maze-slide", overrides=[f"simulator={simulator}", f'output="{tmp_path}"']).run()
+    assert record.execution is not None and record.execution.success
+    assert (tmp_path / "path.png").is_file()
