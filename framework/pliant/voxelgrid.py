@@ -124,6 +124,52 @@ class VoxelGrid:
             raise DimensionError("points must be (..., 3)", field="points", value=list(points.shape))
         return (points - self.lower) / self.resolution - 0.5
 
+    def boxes(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The occupied voxels as few axis-aligned boxes ``(lower (3,), upper (3,))`` in metres.
+
+        Greedy merging: runs along x, then equal runs on consecutive y rows, then equal rectangles on
+        consecutive z layers.  Exact (the union is the occupied set); backends that need primitive
+        shapes (pybullet, pymunk) use it so that cut-outs and meshes are represented faithfully.
+        """
+        occ = self.occupied
+        padded = np.zeros((occ.shape[0] + 2,) + occ.shape[1:], dtype=np.int8)
+        padded[1:-1] = occ
+        edges = np.diff(padded, axis=0)
+        starts = np.argwhere(edges == 1)                 # (x0, y, z)
+        stops = np.argwhere(edges == -1)                 # (x1, y, z), same order (x-runs per (y, z) row)
+        order_a = np.lexsort((starts[:, 0], starts[:, 1], starts[:, 2]))
+        order_b = np.lexsort((stops[:, 0], stops[:, 1], stops[:, 2]))
+        runs = [(int(a[0]), int(b[0]), int(a[1]), int(a[2])) for a, b in zip(starts[order_a], stops[order_b])]
+        # merge along y: key (x0, x1, z) -> open rectangle (y0, y1)
+        rects: dict[tuple[int, int, int, int], int] = {}
+        open_rect: dict[tuple[int, int, int], tuple[int, int]] = {}
+        for x0, x1, y, z in sorted(runs, key=lambda r: (r[3], r[2], r[0])):
+            key = (x0, x1, z)
+            if key in open_rect and open_rect[key][1] == y:
+                open_rect[key] = (open_rect[key][0], y + 1)
+            else:
+                if key in open_rect:
+                    y0, y1 = open_rect[key]
+                    rects[(x0, x1, y0, y1, z)] = 1
+                open_rect[key] = (y, y + 1)
+        for (x0, x1, z), (y0, y1) in open_rect.items():
+            rects[(x0, x1, y0, y1, z)] = 1
+        # merge along z
+        out: list[tuple[int, int, int, int, int, int]] = []
+        open_box: dict[tuple[int, int, int, int], tuple[int, int]] = {}
+        for x0, x1, y0, y1, z in sorted(rects, key=lambda r: (r[4], r[0], r[2])):
+            key = (x0, x1, y0, y1)
+            if key in open_box and open_box[key][1] == z:
+                open_box[key] = (open_box[key][0], z + 1)
+            else:
+                if key in open_box:
+                    out.append((*key, *open_box[key]))
+                open_box[key] = (z, z + 1)
+        out.extend((*key, *span) for key, span in open_box.items())
+        res = self.resolution
+        return [(self.lower + np.array([x0, y0, z0]) * res, self.lower + np.array([x1, y1, z1]) * res)
+                for x0, x1, y0, y1, z0, z1 in out]
+
     # --- construction -------------------------------------------------------------------------
 
     @classmethod

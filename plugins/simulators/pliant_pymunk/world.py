@@ -1,8 +1,8 @@
 """Building a pymunk space from a planar pliant scene.
 
-Static geometry comes from the scene's voxel grid (one layer): every row of occupied voxels along x
-becomes one static box, so boxes, cut-outs, cylinders and meshes are all represented, exactly at the
-scene's resolution.  The robot is a dynamic body made of its parts' boxes and circles.
+Static geometry comes from the scene's voxel grid (one layer), merged into few exact boxes
+(:meth:`pliant.voxelgrid.VoxelGrid.boxes`), so boxes, cut-outs, cylinders and meshes are all
+represented, exactly at the scene's resolution.  The robot is a dynamic body made of its parts' boxes and circles.
 """
 
 from __future__ import annotations
@@ -24,20 +24,8 @@ def check_planar(scene: Scene) -> None:
 
 
 def static_rectangles(grid: VoxelGrid) -> list[tuple[float, float, float, float]]:
-    """Occupied voxels of the single layer as ``(x0, y0, x1, y1)`` rectangles, one per run along x."""
-    occ = grid.occupied[:, :, 0]
-    res = grid.resolution
-    rects = []
-    for j in range(occ.shape[1]):
-        column = occ[:, j]
-        if not column.any():
-            continue
-        edges = np.diff(np.concatenate([[0], column.astype(np.int8), [0]]))
-        starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
-        for a, b in zip(starts, stops):
-            rects.append((grid.lower[0] + a * res, grid.lower[1] + j * res, grid.lower[0] + b * res,
-                          grid.lower[1] + (j + 1) * res))
-    return rects
+    """The occupied voxels of the single layer as ``(x0, y0, x1, y1)`` rectangles (exact, few)."""
+    return [(lo[0], lo[1], hi[0], hi[1]) for lo, hi in grid.boxes()]
 
 
 def robot_shapes(scene: Scene, pymunk, body, friction: float):

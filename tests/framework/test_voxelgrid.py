@@ -1,0 +1,52 @@
+"""The core voxel grid: materials, padding, signed distance, box decomposition."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+from pliant import Scene, load_scene
+from pliant.voxelgrid import VoxelGrid
+
+
+def _grid(occupancy: np.ndarray) -> VoxelGrid:
+    shape = occupancy.shape
+    return VoxelGrid(np.zeros(3), 0.5, np.where(occupancy, 0.5, 1.0), np.where(occupancy, 1.0, 0.0),
+                     np.where(occupancy, 0, -1).astype(np.int32), ["o"]) if shape else None
+
+
+@given(st.integers(0, 2**32 - 1))
+def test_boxes_cover_the_occupied_voxels_exactly_once(seed):
+    rng = np.random.default_rng(seed)
+    occ = rng.random(tuple(rng.integers(1, 7, 3))) < rng.uniform(0.1, 0.9)
+    grid = _grid(occ)
+    covered = np.zeros(occ.shape, dtype=int)
+    for lo, hi in grid.boxes():
+        i0, i1 = np.round(lo / 0.5).astype(int), np.round(hi / 0.5).astype(int)
+        covered[i0[0]:i1[0], i0[1]:i1[1], i0[2]:i1[2]] += 1
+    assert np.array_equal(covered, occ.astype(int))
+
+
+def test_bundled_scenes_decompose_into_few_boxes():
+    assert len(VoxelGrid.from_scene(load_scene("se3-peg-in-hole")).boxes()) == 5
+    assert len(VoxelGrid.from_scene(load_scene("se2-maze")).boxes()) <= 20
+
+
+def test_signed_distance_of_a_box():
+    data = {"name": "b", "start": [0.1, 0.1, 0.1], "goal": [0.1, 0.1, 0.1],
+            "bounds": {"lower": [0, 0, 0], "upper": [2, 2, 2], "resolution": 0.1},
+            "objects": [{"name": "box", "cells": [[5, 15], [5, 15], [5, 15]], "deformability": 0.0,
+                         "sensitivity": 1.0}],
+            "robot": {"kind": "rigid", "space": "r3", "parts": [{"shape": "sphere", "radius": 0.01}]}}
+    grid = VoxelGrid.from_scene(Scene.from_dict(data))
+    assert grid.sdf_at(np.array([[1.0, 1.0, 1.0]]))[0] < -0.4          # deep inside
+    assert abs(grid.sdf_at(np.array([[0.25, 1.05, 1.05]]))[0] - 0.25) < 0.06   # 0.25 m from the face at x = 0.5
+    grad = grid.sdf_gradient_at(np.array([[0.3, 1.05, 1.05]]))[0]
+    assert grad[0] < -0.9 and abs(grad[1]) < 1e-9                     # pointing away from the box: -x
+
+
+def test_padding_grows_by_the_distance():
+    scene = load_scene("cube-wall")
+    plain, padded = VoxelGrid.from_scene(scene), VoxelGrid.from_scene(scene, padding=0.04)
+    assert padded.occupied.sum() > plain.occupied.sum()
+    assert np.all(padded.deformability[padded.occupied] == 0.0)
