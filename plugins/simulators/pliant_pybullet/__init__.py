@@ -1,0 +1,1 @@
+"""A 3-D dynamic simulator backend through pybullet (Bullet physics), headless by default."""

@@ -1,0 +1,9 @@
+"""Entry point of the pybullet backend (pybullet is imported only when the simulator is created)."""
+
+from pliant.hookspecs import hookimpl
+
+
+@hookimpl
+def pliant_register(registrar):
+    registrar.add("simulator", "pybullet", "pliant_pybullet.simulator:PybulletSimulator",
+                  description="3-D rigid-body dynamics (pybullet, headless): compliant force-limited control")
