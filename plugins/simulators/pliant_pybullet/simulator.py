@@ -17,41 +17,27 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.actuation import angular_mask, limit_velocity
-from pliant.errors import DimensionError, SimulationError
-from pliant.interfaces import SimulationBatch, Simulator, check_batch
-from pliant.noise import NOISE_MODELS, ActuationNoise
+from pliant.errors import SimulationError
+from pliant.interfaces import check_batch
 from pliant.options import option
+from pliant.stepping import SteppedOptions, SteppedSimulator
 from pliant.voxelgrid import VoxelGrid
 
 
 @dataclass(frozen=True)
-class PybulletOptions:
-    """Options of :class:`PybulletSimulator`."""
+class PybulletOptions(SteppedOptions):
+    """Options of :class:`PybulletSimulator` (the shared ones: :class:`pliant.stepping.SteppedOptions`)."""
 
-    frequency: float = option(10.0, "control frequency (Hz)", minimum=1e-6)
-    physics_rate: float = option(240.0, "physics steps per second (Hz)", minimum=1.0)
-    kp: float = option(0.5, "proportional gain: fraction of the error commanded per control step", minimum=0.0)
-    velocity_limit: float = option(1.0, "translation speed limit (m/s)", minimum=1e-9)
-    angular_velocity_limit: float = option(0.125, "rotation speed limit (rad/s)", minimum=1e-9)
-    noise: str = option("none", "actuation noise model (pliant.noise)", choices=NOISE_MODELS)
-    noise_linear: float = option(0.0, "noise parameter of translation (bound m/s, or factor)", minimum=0.0)
-    noise_angular: float = option(0.0, "noise parameter of rotation (rad/s, or factor)", minimum=0.0)
     density: float = option(100.0, "robot mass per volume (kg/m^3)", minimum=1e-9)
-    friction: float = option(0.5, "lateral friction coefficient", minimum=0.0)
     max_force: float = option(200.0, "largest force the controller's constraint applies (N)", minimum=0.0)
     gravity: float = option(0.0, "gravity along -z (m/s^2)", minimum=0.0)
-    reach_tolerance: float | None = option(None, "distance counting as reached; default the scene's goal "
-                                           "tolerance, else one voxel")
-    stuck_fraction: float = option(0.05, "stuck when a control step moves less than this fraction of what it "
-                                   "commanded", minimum=0.0, maximum=1.0)
 
 
 def _yaw_quaternion(theta: float) -> list[float]:
     return [0.0, 0.0, math.sin(theta / 2), math.cos(theta / 2)]
 
 
-class PybulletSimulator(Simulator):
+class PybulletSimulator(SteppedSimulator):
     """Rigid-body dynamics of a free-flying R^3 / SE(2) / SE(3) robot in pybullet (DIRECT mode)."""
 
     Options = PybulletOptions
@@ -67,16 +53,9 @@ class PybulletSimulator(Simulator):
             raise SimulationError("the pybullet backend simulates rigid free-flying robots only for now",
                                   source=scene.source, field="robot.kind", value=scene.robot.kind)
         self.robot = self.require("robot")
-        self.space = self.robot.space
         self.kind = scene.robot.space
         o = self.options
-        self.angular = angular_mask(self.space)
-        limits = np.where(self.angular, o.angular_velocity_limit, o.velocity_limit)
-        self.noise = ActuationNoise(o.noise, np.where(self.angular, o.noise_angular, o.noise_linear), limits)
-        self.dt = 1.0 / o.frequency
-        self.substeps = max(1, round(o.physics_rate / o.frequency))
-        self.reach = o.reach_tolerance if o.reach_tolerance is not None else (
-            scene.goal_tolerance if scene.goal_tolerance > 0 else scene.resolution)
+        self.setup_actuation(scene)
         self.pb = BulletClient(connection_mode=pybullet.DIRECT)
         self.pb.setTimeStep(self.dt / self.substeps)
         self.pb.setGravity(0, 0, -o.gravity)
@@ -158,12 +137,7 @@ class PybulletSimulator(Simulator):
         return self._contact
 
     def step(self, velocity, dt, rng):
-        v = np.asarray(velocity, dtype=np.float64).reshape(-1)
-        if v.shape != (self.space.tangent_dim,) or not np.all(np.isfinite(v)):
-            raise DimensionError(f"velocity must be ({self.space.tangent_dim},) and finite", field="velocity",
-                                 value=np.asarray(velocity).tolist())
-        v = limit_velocity(v[None], self.angular, self.options.velocity_limit, self.options.angular_velocity_limit)[0]
-        v = v + self.noise.sample(rng, v[None])[0]
+        v = self.actuate(velocity, rng)
         q = self.configuration()
         n = self.substeps
         touched = False
@@ -175,38 +149,6 @@ class PybulletSimulator(Simulator):
             touched = touched or bool(self.pb.getContactPoints(bodyA=self._body))
         self._contact = touched
         return self.configuration()
-
-    def simulate(self, starts, targets, rng, duration, record=False):
-        starts, _ = check_batch(starts, self.space, "starts")
-        targets = np.broadcast_to(check_batch(targets, self.space, "targets")[0], starts.shape)
-        if not (math.isfinite(duration) and duration > 0):
-            raise DimensionError("duration must be a positive number of seconds", field="duration", value=duration)
-        steps = max(1, round(duration * self.options.frequency))
-        n = len(starts)
-        final = np.empty_like(starts)
-        touched = np.zeros(n, dtype=bool)
-        stuck = np.zeros(n, dtype=bool)
-        trajectories = np.empty((n, steps + 1, self.space.dim)) if record else None
-        for a in range(n):
-            self.reset(starts[a])
-            q = self.configuration()
-            if record:
-                trajectories[a, 0] = q
-            for k in range(steps):
-                command = self.options.kp * self.space.difference(targets[a], q) / self.dt
-                command = limit_velocity(command[None], self.angular, self.options.velocity_limit,
-                                         self.options.angular_velocity_limit)[0]
-                before = q
-                q = self.step(command, self.dt, rng)
-                touched[a] |= self._contact
-                stuck[a] = float(self.space.distance(q, before)) < (
-                    self.options.stuck_fraction * float(np.linalg.norm(command * self.dt)))
-                if record:
-                    trajectories[a, k + 1] = q
-            final[a] = q
-        reached = self.space.distance(final, targets) <= self.reach
-        return SimulationBatch(final=final, in_contact=touched, stuck=stuck & ~reached, reached=reached,
-                               trajectories=trajectories, steps=n * steps * self.substeps)
 
     def __del__(self):
         try:

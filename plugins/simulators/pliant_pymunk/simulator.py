@@ -14,39 +14,24 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.actuation import angular_mask, limit_velocity
-from pliant.errors import DimensionError
-from pliant.interfaces import SimulationBatch, Simulator, check_batch
-from pliant.noise import NOISE_MODELS, ActuationNoise
+from pliant.interfaces import check_batch
 from pliant.options import option
+from pliant.stepping import SteppedOptions, SteppedSimulator
 from pliant.voxelgrid import VoxelGrid
 
 from pliant_pymunk.world import check_planar, robot_shapes, static_rectangles
 
 
 @dataclass(frozen=True)
-class PymunkOptions:
-    """Options of :class:`PymunkSimulator`."""
+class PymunkOptions(SteppedOptions):
+    """Options of :class:`PymunkSimulator` (the shared ones: :class:`pliant.stepping.SteppedOptions`)."""
 
-    frequency: float = option(10.0, "control frequency (Hz)", minimum=1e-6)
-    physics_rate: float = option(240.0, "physics steps per second (Hz)", minimum=1.0)
-    kp: float = option(0.5, "proportional gain: fraction of the error commanded per control step", minimum=0.0)
-    velocity_limit: float = option(1.0, "translation speed limit (m/s)", minimum=1e-9)
-    angular_velocity_limit: float = option(0.125, "rotation speed limit (rad/s)", minimum=1e-9)
-    noise: str = option("none", "actuation noise model (pliant.noise)", choices=NOISE_MODELS)
-    noise_linear: float = option(0.0, "noise parameter of translation (bound m/s, or factor)", minimum=0.0)
-    noise_angular: float = option(0.0, "noise parameter of rotation (rad/s, or factor)", minimum=0.0)
     density: float = option(100.0, "robot mass per area (kg/m^2)", minimum=1e-9)
-    friction: float = option(0.5, "Coulomb friction coefficient of robot and obstacles", minimum=0.0)
     max_force: float = option(2000.0, "largest force the controller applies (N)", minimum=0.0)
     max_torque: float = option(2000.0, "largest torque the controller applies (N m)", minimum=0.0)
-    reach_tolerance: float | None = option(None, "distance counting as reached; default the scene's goal "
-                                           "tolerance, else one voxel")
-    stuck_fraction: float = option(0.05, "stuck when a control step moves less than this fraction of what it "
-                                   "commanded", minimum=0.0, maximum=1.0)
 
 
-class PymunkSimulator(Simulator):
+class PymunkSimulator(SteppedSimulator):
     """2-D dynamics with friction and compliant, force-limited control of an SE(2) robot."""
 
     Options = PymunkOptions
@@ -60,15 +45,8 @@ class PymunkSimulator(Simulator):
         scene = self.require("scene")
         check_planar(scene)
         self.robot = self.require("robot")
-        self.space = self.robot.space
         o = self.options
-        self.angular = angular_mask(self.space)
-        limits = np.where(self.angular, o.angular_velocity_limit, o.velocity_limit)
-        self.noise = ActuationNoise(o.noise, np.where(self.angular, o.noise_angular, o.noise_linear), limits)
-        self.dt = 1.0 / o.frequency
-        self.substeps = max(1, round(o.physics_rate / o.frequency))
-        self.reach = o.reach_tolerance if o.reach_tolerance is not None else (
-            scene.goal_tolerance if scene.goal_tolerance > 0 else scene.resolution)
+        self.setup_actuation(scene)
         self.world = pymunk.Space()
         self.world.gravity = (0.0, 0.0)
         for x0, y0, x1, y1 in static_rectangles(VoxelGrid.from_scene(scene)):
@@ -115,13 +93,7 @@ class PymunkSimulator(Simulator):
         return self._contact
 
     def step(self, velocity, dt, rng):
-        v = np.asarray(velocity, dtype=np.float64).reshape(-1)
-        if v.shape != (3,) or not np.all(np.isfinite(v)):
-            raise DimensionError("velocity must be (3,) and finite", field="velocity",
-                                 value=np.asarray(velocity).tolist())
-        v = limit_velocity(v[None], self.angular, self.options.velocity_limit,
-                           self.options.angular_velocity_limit)[0]
-        v = v + self.noise.sample(rng, v[None])[0]
+        v = self.actuate(velocity, rng)
         # the control body leads the robot: it starts each step where the robot is
         self.control.position = self.body.position
         self.control.angle = self.body.angle
@@ -139,35 +111,3 @@ class PymunkSimulator(Simulator):
         hits = []
         self.body.each_arbiter(lambda arbiter: hits.append(arbiter))
         return bool(hits)
-
-    def simulate(self, starts, targets, rng, duration, record=False):
-        starts, _ = check_batch(starts, self.space, "starts")
-        targets = np.broadcast_to(check_batch(targets, self.space, "targets")[0], starts.shape)
-        if not (math.isfinite(duration) and duration > 0):
-            raise DimensionError("duration must be a positive number of seconds", field="duration", value=duration)
-        steps = max(1, round(duration * self.options.frequency))
-        n = len(starts)
-        final = np.empty_like(starts)
-        touched = np.zeros(n, dtype=bool)
-        stuck = np.zeros(n, dtype=bool)
-        trajectories = np.empty((n, steps + 1, 3)) if record else None
-        for a in range(n):
-            self.reset(starts[a])
-            q = starts[a].copy()
-            if record:
-                trajectories[a, 0] = q
-            for k in range(steps):
-                command = self.options.kp * self.space.difference(targets[a], q) / self.dt
-                command = limit_velocity(command[None], self.angular, self.options.velocity_limit,
-                                         self.options.angular_velocity_limit)[0]
-                before = q
-                q = self.step(command, self.dt, rng)
-                touched[a] |= self._contact
-                moved = float(self.space.distance(q, before))
-                stuck[a] = moved < self.options.stuck_fraction * float(np.linalg.norm(command * self.dt))
-                if record:
-                    trajectories[a, k + 1] = q
-            final[a] = q
-        reached = self.space.distance(final, targets) <= self.reach
-        return SimulationBatch(final=final, in_contact=touched, stuck=stuck & ~reached, reached=reached,
-                               trajectories=trajectories, steps=n * steps * self.substeps)
