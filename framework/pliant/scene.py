@@ -358,12 +358,9 @@ class _SceneReader:
         raw = t.raw("cells")
         if not (isinstance(raw, list) and len(raw) == 3 and all(isinstance(r, list) and len(r) == 2 for r in raw)):
             t.fail("cells", "must be [[x0, x1], [y0, y1], [z0, z1]] (half-open voxel index ranges)", raw)
-        rng = np.array([[t_ for t_ in r] for r in raw], dtype=object)
-        for r in raw:
-            for v in r:
-                if isinstance(v, bool) or not isinstance(v, int):
-                    t.fail("cells", "voxel indices must be integers", raw)
-        rng = rng.astype(np.float64)
+        if any(isinstance(v, bool) or not isinstance(v, int) for r in raw for v in r):
+            t.fail("cells", "voxel indices must be integers", raw)
+        rng = np.array(raw, dtype=np.float64)
         if np.any(rng[:, 1] <= rng[:, 0]):
             t.fail("cells", "each range must be non-empty (x1 > x0)", raw)
         lo = origin + rng[:, 0] * self.resolution

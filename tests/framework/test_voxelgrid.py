@@ -10,9 +10,9 @@ from pliant.voxelgrid import VoxelGrid
 
 
 def _grid(occupancy: np.ndarray) -> VoxelGrid:
-    shape = occupancy.shape
+    """A grid of 0.5 m voxels at the origin whose occupied voxels belong to one object."""
     return VoxelGrid(np.zeros(3), 0.5, np.where(occupancy, 0.5, 1.0), np.where(occupancy, 1.0, 0.0),
-                     np.where(occupancy, 0, -1).astype(np.int32), ["o"]) if shape else None
+                     np.where(occupancy, 0, -1).astype(np.int32), ["o"])
 
 
 @given(st.integers(0, 2**32 - 1))

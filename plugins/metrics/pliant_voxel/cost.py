@@ -73,19 +73,20 @@ class VoxelDeformationCost(CostModel):
                         self.table, out)
         return out
 
+    def _points_and_costs(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """Body points ``(n, m, 3)`` of configurations ``(n, d)`` and each point's cost ``(n, m)``."""
+        pts = self.robot.body_points(self._batch(q))
+        costs = np.empty(pts.shape[:2])
+        point_costs(pts, self._lower, self._inv_res, self._shape, self.classes, self.table, costs)
+        return pts, costs
+
     def point_costs(self, q) -> np.ndarray:
         """Cost of every robot point ``(n, m)`` (0 in free space, NaN where infeasible)."""
-        q = self._batch(q)
-        pts = self.robot.body_points(q)
-        out = np.empty(pts.shape[:2])
-        point_costs(pts, self._lower, self._inv_res, self._shape, self.classes, self.table, out)
-        return out
+        return self._points_and_costs(q)[1]
 
     def breakdown(self, q):
         q = self._batch(q)
-        pts = self.robot.body_points(q)
-        costs = np.empty(pts.shape[:2])
-        point_costs(pts, self._lower, self._inv_res, self._shape, self.classes, self.table, costs)
+        pts, costs = self._points_and_costs(q)
         flat = self.grid.flat_index(pts)
         obj = self._object_of_voxel[np.where(flat < 0, len(self._object_of_voxel) - 1, flat)]
         k = len(self.grid.object_names)
@@ -102,9 +103,7 @@ class VoxelDeformationCost(CostModel):
 
     def gradient(self, q):
         q = self._batch(q)
-        pts = self.robot.body_points(q)
-        costs = np.empty(pts.shape[:2])
-        point_costs(pts, self._lower, self._inv_res, self._shape, self.classes, self.table, costs)
+        pts, costs = self._points_and_costs(q)
         weights = self.surrogate_weights(pts, costs)
         if not weights.any():
             return np.zeros((len(q), self.robot.space.tangent_dim))
@@ -118,14 +117,12 @@ class VoxelDeformationCost(CostModel):
         return np.where(inside & np.isfinite(costs), costs, 0.0)
 
     def surrogate(self, q) -> np.ndarray:
-        """The smooth surrogate ``S(q) = sum_i C_i max(0, -sdf(x_i))`` whose exact gradient is :meth:`gradient`.
+        """The smooth surrogate ``S(q) = sum_i C_i max(0, -sdf(x_i))`` whose gradient :meth:`gradient` is.
 
-        ``C_i`` is evaluated at ``q``; finite differences of ``S`` hold ``C_i`` fixed by passing
-        ``fixed_costs``-free configurations close to ``q`` (see the tests).
+        ``C_i`` are the points' costs at ``q`` (NaN costs count as 0).  :meth:`gradient` holds them
+        fixed, so its finite-difference check must too (as the tests do).
         """
-        q = self._batch(q)
-        pts = self.robot.body_points(q)
-        costs = self.point_costs(q)
+        pts, costs = self._points_and_costs(q)
         return np.sum(np.where(np.isfinite(costs), costs, 0.0) * np.maximum(0.0, -self.grid.sdf_at(pts)), axis=1)
 
     # --- translation lattices -----------------------------------------------------------------

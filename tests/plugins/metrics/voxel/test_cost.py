@@ -163,6 +163,7 @@ def test_gradient_matches_finite_differences_of_the_surrogate(scene, scene_conte
         def surrogate(x, weights=weights):
             return float(np.sum(weights * np.maximum(0.0, -cost.grid.sdf_at(ctx.robot.body_points(x)[0]))))
 
+        assert cost.surrogate(q)[0] == pytest.approx(surrogate(q))
         eps = 1e-7
         fd = np.array([(surrogate(space.retract(q, eps * e)) - surrogate(space.retract(q, -eps * e))) / (2 * eps)
                        for e in np.eye(space.tangent_dim)])
