@@ -94,11 +94,25 @@ class Part:
 
 @dataclass(frozen=True)
 class SceneObject:
-    """A named solid of the environment with its material."""
+    """A named solid of the environment with its material.
+
+    mass: kg (> 0) for a movable object that dynamic simulators push around; ``None`` (the default) for
+    a static object, fixed to the world.  Planners, the voxel cost and the kinematic simulator treat a
+    movable object as an obstacle at its scene pose.
+    friction: Coulomb friction coefficient (>= 0) of the object's surface; ``None`` leaves it to the
+    simulator's default.
+    """
 
     name: str
     part: Part
     material: Material
+    mass: float | None = None
+    friction: float | None = None
+
+    @property
+    def movable(self) -> bool:
+        """True when the object has a mass (a dynamic body), False when it is fixed to the world."""
+        return self.mass is not None
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         return self.part.contains(points)
@@ -395,8 +409,10 @@ class _SceneReader:
         name = t.string("name")
         part = self._part(t, self.lower)
         material = self._material(t, None)
+        mass = t.number("mass", None, positive=True)
+        friction = t.number("friction", None, minimum=0.0)
         t.finish()
-        return SceneObject(name, part, material)
+        return SceneObject(name, part, material, mass=mass, friction=friction)
 
     def _region(self, t: Fields) -> Region:
         name = t.string("name")

@@ -173,11 +173,16 @@ class VoxelGrid:
     # --- construction -------------------------------------------------------------------------
 
     @classmethod
-    def from_scene(cls, scene: Scene, padding: float = 0.0) -> VoxelGrid:
+    def from_scene(cls, scene: Scene, padding: float = 0.0, static_only: bool = False) -> VoxelGrid:
         """Voxelise ``scene``'s objects at its resolution.
 
         ``padding`` (m, >= 0) dilates every object by that distance (thesis 3.3.3: widening the
         low-cost chasm); padded voxels take the material of the object they grow from.
+        ``static_only`` leaves out the movable objects (those with a ``mass``), for dynamic backends
+        that simulate them as bodies and build walls from the rest; object ids still index
+        ``scene.objects`` (``object_names`` lists every object), so ids mean the same in both grids.
+        By default every object is voxelised at its scene pose (the voxel cost and the kinematic
+        simulator hold movable objects fixed).
         """
         if padding < 0 or not np.isfinite(padding):
             raise DimensionError("padding must be a finite distance >= 0", field="padding", value=padding)
@@ -189,6 +194,8 @@ class VoxelGrid:
         defo = np.ones(len(centres))
         sens = np.zeros(len(centres))
         for k, obj in enumerate(scene.objects):
+            if static_only and obj.movable:
+                continue
             lo, hi = obj.part.bounds()
             near = np.all((centres >= lo - res) & (centres <= hi + res), axis=1)
             cand = np.nonzero(near)[0]

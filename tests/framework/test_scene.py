@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import math
 import struct
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from pliant import load_scene
 from pliant.errors import SceneError
 from pliant.scene import Scene, available_scenes
@@ -147,3 +150,49 @@ def test_se2_maze_regions_and_free_space():
     free = np.array([[1.0, 5.0, 0.0], [5.0, 8.0, 0.0], [8.0, 2.0, 0.0], [0.75, 0.75, 0.0]])
     solid = np.array([[0.25, 5.0, 0.0], [3.25, 5.0, 0.0], [6.75, 5.0, 0.0], [5.0, 9.75, 0.0]])
     assert not walls.contains(free).any() and walls.contains(solid).all()
+
+
+# --- movable objects: mass and friction -------------------------------------------------------
+
+_BOX = {"name": "crate", "shape": "box", "size": [0.1, 0.1, 0.1], "position": [0.2, 0.2, 0.2],
+        "deformability": 0.0, "sensitivity": 1.0}
+
+
+def test_mass_and_friction_make_an_object_movable():
+    static = Scene.from_dict(_scene_with(dict(_BOX))).object("crate")
+    assert static.mass is None and static.friction is None and not static.movable
+    movable = Scene.from_dict(_scene_with({**_BOX, "mass": 2, "friction": 0.3})).object("crate")
+    assert movable.movable and movable.mass == 2.0 and movable.friction == 0.3
+    assert isinstance(movable.mass, float)
+    rough_wall = Scene.from_dict(_scene_with({**_BOX, "friction": 0.0})).object("crate")
+    assert rough_wall.friction == 0.0 and not rough_wall.movable      # friction alone: still static
+
+
+@pytest.mark.parametrize("key", ["mass", "friction"])
+@pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf"), True, "heavy", [1.0]])
+def test_bad_mass_or_friction_names_file_field_and_value(key, value):
+    with pytest.raises(SceneError) as err:
+        Scene.from_dict(_scene_with({**_BOX, key: value}), source="s.toml")
+    assert f"s.toml:objects[0].{key}" in str(err.value) and repr(value)[:4] in str(err.value)
+
+
+def test_zero_mass_is_refused_but_zero_friction_is_not():
+    with pytest.raises(SceneError, match=r"objects\[0\]\.mass: must be positive"):
+        Scene.from_dict(_scene_with({**_BOX, "mass": 0.0}))
+    assert Scene.from_dict(_scene_with({**_BOX, "mass": 1.0, "friction": 0})).object("crate").friction == 0.0
+
+
+@given(st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**6, 10**6), st.booleans(),
+                 st.text(max_size=3), st.none()),
+       st.sampled_from(["mass", "friction"]))
+def test_any_mass_or_friction_loads_iff_it_is_in_range(value, key):
+    ok_number = (not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+                 and (value > 0 if key == "mass" else value >= 0))
+    data = _scene_with({**_BOX, key: value})
+    if value is None:            # a dict (not TOML) may say None: the field is absent
+        assert getattr(Scene.from_dict(data).object("crate"), key) is None
+    elif ok_number:
+        assert getattr(Scene.from_dict(data).object("crate"), key) == float(value)
+    else:
+        with pytest.raises(SceneError, match=rf"objects\[0\]\.{key}"):
+            Scene.from_dict(data)

@@ -50,3 +50,20 @@ def test_padding_grows_by_the_distance():
     plain, padded = VoxelGrid.from_scene(scene), VoxelGrid.from_scene(scene, padding=0.04)
     assert padded.occupied.sum() > plain.occupied.sum()
     assert np.all(padded.deformability[padded.occupied] == 0.0)
+
+
+def test_static_only_leaves_out_movable_objects_and_keeps_the_ids():
+    base = {"name": "t", "start": [0.05, 0.05, 0.05], "goal": [0.35, 0.35, 0.35],
+            "bounds": {"lower": [0, 0, 0], "upper": [0.4, 0.4, 0.4], "resolution": 0.1},
+            "robot": {"kind": "rigid", "space": "r3", "parts": [{"shape": "sphere", "radius": 0.01}]},
+            "objects": [{"name": "wall", "shape": "box", "size": [0.1, 0.4, 0.4], "position": [0.05, 0.2, 0.2],
+                         "deformability": 0.0, "sensitivity": 1.0},
+                        {"name": "crate", "shape": "box", "size": [0.1, 0.1, 0.1], "position": [0.25, 0.25, 0.25],
+                         "deformability": 0.0, "sensitivity": 1.0, "mass": 1.0}]}
+    scene = Scene.from_dict(base)
+    full = VoxelGrid.from_scene(scene)
+    walls = VoxelGrid.from_scene(scene, static_only=True)
+    assert full.object_names == walls.object_names == ["wall", "crate"]
+    assert (full.object_id == 1).sum() == 1 and (walls.object_id == 1).sum() == 0
+    assert np.array_equal(full.object_id == 0, walls.object_id == 0) and (walls.object_id == 0).sum() == 16
+    assert np.array_equal(walls.occupied, full.occupied & (full.object_id != 1))
