@@ -132,6 +132,24 @@ class SelfContacts:
         return len(self.depth)
 
 
+@dataclass(frozen=True)
+class UrdfDescription:
+    """How to load an articulated robot into a simulator that reads URDF (e.g. pybullet).
+
+    urdf: the URDF file (a path).  package_dirs: directories that ``package://`` mesh paths are
+    relative to.  joint_names: the planned joints, in the order of the configuration vector ``(d,)``.
+    posture: the fixed value (rad or m) of every other single-DoF joint, by name.
+    velocity_limits / effort_limits: ``(d,)`` per planned joint (rad/s or m/s; N m or N).
+    """
+
+    urdf: Any
+    package_dirs: tuple[Any, ...]
+    joint_names: tuple[str, ...]
+    posture: dict[str, float]
+    velocity_limits: np.ndarray
+    effort_limits: np.ndarray
+
+
 class RobotModel(Component):
     """A robot: its configuration space and the points of its body.
 
@@ -183,6 +201,14 @@ class RobotModel(Component):
 
         Lets hot paths (cost evaluation, simulation) fuse the transform into their kernels.
         Articulated robots return ``None`` (the default) and are used through :meth:`body_points`.
+        """
+        return None
+
+    def urdf_description(self) -> UrdfDescription | None:
+        """The URDF, joint order and fixed posture of an articulated robot; ``None`` (the default) otherwise.
+
+        Dynamic simulators load the same robot from it, so the configuration vector means the same
+        joints in every backend.
         """
         return None
 

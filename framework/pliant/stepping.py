@@ -30,6 +30,8 @@ class SteppedOptions:
     kp: float = option(0.5, "proportional gain: fraction of the error commanded per control step", minimum=0.0)
     velocity_limit: float = option(1.0, "translation speed limit (m/s)", minimum=1e-9)
     angular_velocity_limit: float = option(0.125, "rotation speed limit (rad/s)", minimum=1e-9)
+    joint_velocity_limits: tuple[float, ...] = option((), "per-actuator speed limits (rad/s or m/s); overrides "
+                                                      "the two limits above when given")
     noise: str = option("none", "actuation noise model (pliant.noise)", choices=NOISE_MODELS)
     noise_linear: float = option(0.0, "noise parameter of translation (bound m/s, or factor)", minimum=0.0)
     noise_angular: float = option(0.0, "noise parameter of rotation (rad/s, or factor)", minimum=0.0)
@@ -50,12 +52,28 @@ class SteppedSimulator(Simulator):
         o = self.options
         self.space = self.robot.space
         self.angular = angular_mask(self.space)
-        limits = np.where(self.angular, o.angular_velocity_limit, o.velocity_limit)
-        self.noise = ActuationNoise(o.noise, np.where(self.angular, o.noise_angular, o.noise_linear), limits)
+        t = self.space.tangent_dim
+        if o.joint_velocity_limits:
+            if len(o.joint_velocity_limits) != t:
+                raise DimensionError(f"needs one limit per actuator ({t})", field="simulator.joint_velocity_limits",
+                                     value=list(o.joint_velocity_limits))
+            self.limits = np.asarray(o.joint_velocity_limits, dtype=np.float64)
+        else:
+            self.limits = np.where(self.angular, o.angular_velocity_limit, o.velocity_limit)
+        # as in the kinematic simulator: articulated robots (and explicit limits) cap every actuator by one
+        # common factor; rigid bodies cap the norms of translation and rotation separately
+        self.per_actuator = bool(o.joint_velocity_limits) or self.robot.rigid_placement(
+            np.asarray(scene.start, dtype=np.float64)[None]) is None
+        self.noise = ActuationNoise(o.noise, np.where(self.angular, o.noise_angular, o.noise_linear), self.limits)
         self.dt = 1.0 / o.frequency
         self.substeps = max(1, round(o.physics_rate / o.frequency))
         self.reach = o.reach_tolerance if o.reach_tolerance is not None else (
             scene.goal_tolerance if scene.goal_tolerance > 0 else scene.resolution)
+
+    def limit(self, velocity: np.ndarray) -> np.ndarray:
+        """Velocities ``(n, t)`` scaled into the actuators' limits, keeping their direction."""
+        return limit_velocity(velocity, self.angular, self.options.velocity_limit,
+                              self.options.angular_velocity_limit, self.limits if self.per_actuator else None)
 
     def actuate(self, velocity, rng) -> np.ndarray:
         """A velocity command ``(t,)`` checked, limited and made noisy: what the actuators deliver."""
@@ -63,7 +81,7 @@ class SteppedSimulator(Simulator):
         if v.shape != (self.space.tangent_dim,) or not np.all(np.isfinite(v)):
             raise DimensionError(f"velocity must be ({self.space.tangent_dim},) and finite", field="velocity",
                                  value=np.asarray(velocity).tolist())
-        v = limit_velocity(v[None], self.angular, self.options.velocity_limit, self.options.angular_velocity_limit)[0]
+        v = self.limit(v[None])[0]
         return v + self.noise.sample(rng, v[None])[0]
 
     def simulate(self, starts, targets, rng, duration, record=False):
@@ -84,8 +102,7 @@ class SteppedSimulator(Simulator):
                 trajectories[a, 0] = q
             for k in range(steps):
                 command = self.options.kp * self.space.difference(targets[a], q) / self.dt
-                command = limit_velocity(command[None], self.angular, self.options.velocity_limit,
-                                         self.options.angular_velocity_limit)[0]
+                command = self.limit(command[None])[0]
                 before = q
                 q = self.step(command, self.dt, rng)
                 touched[a] |= self.in_contact()

@@ -24,7 +24,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 from pliant.errors import ConfigError, DimensionError, PlanningError, SceneError
-from pliant.interfaces import RobotModel, SelfContacts, check_batch
+from pliant.interfaces import RobotModel, SelfContacts, UrdfDescription, check_batch
 from pliant.options import option
 from pliant.spaces import RealVectorSpace
 
@@ -333,6 +333,25 @@ class PinocchioRobot(RobotModel):
         return self._space.distance(self._batch(a, "a"), self._batch(b, "b"))
 
     # --- RobotModel ---------------------------------------------------------------------------
+
+    def urdf_description(self) -> UrdfDescription:
+        """The URDF, the group's joints in configuration order, and the posture of every other joint."""
+        model, base = self.model, self.base_configuration
+        group = set(self.joint_names)
+        posture = {}
+        for j in self._single:
+            name = model.names[j]
+            if name in group:
+                continue
+            joint = model.joints[j]
+            value = base[joint.idx_q]
+            if joint.nq == 2:
+                value = math.atan2(base[joint.idx_q + 1], base[joint.idx_q])
+            posture[name] = float(value)
+        effort = model.effortLimit[self.idx_v].astype(np.float64)
+        return UrdfDescription(urdf=self.entry.urdf, package_dirs=tuple(self.entry.package_dirs),
+                               joint_names=tuple(self.joint_names), posture=posture,
+                               velocity_limits=self.velocity_limits.copy(), effort_limits=effort)
 
     def point_materials(self) -> np.ndarray:
         """``(m, 2)``: deformability and sensitivity of each body point."""

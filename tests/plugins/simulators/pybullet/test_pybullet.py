@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pliant import Pipeline, load_scene, registry
+from pliant import load_scene, registry
 from pliant.errors import SimulationError
 from pliant.interfaces import Context
 from pliant.testing import check_component
@@ -37,7 +37,7 @@ def test_commanded_into_the_block_it_stops_with_bounded_force(peg):
     rng = np.random.default_rng(0)
     for _ in range(20):
         q = sim.step(np.array([0, 0, -1.0, 0, 0, 0]), 0.1, rng)
-        force = np.linalg.norm(sim.pb.getConstraintState(sim._hold)[:3])
+        force = np.linalg.norm(sim.pb.getConstraintState(sim.body.hold)[:3])
         assert force <= 100.0 * 1.01
     assert sim.in_contact() and q[2] == pytest.approx(3.5, abs=0.02)
 
@@ -60,19 +60,105 @@ def test_same_seed_same_trajectory(peg):
     assert np.array_equal(a.final, b.final)
 
 
-def test_urdf_robots_are_refused_with_the_reason():
+@pytest.fixture(scope="module")
+def iiwa():
     ctx = Context(scene=load_scene("iiwa-shelf"))
     ctx.robot = registry.create("robot", "pinocchio", ctx)
-    with pytest.raises(SimulationError, match="rigid"):
-        registry.create("simulator", "pybullet", ctx)
+    return ctx
 
 
-def test_conformance():
-    assert check_component("simulator", "pybullet", scene="se3-peg-in-hole")
+IIWA_START = np.array([0.0, 0.3, 0.0, -1.2, 0.0, 0.6, 0.0])
 
 
-@pytest.mark.parametrize("simulator", ["kinematic", "pybullet"])
-def test_swapping_the_simulator_by_name_in_se3(simulator, tmp_path):
-    record = Pipeline.from_file("peg-slide", overrides=[f"simulator={simulator}", "simulator.noise=none",
-                                                        f'output="{tmp_path}"']).run()
-    assert record.execution.success and record.execution.configurations[-1, 2] == pytest.approx(0.625, abs=0.1)
+def test_an_arm_commanded_into_the_board_stops_at_contact_with_bounded_torques(iiwa):
+    sim = registry.create("simulator", "pybullet", iiwa, effort_scale=0.5)
+    caps = 0.5 * iiwa.robot.urdf_description().effort_limits
+    sim.reset(IIWA_START)
+    rng = np.random.default_rng(0)
+    touched = False
+    for _ in range(30):
+        q = sim.step(np.array([0.0, 1.0, 0.0, 0.5, 0.0, 0.0, 0.0]), 0.1, rng)
+        assert np.all(sim.body.joint_efforts() <= caps * (1 + 1e-6))
+        touched |= sim.in_contact()
+    assert touched and q[1] < 1.7                 # free, shoulder joint 2 would have reached 0.3 + 3.0 * 1.0 / ...
+    assert iiwa.robot.environment_distance(q[None])[0] > -iiwa.scene.resolution
+
+
+def test_arm_free_motion_agrees_with_the_kinematic_simulator(iiwa):
+    target = np.array([0.0, 1.2, 0.0, 0.3, 0.0, 1.2, 0.0])
+    a, b = (registry.create("simulator", name, iiwa).simulate(IIWA_START[None], target, np.random.default_rng(0), 4.0)
+            for name in ("pybullet", "kinematic"))
+    assert a.reached[0] and b.reached[0] and not a.in_contact[0]
+    assert np.allclose(a.final, b.final, atol=0.02)
+
+
+def test_arm_noise_same_seed_same_trajectory(iiwa):
+    sim = registry.create("simulator", "pybullet", iiwa, noise="proportional", noise_linear=0.1)
+    a = sim.simulate(IIWA_START[None], np.zeros(7), np.random.default_rng(5), 1.0, record=True)
+    b = sim.simulate(IIWA_START[None], np.zeros(7), np.random.default_rng(5), 1.0, record=True)
+    c = sim.simulate(IIWA_START[None], np.zeros(7), np.random.default_rng(6), 1.0, record=True)
+    assert np.array_equal(a.trajectories, b.trajectories) and not np.array_equal(a.trajectories, c.trajectories)
+
+
+PR2_ARM = [0.0, 0.0, 0.0, -0.5, 0.0, -0.5, 0.0]
+BAXTER_ARM = [0.119, 1.047, -0.275, -0.05, -1.293, -1.218, -0.292]       # baxter-reach's start
+
+
+@pytest.mark.parametrize(("model", "group", "start"),
+                         [("baxter", "right_arm", BAXTER_ARM), ("pr2", "left_arm", PR2_ARM)])
+def test_named_robots_load_with_their_posture(model, group, start):
+    scene = load_scene("iiwa-shelf").__class__.from_dict({
+        "name": f"{model}-free", "start": start, "goal": start,
+        "bounds": {"lower": [-2.0, -2.0, -1.0], "upper": [2.0, 2.0, 2.0], "resolution": 0.1},
+        "robot": {"kind": "urdf", "model": model, "group": group}})
+    ctx = Context(scene=scene)
+    ctx.robot = registry.create("robot", "pinocchio", ctx)
+    sim = registry.create("simulator", "pybullet", ctx)
+    q = ctx.robot.space.lower + 0.25 * (ctx.robot.space.upper - ctx.robot.space.lower)
+    sim.reset(q)
+    assert np.allclose(sim.configuration(), q, atol=1e-9)
+    held = sim.body.held
+    assert len(held) == len(ctx.robot.urdf_description().posture) > 0
+    # the same configuration puts the arm's last link at the same place in pinocchio and in pybullet
+    link = sim.pb.getJointInfo(sim.body.body, sim.body.joints[-1])[12].decode()
+    state = sim.pb.getLinkState(sim.body.body, sim.body.joints[-1], computeForwardKinematics=True)
+    assert np.allclose(state[4], ctx.robot.frame_position(q[None], link)[0], atol=1e-6)
+
+
+def test_a_collision_mesh_pybullet_cannot_read_is_refused(tmp_path):
+    import pybullet
+    from pliant.interfaces import UrdfDescription
+    from pliant_pybullet.articulated import ArticulatedRobot
+
+    (tmp_path / "broken.stl").write_text("not a mesh")
+    (tmp_path / "arm.urdf").write_text(
+        '<robot name="arm"><link name="base"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>'
+        '</link><link name="l1"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" '
+        'ixz="0" iyz="0"/></inertial><collision><geometry><mesh filename="broken.stl"/></geometry></collision>'
+        '</link><joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="10" velocity="1"/></joint></robot>')
+    description = UrdfDescription(tmp_path / "arm.urdf", (tmp_path,), ("j1",), {}, np.ones(1), np.full(1, 10.0))
+    from pybullet_utils.bullet_client import BulletClient
+
+    pb = BulletClient(connection_mode=pybullet.DIRECT)
+    try:
+        with pytest.raises(SimulationError, match=r"link 'l1': broken\.stl"):
+            ArticulatedRobot(pb, description, [-1.0], [1.0], effort_scale=1.0, position_gain=0.3, velocity_gain=1.0,
+                             friction=0.5, self_collision=False, source="test")
+        missing = UrdfDescription(tmp_path / "nowhere.urdf", (tmp_path,), ("j1",), {}, np.ones(1), np.ones(1))
+        with pytest.raises(SimulationError, match="cannot load the URDF"):
+            ArticulatedRobot(pb, missing, [-1.0], [1.0], effort_scale=1.0, position_gain=0.3, velocity_gain=1.0,
+                             friction=0.5, self_collision=False, source="test")
+    finally:
+        pb.disconnect()
+
+
+def test_a_robot_model_without_a_urdf_description_is_refused(iiwa, monkeypatch):
+    monkeypatch.setattr(type(iiwa.robot), "urdf_description", lambda self: None)
+    with pytest.raises(SimulationError, match="no URDF description"):
+        registry.create("simulator", "pybullet", iiwa)
+
+
+@pytest.mark.parametrize("scene", ["se3-peg-in-hole", "se2-maze", "iiwa-shelf"])
+def test_conformance(scene):
+    assert check_component("simulator", "pybullet", scene=scene)

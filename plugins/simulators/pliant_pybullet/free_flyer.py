@@ -1,0 +1,117 @@
+"""A free-flying rigid robot (R^3, SE(2), SE(3)) in pybullet, pulled by a force-capped constraint.
+
+The robot is one rigid multibody from the scene's robot parts (boxes, spheres, cylinders; mass =
+``density`` x volume).  A fixed constraint pulls it toward the commanded pose with a force capped at
+``max_force`` (N), its target swept along the commanded motion over the physics substeps, so the
+robot yields against obstacles instead of passing through them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pliant.errors import SimulationError
+
+
+def _yaw_quaternion(theta: float) -> list[float]:
+    return [0.0, 0.0, math.sin(theta / 2), math.cos(theta / 2)]
+
+
+def robot_collision_shape(pb, scene, density: float) -> tuple[int, float]:
+    """A pybullet compound collision shape of the scene's rigid robot, and its mass (kg).
+
+    Parts that pybullet cannot represent exactly (meshes, voxel arrays, cut-outs) are refused with a
+    :class:`SimulationError` naming the part.
+    """
+    import pybullet
+
+    kinds, sizes, positions, orientations, volume = [], [], [], [], 0.0
+    for k, rp in enumerate(scene.robot.parts):
+        part = rp.part
+        if part.cutouts:
+            raise SimulationError("robot parts with cut-outs cannot be represented in pybullet",
+                                  source=scene.source, field=f"robot.parts[{k}].cutouts")
+        s = part.shape
+        if s.kind == "box":
+            kinds.append(pybullet.GEOM_BOX)
+            sizes.append({"halfExtents": (s.size / 2).tolist()})
+            volume += float(np.prod(s.size))
+        elif s.kind == "sphere":
+            kinds.append(pybullet.GEOM_SPHERE)
+            sizes.append({"radius": s.radius})
+            volume += 4 / 3 * math.pi * s.radius ** 3
+        elif s.kind == "cylinder":
+            kinds.append(pybullet.GEOM_CYLINDER)
+            sizes.append({"radius": s.radius, "length": s.length})
+            volume += math.pi * s.radius ** 2 * s.length
+        else:
+            raise SimulationError(f"robot part shape '{s.kind}' cannot be represented in pybullet",
+                                  source=scene.source, field=f"robot.parts[{k}].shape", value=s.kind)
+        positions.append(part.pose.position.tolist())
+        orientations.append(part.pose.orientation.tolist())
+    shape = pb.createCollisionShapeArray(
+        shapeTypes=kinds, halfExtents=[d.get("halfExtents", [0, 0, 0]) for d in sizes],
+        radii=[d.get("radius", 0.0) for d in sizes], lengths=[d.get("length", 0.0) for d in sizes],
+        collisionFramePositions=positions, collisionFrameOrientations=orientations)
+    return shape, density * volume
+
+
+class FreeFlyer:
+    """The scene's rigid robot as a pybullet body held by a force-capped fixed constraint.
+
+    ``kind`` is the space's kind (``rn`` / ``se2`` / ``se3``); ``max_force`` (N) caps the pull;
+    ``friction`` is the Coulomb coefficient of the robot's surface.
+    """
+
+    def __init__(self, pb, scene, space, density: float, max_force: float, friction: float) -> None:
+        self.pb = pb
+        self.space = space
+        self.kind = scene.robot.space
+        self.max_force = max_force
+        self.friction = friction
+        self.shape, self.mass = robot_collision_shape(pb, scene, density)
+        self.body = self.hold = None
+
+    def _pose(self, q):
+        if self.kind == "se3":
+            return q[:3].tolist(), q[3:7].tolist()
+        if self.kind == "se2":
+            return [q[0], q[1], 0.0], _yaw_quaternion(q[2])
+        return q[:3].tolist(), [0.0, 0.0, 0.0, 1.0]
+
+    def configuration(self) -> np.ndarray:
+        """The body's pose as a configuration ``(d,)`` (SE(3) quaternions with ``qw >= 0``)."""
+        pos, quat = self.pb.getBasePositionAndOrientation(self.body)
+        if self.kind == "se3":
+            q = np.array([*pos, *quat])
+            return q if q[6] >= 0 else np.concatenate([q[:3], -q[3:]])
+        if self.kind == "se2":
+            yaw = 2 * math.atan2(quat[2], quat[3])
+            return np.array([pos[0], pos[1], (yaw + math.pi) % (2 * math.pi) - math.pi])
+        return np.array(pos)
+
+    def reset(self, q: np.ndarray) -> None:
+        """Rebuild the body at ``q`` at rest (no solver state survives from a previous particle)."""
+        if self.body is not None:
+            self.pb.removeConstraint(self.hold)
+            self.pb.removeBody(self.body)
+        position, orientation = self._pose(q)
+        self.body = self.pb.createMultiBody(self.mass, self.shape, basePosition=position, baseOrientation=orientation)
+        self.pb.changeDynamics(self.body, -1, lateralFriction=self.friction, linearDamping=0.0, angularDamping=0.0)
+        self.hold = self.pb.createConstraint(self.body, -1, -1, -1, self.pb.JOINT_FIXED, [0, 0, 0], [0, 0, 0],
+                                             position, childFrameOrientation=orientation)
+        self.pb.changeConstraint(self.hold, position, orientation, maxForce=self.max_force)
+
+    def command(self, q: np.ndarray, motion: np.ndarray, fraction: float, dt: float) -> None:
+        """Move the constraint's target to ``fraction`` of the tangent ``motion`` (over ``dt`` s) from ``q``."""
+        position, orientation = self._pose(self.space.retract(q, motion * fraction))
+        self.pb.changeConstraint(self.hold, position, orientation, maxForce=self.max_force)
+
+    def pulling_force(self) -> float:
+        """Magnitude (N) of the constraint's force in the last physics step."""
+        return float(np.linalg.norm(self.pb.getConstraintState(self.hold)[:3]))
+
+    def touching(self) -> bool:
+        """Whether the robot touches another body now."""
+        return bool(self.pb.getContactPoints(bodyA=self.body))
