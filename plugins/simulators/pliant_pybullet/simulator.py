@@ -40,6 +40,8 @@ class PybulletOptions(SteppedOptions):
     velocity_gain: float = option(1.0, "URDF robots: pybullet position-motor velocity gain (the D of the PD law)",
                                   minimum=0.0, maximum=1.0)
     self_collision: bool = option(False, "URDF robots: links collide with each other (parents excluded)")
+    object_damping: float = option(0.0, "linear and angular damping of movable objects (1/s); stands in for "
+                                   "table friction when gravity is off", minimum=0.0)
 
 
 class PybulletSimulator(SteppedSimulator):
@@ -60,7 +62,7 @@ class PybulletSimulator(SteppedSimulator):
         self.pb = BulletClient(connection_mode=pybullet.DIRECT)
         self.pb.setTimeStep(self.dt / self.substeps)
         self.pb.setGravity(0, 0, -o.gravity)
-        for lo, hi in VoxelGrid.from_scene(scene).boxes():
+        for lo, hi in VoxelGrid.from_scene(scene, static_only=True).boxes():
             shape = self.pb.createCollisionShape(pybullet.GEOM_BOX, halfExtents=((hi - lo) / 2).tolist())
             wall = self.pb.createMultiBody(0, shape, basePosition=((hi + lo) / 2).tolist())
             self.pb.changeDynamics(wall, -1, lateralFriction=o.friction)
@@ -70,6 +72,9 @@ class PybulletSimulator(SteppedSimulator):
             self.body = FreeFlyer(self.pb, scene, self.space, o.density, o.max_force, o.friction)
         else:
             self.body = self._articulated(scene)
+        from pliant_pybullet.objects import MovableObjects
+
+        self.objects = MovableObjects(self.pb, scene, o.friction, o.object_damping)
         self._contact = False
         self.reset(scene.start)
 
@@ -90,8 +95,15 @@ class PybulletSimulator(SteppedSimulator):
         return self.body.configuration()
 
     def reset(self, q):
-        self.body.reset(check_batch(q, self.space, "configuration")[0][0])
+        """Place the robot at ``q`` ``(d,)`` at rest, and every movable object back at its scene pose."""
+        q = check_batch(q, self.space, "configuration")[0][0]
+        self.objects.reset()
+        self.body.reset(q)
         self._contact = False
+
+    def object_poses(self) -> dict:
+        """Poses ``(7,)`` (x, y, z, qx, qy, qz, qw) of the scene's movable objects, by name."""
+        return self.objects.poses()
 
     def in_contact(self):
         return self._contact

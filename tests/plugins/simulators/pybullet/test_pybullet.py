@@ -162,3 +162,43 @@ def test_a_robot_model_without_a_urdf_description_is_refused(iiwa, monkeypatch):
 @pytest.mark.parametrize("scene", ["se3-peg-in-hole", "se2-maze", "iiwa-shelf"])
 def test_conformance(scene):
     assert check_component("simulator", "pybullet", scene=scene)
+
+
+def _push(variant, steps=30):
+    scene = load_scene("se2-push", variant=variant)
+    ctx = Context(scene=scene)
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    sim = registry.create("simulator", "pybullet", ctx, object_damping=5.0, max_force=20.0)
+    sim.reset(np.array(scene.start))
+    rng = np.random.default_rng(0)
+    for _ in range(steps):
+        q = sim.step(np.array([0.2, 0.0, 0.0]), 0.1, rng)
+    return sim, q
+
+
+def test_a_pushed_movable_object_moves_along_the_push_and_reset_restores_it():
+    sim, q = _push(None)
+    crate = sim.object_poses()["crate"]
+    assert crate[0] > 0.6 + 0.2 and abs(crate[1] - 0.5) < 0.05          # pushed in +x, barely sideways
+    assert crate[0] - 0.08 >= q[0] + 0.02 - 0.01                            # the paddle stays behind the crate
+    _, heavy_q = _push("heavy")
+    assert heavy_q[0] < q[0]                                                # a 10 kg crate holds the paddle back
+    sim.reset(np.array([0.3, 0.5, 0.0]))
+    assert np.allclose(sim.object_poses()["crate"], [0.6, 0.5, 0.0, 0, 0, 0, 1])
+
+
+def test_a_movable_object_pybullet_cannot_represent_is_refused():
+    scene = load_scene("se2-push")
+    data_objects = [{"name": "ring", "shape": "box", "size": [0.1, 0.1, 0.02], "position": [0.6, 0.8, 0.0],
+                     "mass": 1.0, "deformability": 0.0, "sensitivity": 1.0,
+                     "cutouts": [{"shape": "box", "size": [0.04, 0.04, 0.04]}]}]
+    bad = scene.__class__.from_dict({
+        "name": "bad", "planar": True, "start": [0.3, 0.5, 0.0], "goal": [0.8, 0.5, 0.0],
+        "bounds": {"lower": [0.0, 0.0, -0.01], "upper": [1.6, 1.0, 0.01], "resolution": 0.02},
+        "objects": data_objects,
+        "robot": {"kind": "rigid", "space": "se2", "parts": [{"shape": "box", "size": [0.04, 0.16, 0.02]}]}})
+    ctx = Context(scene=bad)
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    with pytest.raises(SimulationError, match="cut-outs") as error:
+        registry.create("simulator", "pybullet", ctx)
+    assert "objects[0].cutouts" in str(error.value)
