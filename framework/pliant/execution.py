@@ -25,6 +25,8 @@ class ExecutionRecord:
     times: ``(k,)`` seconds.  contacts: ``(k,)`` whether the robot touched anything in that step.
     waypoints_reached: how many waypoints (after the start) were reached.
     outcome: ``reached`` (the last waypoint), ``stuck`` (the controller gave up) or ``timeout``.
+    objects: the movable objects' poses ``(k, p)`` by name, for simulators that simulate them (those with
+    an ``object_poses()`` method, e.g. pymunk's ``(x, y, theta)``); empty otherwise.
     """
 
     configurations: np.ndarray
@@ -33,6 +35,7 @@ class ExecutionRecord:
     waypoints_reached: int
     outcome: str
     events: list[str] = field(default_factory=list)
+    objects: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def success(self) -> bool:
@@ -41,7 +44,8 @@ class ExecutionRecord:
     def to_dict(self) -> dict:
         return {"configurations": self.configurations.tolist(), "times": self.times.tolist(),
                 "contacts": self.contacts.tolist(), "waypoints_reached": self.waypoints_reached,
-                "outcome": self.outcome, "events": list(self.events)}
+                "outcome": self.outcome, "events": list(self.events),
+                "objects": {name: poses.tolist() for name, poses in self.objects.items()}}
 
 
 def execute(simulator: Simulator, controller: Controller, path: Path, rng: np.random.Generator, *,
@@ -57,6 +61,8 @@ def execute(simulator: Simulator, controller: Controller, path: Path, rng: np.ra
     simulator.reset(waypoints[0])
     q = simulator.configuration()
     states, times, contacts, events = [q.copy()], [0.0], [False], []
+    object_poses = getattr(simulator, "object_poses", None)
+    objects = [object_poses()] if object_poses is not None else []
     t = 0.0
     reached = 0
     outcome = "timeout"
@@ -78,10 +84,14 @@ def execute(simulator: Simulator, controller: Controller, path: Path, rng: np.ra
             states.append(q.copy())
             times.append(t)
             contacts.append(simulator.in_contact())
+            if object_poses is not None:
+                objects.append(object_poses())
         if reached != index:
             break
     else:
         outcome = "reached"
     if outcome == "timeout" and reached != len(waypoints) - 1:
         events.append(f"t={t:.2f}s: time limit before waypoint {reached + 1}")
-    return ExecutionRecord(np.array(states), np.array(times), np.array(contacts), reached, outcome, events)
+    names = objects[0] if objects else {}
+    poses = {name: np.array([step[name] for step in objects], dtype=np.float64) for name in names}
+    return ExecutionRecord(np.array(states), np.array(times), np.array(contacts), reached, outcome, events, poses)

@@ -4,8 +4,10 @@ The robot is a dynamic body with mass and friction, driven compliantly: a kinema
 moves at the commanded velocity (plus actuation noise from :mod:`pliant.noise`) and pulls the robot
 through a pivot joint and a gear joint whose forces and torques are capped (``max_force``,
 ``max_torque``), so the robot complies against obstacles instead of passing through them.  Static
-geometry is the scene's voxel layer as boxes (:mod:`.world`).  ``simulate`` uses the same P control
-law and velocity limits as the kinematic simulator, so the two agree in free space.
+geometry is the voxel layer of the static objects as boxes (:mod:`.world`); movable objects (a scene
+``mass``) are dynamic bodies held back by table friction (:mod:`.objects`), put back at their scene
+pose at rest by every ``reset``.  ``simulate`` uses the same P control law and velocity limits as the
+kinematic simulator, so the two agree in free space.
 """
 
 from __future__ import annotations
@@ -17,9 +19,9 @@ import numpy as np
 from pliant.interfaces import check_batch
 from pliant.options import option
 from pliant.stepping import SteppedOptions, SteppedSimulator
-from pliant.voxelgrid import VoxelGrid
 
-from pliant_pymunk.world import check_planar, robot_shapes, static_rectangles
+from pliant_pymunk.objects import add_object, planar_objects
+from pliant_pymunk.world import check_planar, robot_shapes, static_walls
 
 
 @dataclass(frozen=True)
@@ -29,6 +31,8 @@ class PymunkOptions(SteppedOptions):
     density: float = option(100.0, "robot mass per area (kg/m^2)", minimum=1e-9)
     max_force: float = option(2000.0, "largest force the controller applies (N)", minimum=0.0)
     max_torque: float = option(2000.0, "largest torque the controller applies (N m)", minimum=0.0)
+    table_friction: float = option(0.5, "Coulomb friction coefficient between movable objects and the table "
+                                   "(force mu m g, torque mu m g r_mean); 0 lets them glide", minimum=0.0)
 
 
 class PymunkSimulator(SteppedSimulator):
@@ -49,10 +53,13 @@ class PymunkSimulator(SteppedSimulator):
         self.setup_actuation(scene)
         self.world = pymunk.Space()
         self.world.gravity = (0.0, 0.0)
-        for x0, y0, x1, y1 in static_rectangles(VoxelGrid.from_scene(scene)):
+        self.world.collision_slop = 0.01 * scene.resolution     # allowed overlap (m); pymunk's 0.1 is for pixels
+        for mu, (x0, y0, x1, y1) in static_walls(scene, o.friction):
             wall = pymunk.Poly(self.world.static_body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
-            wall.friction = o.friction
+            wall.friction = mu
             self.world.add(wall)
+        self.objects = planar_objects(scene)
+        self._object_parts: list[tuple] = []
         self._robot_objects = ()
         self._contact = False
         self.reset(scene.start)
@@ -80,10 +87,23 @@ class PymunkSimulator(SteppedSimulator):
         self._robot_objects = (self.body, *shapes, self.control, pivot, gear)
         self.world.add(*self._robot_objects)
 
+    def _add_objects(self) -> None:
+        """Fresh bodies for the movable objects at their scene poses, at rest."""
+        o = self.options
+        for parts in self._object_parts:
+            self.world.remove(*parts)
+        self._object_parts = [add_object(self.world, self.pymunk, spec, o.friction, o.table_friction)
+                              for spec in self.objects]
+
     def reset(self, q):
         q = check_batch(q, self.space, "configuration")[0][0]
+        self._add_objects()
         self._add_robot(q)
         self._contact = False
+
+    def object_poses(self) -> dict[str, np.ndarray]:
+        """The movable objects' current poses ``(x, y, theta)`` (m, rad; theta in [-pi, pi)), by name."""
+        return {spec.name: spec.pose(parts[0]) for spec, parts in zip(self.objects, self._object_parts)}
 
     def configuration(self):
         return np.array([self.body.position.x, self.body.position.y,

@@ -1,8 +1,9 @@
 """Building a pymunk space from a planar pliant scene.
 
-Static geometry comes from the scene's voxel grid (one layer), merged into few exact boxes
-(:meth:`pliant.voxelgrid.VoxelGrid.boxes`), so boxes, cut-outs, cylinders and meshes are all
-represented, exactly at the scene's resolution.  The robot is a dynamic body made of its parts' boxes and circles.
+Static geometry comes from the scene's voxel grid (one layer) of its static objects, merged into few
+exact boxes (:meth:`pliant.voxelgrid.VoxelGrid.boxes`), so boxes, cut-outs, cylinders and meshes are all
+represented, exactly at the scene's resolution.  Movable objects are bodies (:mod:`.objects`).  The
+robot is a dynamic body made of its parts' boxes and circles.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from pliant.errors import SimulationError
 from pliant.scene import Scene
-from pliant.voxelgrid import VoxelGrid
+from pliant.voxelgrid import FREE, VoxelGrid
 
 
 def check_planar(scene: Scene) -> None:
@@ -26,6 +27,25 @@ def check_planar(scene: Scene) -> None:
 def static_rectangles(grid: VoxelGrid) -> list[tuple[float, float, float, float]]:
     """The occupied voxels of the single layer as ``(x0, y0, x1, y1)`` rectangles (exact, few)."""
     return [(lo[0], lo[1], hi[0], hi[1]) for lo, hi in grid.boxes()]
+
+
+def static_walls(scene: Scene, default_friction: float) -> list[tuple[float, tuple[float, float, float, float]]]:
+    """The static objects' voxels as ``(friction, (x0, y0, x1, y1))`` rectangles.
+
+    Movable objects are left out (they are bodies).  Objects with the same friction (their own, else
+    ``default_friction``) are merged together, so a scene without per-object friction gives the same few
+    boxes as its whole voxel layer.
+    """
+    grid = VoxelGrid.from_scene(scene, static_only=True)
+    friction = np.array([default_friction if o.friction is None else o.friction for o in scene.objects])
+    walls = []
+    for mu in sorted(set(friction[[not o.movable for o in scene.objects]].tolist())):
+        ids = np.nonzero(friction == mu)[0]
+        mask = np.isin(grid.object_id, ids)
+        sub = VoxelGrid(grid.lower, grid.resolution, grid.deformability, grid.sensitivity,
+                        np.where(mask, grid.object_id, FREE).astype(np.int32), grid.object_names)
+        walls.extend((mu, r) for r in static_rectangles(sub))
+    return walls
 
 
 def robot_shapes(scene: Scene, pymunk, body, friction: float):
