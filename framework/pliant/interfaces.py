@@ -308,6 +308,14 @@ class Simulator(Component):
     def step(self, velocity: np.ndarray, dt: float, rng: np.random.Generator) -> np.ndarray:
         """Apply a tangent velocity command ``(t,)`` (m/s, rad/s) for ``dt`` seconds; return the new ``(d,)``."""
 
+    def contact_points(self) -> np.ndarray:
+        """The robot's contacts after the last step, ``(k, 7)``: world point (m), unit normal from the other
+        body toward the robot, normal force (N; NaN where the simulator has no forces).
+
+        The default ``(0, 7)`` is for simulators that report only :meth:`in_contact`.
+        """
+        return np.zeros((0, 7))
+
     @abstractmethod
     def configuration(self) -> np.ndarray:
         """The robot's current configuration ``(d,)``."""

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 from pliant.errors import SimulationError
 from pliant.interfaces import check_batch
 from pliant.options import option
@@ -100,6 +101,13 @@ class PybulletSimulator(SteppedSimulator):
         self.objects.reset()
         self.body.reset(q)
         self._contact = False
+
+    def contact_points(self) -> np.ndarray:
+        """Contacts of the robot after the last physics step, ``(k, 7)``: point on the robot (m), unit normal
+        from the other body toward the robot, normal force (N)."""
+        rows = [[*c[5], *c[7], c[9]] for c in self.pb.getContactPoints(bodyA=self.body.body)
+                if c[2] != self.body.body or self.options.self_collision]
+        return np.array(rows, dtype=np.float64).reshape(-1, 7)
 
     def object_poses(self) -> dict:
         """Poses ``(7,)`` (x, y, z, qx, qy, qz, qw) of the scene's movable objects, by name."""

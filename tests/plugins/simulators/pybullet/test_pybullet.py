@@ -202,3 +202,19 @@ def test_a_movable_object_pybullet_cannot_represent_is_refused():
     with pytest.raises(SimulationError, match="cut-outs") as error:
         registry.create("simulator", "pybullet", ctx)
     assert "objects[0].cutouts" in str(error.value)
+
+
+def test_contact_points_lie_on_the_block_with_upward_normals_and_bounded_forces(peg):
+    sim = registry.create("simulator", "pybullet", peg, max_force=100.0)
+    sim.reset(pose(7, 7, 3.6))
+    rng = np.random.default_rng(0)
+    for _ in range(10):
+        sim.step(np.array([0, 0, -1.0, 0, 0, 0]), 0.1, rng)
+    contacts = sim.contact_points()
+    assert contacts.shape[1] == 7 and len(contacts) >= 3                 # the peg's square foot on the block top
+    assert np.allclose(contacts[:, 2], 3.0, atol=0.02)                   # on the block's top face (z = 3)
+    assert np.allclose(contacts[:, 3:6], [0, 0, 1], atol=1e-3)           # pushing the peg up
+    assert np.all(contacts[:, 6] >= 0) and contacts[:, 6].sum() <= 100.0 * 1.05
+    sim.reset(pose(8, 8, 8))
+    sim.step(np.zeros(6), 0.1, rng)
+    assert sim.contact_points().shape == (0, 7)
