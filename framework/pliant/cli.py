@@ -87,7 +87,8 @@ def cmd_scenes(args) -> int:
               f" grid {scene.shape}")
         print(f"  robot       {scene.robot.kind} '{scene.robot.name}'"
               + (f" in {scene.robot.space}" if scene.robot.space else f" model {scene.robot.model}"))
-        print(f"  objects     {', '.join(o.name for o in scene.objects) or 'none'}")
+        objects = [o.name + (f" (movable, {o.mass:g} kg)" if o.movable else "") for o in scene.objects]
+        print(f"  objects     {', '.join(objects) or 'none'}")
         print(f"  regions     {len(scene.regions)}")
         print(f"  start       {scene.start.tolist()}")
         print(f"  goal        {scene.goal.tolist()}")
