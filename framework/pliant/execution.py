@@ -25,8 +25,8 @@ class ExecutionRecord:
     times: ``(k,)`` seconds.  contacts: ``(k,)`` whether the robot touched anything in that step.
     waypoints_reached: how many waypoints (after the start) were reached.
     outcome: ``reached`` (the last waypoint), ``stuck`` (the controller gave up) or ``timeout``.
-    objects: the movable objects' poses ``(k, p)`` by name, for simulators that simulate them (those with
-    an ``object_poses()`` method, e.g. pymunk's ``(x, y, theta)``); empty otherwise.
+    objects: the movable objects' poses ``(k, p)`` by name (:meth:`Simulator.object_poses`: ``(x, y, theta)``
+    in planar scenes, else position and quaternion); empty for simulators that hold objects fixed.
     """
 
     configurations: np.ndarray
@@ -61,8 +61,7 @@ def execute(simulator: Simulator, controller: Controller, path: Path, rng: np.ra
     simulator.reset(waypoints[0])
     q = simulator.configuration()
     states, times, contacts, events = [q.copy()], [0.0], [False], []
-    object_poses = getattr(simulator, "object_poses", None)
-    objects = [object_poses()] if object_poses is not None else []
+    objects = [simulator.object_poses()]
     t = 0.0
     reached = 0
     outcome = "timeout"
@@ -84,14 +83,13 @@ def execute(simulator: Simulator, controller: Controller, path: Path, rng: np.ra
             states.append(q.copy())
             times.append(t)
             contacts.append(simulator.in_contact())
-            if object_poses is not None:
-                objects.append(object_poses())
+            objects.append(simulator.object_poses())
         if reached != index:
             break
     else:
         outcome = "reached"
     if outcome == "timeout" and reached != len(waypoints) - 1:
         events.append(f"t={t:.2f}s: time limit before waypoint {reached + 1}")
-    names = objects[0] if objects else {}
+    names = objects[0]
     poses = {name: np.array([step[name] for step in objects], dtype=np.float64) for name in names}
     return ExecutionRecord(np.array(states), np.array(times), np.array(contacts), reached, outcome, events, poses)

@@ -316,6 +316,14 @@ class Simulator(Component):
         """
         return np.zeros((0, 7))
 
+    def object_poses(self) -> dict[str, np.ndarray]:
+        """Current poses of the scene's movable objects by name: ``(x, y, theta)`` in planar scenes, else
+        ``(x, y, z, qx, qy, qz, qw)``.
+
+        The default ``{}`` is for simulators that hold every object fixed (the kinematic simulator).
+        """
+        return {}
+
     @abstractmethod
     def configuration(self) -> np.ndarray:
         """The robot's current configuration ``(d,)``."""

@@ -40,6 +40,7 @@ class MovableObjects:
 
     def __init__(self, pb, scene, friction: float, damping: float) -> None:
         self.pb = pb
+        self.planar = bool(scene.planar)
         self.objects = [obj for obj in scene.objects if obj.movable]
         indices = [k for k, obj in enumerate(scene.objects) if obj.movable]
         self.shapes = [_collision_shape(pb, obj, k, scene.source) for obj, k in zip(self.objects, indices)]
@@ -65,10 +66,15 @@ class MovableObjects:
             self.bodies.append(body)
 
     def poses(self) -> dict[str, np.ndarray]:
-        """Each object's pose ``(7,)``: position (m) and quaternion ``(qx, qy, qz, qw)``, ``qw >= 0``."""
+        """Each object's pose: ``(x, y, theta)`` (m, rad) in a planar scene, else ``(7,)`` position (m) and
+        quaternion ``(qx, qy, qz, qw)`` with ``qw >= 0``."""
         out = {}
         for obj, body in zip(self.objects, self.bodies):
             position, quaternion = self.pb.getBasePositionAndOrientation(body)
+            if self.planar:
+                yaw = self.pb.getEulerFromQuaternion(quaternion)[2]
+                out[obj.name] = np.array([position[0], position[1], yaw], dtype=np.float64)
+                continue
             q = np.array([*position, *quaternion], dtype=np.float64)
             out[obj.name] = q if q[6] >= 0 else np.concatenate([q[:3], -q[3:]])
         return out

@@ -110,7 +110,7 @@ class PybulletSimulator(SteppedSimulator):
         return np.array(rows, dtype=np.float64).reshape(-1, 7)
 
     def object_poses(self) -> dict:
-        """Poses ``(7,)`` (x, y, z, qx, qy, qz, qw) of the scene's movable objects, by name."""
+        """Poses of the scene's movable objects by name: ``(x, y, theta)`` in planar scenes, else ``(7,)``."""
         return self.objects.poses()
 
     def in_contact(self):
