@@ -405,6 +405,21 @@ class PlanningProblem:
             return start, goal, Status.INVALID_GOAL
         return start, goal, None
 
+    def path_cost(self, configurations: np.ndarray, step: float) -> float:
+        """The discrete integral of the state cost along a path ``(k, d)``: ``sum_j c(q_j) |q_j - q_{j-1}|``.
+
+        Each segment is discretised at ``step`` (space metric units) first, so the value does not depend
+        on how many waypoints a planner kept (thesis Table 3.1: "the integral of costs incurred at each
+        state in a trajectory"); 0 without a cost model.  NaN when a state is infeasible.
+        """
+        configurations = np.atleast_2d(np.asarray(configurations, dtype=np.float64))
+        if self.cost is None or len(configurations) < 2:
+            return 0.0
+        dense = np.vstack([configurations[:1]] + [self.space.discretize(a, b, step)[1:]
+                                                   for a, b in zip(configurations[:-1], configurations[1:])])
+        steps = np.asarray(self.space.distance(dense[:-1], dense[1:]), dtype=np.float64)
+        return float(np.sum(self.cost.cost(dense[1:]) * steps))
+
     def in_goal(self, q: np.ndarray) -> np.ndarray:
         """Bool ``(n,)``: within ``goal_tolerance`` of the goal, or inside ``goal_region``."""
         q = np.atleast_2d(q)

@@ -1,0 +1,268 @@
+"""T-RRT and GradienT-RRT over any space and any cost model (thesis 3.2.4; Jaillet et al. 2010; Berenson et al. 2011).
+
+Both grow an RRT whose extensions pass T-RRT's transition test (:mod:`pliant_trrt.transition`) and a
+refinement control that keeps the tree exploring: an extension toward a sample already within one
+step of the tree only refines it, and refinements may not exceed ``refinement_ratio`` of the nodes.
+Edges are checked every ``check_step`` for validity (bounds, finite cost, the problem's extra checks
+and, optionally, puncture and cut of the voxel model's objects, thesis 4.3.4).  GradienT-RRT adjusts
+an extension that the transition test refused along the negative cost gradient (thesis eq. 3.2) and
+keeps it when that made it cheaper and the adjusted node passes the test.
+
+The objective reported is the path cost of :meth:`PlanningProblem.path_cost`: the integral of the
+state cost along the path (thesis Table 3.1); as in the thesis, an edge's cost for the transition
+test is the change of state cost between a node and its parent.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from pliant.errors import ConfigError
+from pliant.interfaces import Planner, PlanningProblem
+from pliant.options import option
+from pliant.progress import ProgressLine
+from pliant.results import Path, PlanResult, Status
+from pliant.termination import Termination
+from pliant.tree import Tree
+
+from pliant_trrt.transition import TransitionTest
+
+
+@dataclass(frozen=True)
+class TRRTOptions:
+    """Options of :class:`TRRTPlanner` (distances in the space's metric; costs in the cost model's units)."""
+
+    max_step: float = option(0.1, "largest extension (space metric units)", minimum=1e-9)
+    check_step: float | None = option(None, "edges are checked every this distance (default: the scene "
+                                      "resolution, else max_step / 10)", minimum=1e-9)
+    goal_bias: float = option(0.05, "probability of sampling the goal", minimum=0.0, maximum=1.0)
+    n_fail_max: int = option(10, "refused uphill transitions in a row before the temperature rises (nFailMax)",
+                             minimum=0)
+    initial_temperature: float = option(1e-6, "initial temperature T", minimum=1e-300)
+    temperature_factor: float = option(2.0, "the temperature is divided by this on an uphill acceptance and "
+                                       "multiplied by it after n_fail_max refusals", minimum=1.0 + 1e-9)
+    cost_scale: float | None = option(None, "K, the cost normalisation (cost per unit distance); default the "
+                                      "mean state cost of start and goal, else 1", minimum=1e-300)
+    max_cost: float = option(math.inf, "no state of an edge may cost more than this", minimum=0.0)
+    refinement_ratio: float = option(0.1, "largest share of refinement nodes (the extension's sample was "
+                                     "within max_step of the tree)", minimum=0.0, maximum=1.0)
+    max_time: float | None = option(60.0, "time budget (s); None for no limit", minimum=0.0)
+    max_iterations: int | None = option(None, "iteration budget; None for no limit", minimum=1)
+    stop_on_first: bool = option(True, "return the first solution (else keep growing to the budget and return "
+                                 "the cheapest)")
+    puncture_check: bool = option(False, "refuse edges that puncture or cut an object of the voxel model "
+                                  "(thesis 4.3.4; needs a scene)")
+    progress: bool | None = option(None, "show a progress line (default: on a terminal)")
+
+
+@dataclass(frozen=True)
+class GradientTRRTOptions(TRRTOptions):
+    """Options of :class:`GradientTRRTPlanner`: T-RRT's plus the gradient adjustment."""
+
+    gradient_step: float | None = option(None, "length of one step along the negative gradient (space metric "
+                                         "units); default the check step", minimum=1e-9)
+    gradient_iterations: int = option(10, "most gradient steps per refused extension", minimum=1)
+
+
+class TRRTPlanner(Planner):
+    """T-RRT: an RRT whose uphill extensions pass a temperature-controlled transition test.
+
+    Statistics: ``iterations``, ``nodes``, ``time``, ``time_to_first`` (s), ``cost_history``
+    (``[[t, best cost], ...]``), ``temperature`` (final), ``uphill_accepted``, ``refused``,
+    ``refinements_skipped``, ``invalid_edges``, ``punctures``, ``gradient_kept`` (GradienT-RRT),
+    ``solutions``, ``interrupted``.
+    """
+
+    Options = TRRTOptions
+    name = "trrt"
+    example_scene = "triple-wall"
+    example_components = {"cost": "voxel"}
+
+    # --- the gradient hook (GradienT-RRT overrides) --------------------------------------------------
+
+    def adjust(self, problem: PlanningProblem, q: np.ndarray, cost: float) -> tuple[np.ndarray, float] | None:
+        """A cheaper replacement for a refused extension ``q`` (T-RRT: none)."""
+        return None
+
+    # --- planning --------------------------------------------------------------------------------
+
+    def plan(self, problem: PlanningProblem, rng: np.random.Generator,
+             termination: Termination | None = None) -> PlanResult:
+        o = self.options
+        t0 = time.perf_counter()
+        space = problem.space
+        start, goal, invalid = problem.checked_endpoints()
+        if invalid is not None:
+            return PlanResult(invalid, planner=self.name, options=self._option_dict(),
+                              message=f"the {invalid.value.split()[1]} configuration is not valid")
+        self._check_step = o.check_step or (problem.scene.resolution if problem.scene is not None else o.max_step / 10)
+        self._punctures = self._puncture_checker(problem) if o.puncture_check else None
+        state_cost = self._state_cost(problem)
+        c_start = float(state_cost(start[None])[0])
+        c_goal = float(state_cost(goal[None])[0]) if problem.goal_region is None else c_start
+        k = o.cost_scale or (0.5 * (c_start + c_goal) if c_start + c_goal > 0 else 1.0)
+        self.test = TransitionTest(o.initial_temperature, k, o.temperature_factor, o.n_fail_max, o.max_cost)
+        self.tree = Tree(space)
+        self.tree.add(start, -1, c_start, 0.0)
+        self._topology = [self._punctures.initial_state()] if self._punctures is not None else None
+        stats = {"iterations": 0, "refinements_skipped": 0, "invalid_edges": 0, "punctures": 0, "gradient_kept": 0}
+        solutions: list[tuple[int, float]] = []
+        history: list[list[float]] = []
+        best, best_node, first = math.inf, -1, None
+        n_expand = n_refine = 0
+        termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations,
+                                                 stop_on_first=o.stop_on_first)
+        progress = ProgressLine(self.name, enabled=o.progress)
+        with termination.watch():
+            iteration = 0
+            while not termination.should_stop(iteration, best, solved=bool(solutions)):
+                iteration += 1
+                target = goal if (problem.goal_region is None and rng.random() < o.goal_bias) else \
+                    space.sample(rng, 1)[0]
+                near = self.tree.nearest(target)
+                q_near = self.tree.configurations[near]
+                refinement = float(space.distance(q_near, target)) <= o.max_step
+                if refinement and n_refine > o.refinement_ratio * (n_expand + n_refine):
+                    stats["refinements_skipped"] += 1
+                    continue
+                node = self._extend(problem, near, space.steer(q_near, target, o.max_step), stats, rng)
+                if node < 0:
+                    continue
+                n_refine += refinement
+                n_expand += not refinement
+                reached = node if problem.in_goal(self.tree.configurations[node][None])[0] else -1
+                if reached < 0 and problem.goal_region is None and \
+                        float(space.distance(self.tree.configurations[node], goal)) <= o.max_step:
+                    reached = self._extend(problem, node, goal, stats, rng)
+                if reached >= 0:
+                    cost = float(self.tree.path_costs[reached])
+                    solutions.append((reached, cost))
+                    if first is None:
+                        first = termination.elapsed
+                    if cost < best:
+                        best, best_node = cost, reached
+                        history.append([termination.elapsed, cost])
+                progress.update(iterations=iteration, nodes=len(self.tree), best=best, T=self.test.temperature)
+            stats["iterations"] = iteration
+        progress.close()
+        stats.update(nodes=len(self.tree), time=time.perf_counter() - t0, time_to_first=first,
+                     cost_history=history, temperature=self.test.temperature, k=k,
+                     uphill_accepted=self.test.accepted_uphill, refused=self.test.refused,
+                     solutions=len(solutions), interrupted=termination.interrupted)
+        if best_node < 0:
+            gap = float(np.min(space.distance(self.tree.configurations, goal)))
+            return PlanResult(Status.TIMEOUT, planner=self.name, statistics=stats, options=self._option_dict(),
+                              message=f"no solution within the budget (closest node {gap:.4g} from the goal)")
+        path = self.tree.path_to(best_node)
+        return PlanResult(Status.SOLVED, path=Path(path, space_kind=space.kind), cost=best, planner=self.name,
+                          statistics=stats, options=self._option_dict())
+
+    def _option_dict(self) -> dict:
+        return dict(vars(self.options))
+
+    @staticmethod
+    def _state_cost(problem: PlanningProblem):
+        if problem.cost is None:
+            return lambda q: np.zeros(len(q))
+        return problem.cost.cost
+
+    def _puncture_checker(self, problem: PlanningProblem):
+        if problem.scene is None or problem.robot is None:
+            raise ConfigError("puncture_check needs a scene and a robot", field="planner.puncture_check", value=True)
+        from pliant.topology import PunctureChecker
+        from pliant.voxelgrid import VoxelGrid
+
+        return PunctureChecker(VoxelGrid.from_scene(problem.scene), problem.robot.body_points)
+
+    def _edge(self, problem: PlanningProblem, parent: int, q_new: np.ndarray, stats: dict):
+        """Check the edge parent -> q_new: ``(state costs of its states after the parent, steps, topology)`` or
+        ``None`` when a state is invalid or the motion punctures an object."""
+        space = problem.space
+        edge = space.discretize(self.tree.configurations[parent], q_new, self._check_step)[1:]
+        if not problem.is_valid(edge).all():
+            stats["invalid_edges"] += 1
+            return None
+        costs = self._state_cost(problem)(edge)
+        if not np.all(costs <= self.options.max_cost):          # NaN (infeasible) fails too
+            stats["invalid_edges"] += 1
+            return None
+        topology = None
+        if self._punctures is not None:
+            topology, ok, _ = self._punctures.extend(self._topology[parent], edge)
+            if not ok:
+                stats["punctures"] += 1
+                return None
+        previous = np.vstack([self.tree.configurations[parent][None], edge[:-1]])
+        return costs, np.asarray(space.distance(previous, edge), dtype=np.float64), topology
+
+    def _extend(self, problem: PlanningProblem, parent: int, q_new: np.ndarray, stats: dict,
+                rng: np.random.Generator) -> int:
+        """Add ``q_new`` under ``parent`` if its edge is valid and passes the transition test (or, for
+        GradienT-RRT, an adjusted version does); the new node's index, else -1."""
+        checked = self._edge(problem, parent, q_new, stats)
+        if checked is None:
+            return -1
+        costs, steps, topology = checked
+        c_parent = float(self.tree.state_costs[parent])
+        distance = float(np.sum(steps))
+        if not self.test(c_parent, float(costs[-1]), distance, rng):
+            adjusted = self.adjust(problem, q_new, float(costs[-1]))
+            if adjusted is None:
+                return -1
+            q_new = adjusted[0]
+            checked = self._edge(problem, parent, q_new, stats)
+            if checked is None:
+                return -1
+            costs, steps, topology = checked
+            if not self.test(c_parent, float(costs[-1]), float(np.sum(steps)), rng):
+                return -1
+            stats["gradient_kept"] += 1
+        node = self.tree.add(q_new, parent, float(costs[-1]),
+                             float(self.tree.path_costs[parent] + np.sum(costs * steps)))
+        if self._topology is not None:
+            self._topology.append(topology)
+        return node
+
+
+class GradientTRRTPlanner(TRRTPlanner):
+    """GradienT-RRT: T-RRT whose refused extensions descend the cost gradient (thesis eq. 3.2).
+
+    Needs a cost model with a gradient (``has_gradient``), e.g. the voxel cost.
+    """
+
+    Options = GradientTRRTOptions
+    name = "gradient-trrt"
+
+    def plan(self, problem, rng, termination=None):
+        if problem.cost is None or not getattr(problem.cost, "has_gradient", False):
+            raise ConfigError("GradienT-RRT needs a cost model with a gradient", field="cost",
+                              value=type(problem.cost).__name__)
+        return super().plan(problem, rng, termination)
+
+    def adjust(self, problem, q, cost):
+        """Descend the cost gradient from ``q`` by fixed steps while the cost does not rise; the cheapest point.
+
+        The voxel cost is piecewise constant at the voxel scale, so a step that leaves it unchanged does
+        not end the descent; a rise, an infeasible state or a vanishing gradient does.
+        """
+        o = self.options
+        step = o.gradient_step or self._check_step
+        space = problem.space
+        here, here_c = q, cost
+        best_q, best_c = q, cost
+        for _ in range(o.gradient_iterations):
+            g = problem.cost.gradient(here[None])[0]
+            norm = float(np.linalg.norm(g))
+            if not np.isfinite(norm) or norm == 0.0:
+                break
+            candidate = space.enforce_bounds(space.retract(here, -step * g / norm))
+            c = float(problem.cost.cost(candidate[None])[0])
+            if not c <= here_c:
+                break
+            here, here_c = candidate, c
+            if c < best_c:
+                best_q, best_c = candidate, c
+        return (best_q, best_c) if best_c < cost else None
