@@ -5,6 +5,9 @@ cube is a tetrahedral mesh, and "deformation is assessed by computing the curren
 tetrahedron (m^3) and comparing the total against an undeformed reference".  We report the sum of
 absolute per-tetrahedron volume changes, which (unlike the change of the total) does not let
 compression in one place cancel expansion in another.
+
+Meshes are conforming: each hexahedral cell is split into five tetrahedra, the split mirrored in
+every other cell (checkerboard parity) so that neighbouring cells share their face diagonals.
 """
 
 from __future__ import annotations
@@ -13,32 +16,85 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from pliant.errors import ConfigError, DimensionError
 
-# five tetrahedra per hexahedral cell (corners numbered as in the VTK hexahedron)
+# five tetrahedra per hexahedral cell (corners numbered as in the VTK hexahedron); the mirrored split
+# (x -> 1 - x: corners 0<->1, 3<->2, 4<->5, 7<->6) for cells of odd parity keeps the mesh conforming
 _CELL_TETS = ((0, 1, 3, 4), (1, 2, 3, 6), (1, 4, 5, 6), (3, 4, 6, 7), (1, 3, 4, 6))
+_MIRROR = (1, 0, 3, 2, 5, 4, 7, 6)
+_CELL_TETS_MIRRORED = tuple(tuple(_MIRROR[c] for c in t) for t in _CELL_TETS)
 
 
-def box_tetrahedra(size, cells: int) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes ``(k, 3)`` and tetrahedra ``(t, 4)`` filling a box of ``size`` (m) centred at the origin.
+def _cells3(cells) -> tuple[int, int, int]:
+    c = np.broadcast_to(np.asarray(cells), (3,))
+    if not np.issubdtype(c.dtype, np.integer) or np.any(c < 1):
+        raise ConfigError("cells per axis must be integers >= 1", field="cells", value=np.asarray(cells).tolist())
+    return int(c[0]), int(c[1]), int(c[2])
 
-    ``cells`` hexahedra per axis, five tetrahedra each (``5 cells^3`` in all).
+
+def box_ticks(size, cells, snap=None) -> list[np.ndarray]:
+    """Node coordinates per axis (3 arrays, m) of a box of ``size`` centred at the origin.
+
+    ``cells`` (an int or one per axis) uniform intervals per axis; ``snap`` an optional ``(lower (3,),
+    upper (3,))`` box (e.g. a rigid core) whose faces are made node planes by moving, on each axis, the
+    nearest interior node not yet moved onto each face, so the cell counts are unchanged.  Faces on or
+    outside the box are ignored.  Requires at least two cells on an axis to snap both of its faces.
     """
     size = np.broadcast_to(np.asarray(size, dtype=np.float64), (3,))
-    axes = [np.linspace(-size[i] / 2, size[i] / 2, cells + 1) for i in range(3)]
-    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    if np.any(~np.isfinite(size)) or np.any(size <= 0):
+        raise ConfigError("box size must be positive and finite (m)", field="size", value=size.tolist())
+    counts = _cells3(cells)
+    ticks = [np.linspace(-size[i] / 2, size[i] / 2, counts[i] + 1) for i in range(3)]
+    if snap is None:
+        return ticks
+    lower, upper = (np.asarray(v, dtype=np.float64) for v in snap)
+    for i in range(3):
+        t = ticks[i]
+        used = {0, len(t) - 1}
+        for face in (lower[i], upper[i]):
+            if not (t[0] < face < t[-1]):
+                continue
+            free = [k for k in range(1, len(t) - 1) if k not in used]
+            if not free:
+                raise ConfigError("too few cells to put the core's faces on node planes", field="cells",
+                                  value=list(counts))
+            k = min(free, key=lambda j: abs(t[j] - face))
+            t[k] = face
+            used.add(k)
+        t.sort()
+        if np.any(np.diff(t) <= 1e-9 * size[i]):
+            raise ConfigError("snapping made two node planes coincide", field="cells", value=list(counts))
+    return ticks
+
+
+def box_tetrahedra(size, cells, snap=None) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes ``(k, 3)`` (m) and tetrahedra ``(t, 4)`` filling a box of ``size`` centred at the origin.
+
+    ``cells`` hexahedra per axis (an int or one per axis), five tetrahedra each (``5 nx ny nz`` in
+    all; ``(5, 4, 4)`` gives the thesis's 400); ``snap`` as in :func:`box_ticks`.  Thesis 3.3.4.
+    """
+    ticks = box_ticks(size, cells, snap)
+    n = [len(t) for t in ticks]
+    nodes = np.stack(np.meshgrid(*ticks, indexing="ij"), axis=-1).reshape(-1, 3)
 
     def index(i, j, k):
-        return (i * (cells + 1) + j) * (cells + 1) + k
+        return (i * n[1] + j) * n[2] + k
 
     tets = []
-    for i in range(cells):
-        for j in range(cells):
-            for k in range(cells):
+    for i in range(n[0] - 1):
+        for j in range(n[1] - 1):
+            for k in range(n[2] - 1):
                 corners = (index(i, j, k), index(i + 1, j, k), index(i + 1, j + 1, k), index(i, j + 1, k),
                            index(i, j, k + 1), index(i + 1, j, k + 1), index(i + 1, j + 1, k + 1),
                            index(i, j + 1, k + 1))
-                tets.extend([corners[a] for a in t] for t in _CELL_TETS)
-    return nodes, np.array(tets, dtype=np.int64)
+                split = _CELL_TETS if (i + j + k) % 2 == 0 else _CELL_TETS_MIRRORED
+                tets.extend([corners[a] for a in t] for t in split)
+    tets = np.array(tets, dtype=np.int64)
+    # one orientation for all (positive signed volume): Bullet's soft body goes unstable with mixed ones
+    a, b, c, d = (nodes[tets[:, i]] for i in range(4))
+    negative = np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a)) < 0
+    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
+    return nodes, tets
 
 
 def tetrahedron_volumes(nodes: np.ndarray, tets: np.ndarray) -> np.ndarray:
@@ -60,27 +116,42 @@ def write_vtk(nodes: np.ndarray, tets: np.ndarray, path: Path) -> Path:
 class SoftBox:
     """A soft box loaded into a pybullet client (deformable world), with its deformation measure.
 
-    ``stiffness`` is the Neo-Hookean (mu, lambda) pair in Pa-like units of Bullet's solver.
+    ``size`` (m) and ``cells`` define the mesh (:func:`box_tetrahedra`), or ``mesh = (nodes (k, 3),
+    tets (t, 4))`` gives one directly, in the body's frame; ``position`` (m) and ``orientation``
+    (qx, qy, qz, qw) place that frame in the world.  ``mass`` in kg; ``stiffness`` is the Neo-Hookean
+    (mu, lambda) pair in Pa; ``damping`` Bullet's Neo-Hookean damping (s).  Thesis 3.3.4.
     """
 
-    def __init__(self, client, size, cells: int, position, mass: float = 1.0, stiffness=(180.0, 600.0),
-                 friction: float = 0.5) -> None:
+    def __init__(self, client, size=0.2, cells=4, position=(0.0, 0.0, 0.0), mass: float = 1.0,
+                 stiffness=(180.0, 600.0), friction: float = 0.5, *, mesh=None, orientation=(0.0, 0.0, 0.0, 1.0),
+                 damping: float = 0.01, margin: float = 0.002) -> None:
         self.client = client
-        self.nodes0, self.tets = box_tetrahedra(size, cells)
+        if mesh is None:
+            self.nodes0, self.tets = box_tetrahedra(size, cells)
+        else:
+            self.nodes0 = np.asarray(mesh[0], dtype=np.float64)
+            self.tets = np.asarray(mesh[1], dtype=np.int64)
+            if self.nodes0.ndim != 2 or self.nodes0.shape[1] != 3 or self.tets.ndim != 2 or self.tets.shape[1] != 4:
+                raise DimensionError("a mesh is nodes (k, 3) and tetrahedra (t, 4)", field="mesh",
+                                     value=(self.nodes0.shape, self.tets.shape))
         self.rest = tetrahedron_volumes(self.nodes0, self.tets)
         # the mesh file must outlive the body: pybullet reads it again when it first steps the soft body
         self._directory = tempfile.TemporaryDirectory()
         path = write_vtk(self.nodes0, self.tets, Path(self._directory.name) / "box.vtk")
-        self.body = client.loadSoftBody(str(path), basePosition=list(position), mass=mass, useNeoHookean=1,
-                                        NeoHookeanMu=stiffness[0], NeoHookeanLambda=stiffness[1],
-                                        NeoHookeanDamping=0.01, collisionMargin=0.002, useSelfCollision=0,
-                                        frictionCoeff=friction)
+        self.body = client.loadSoftBody(str(path), basePosition=list(position), baseOrientation=list(orientation),
+                                        mass=mass, useNeoHookean=1, NeoHookeanMu=stiffness[0],
+                                        NeoHookeanLambda=stiffness[1], NeoHookeanDamping=damping,
+                                        collisionMargin=margin, useSelfCollision=0, frictionCoeff=friction)
 
     def nodes(self) -> np.ndarray:
-        """Current node positions ``(k, 3)`` (valid once the world has been stepped)."""
+        """Current node positions ``(k, 3)`` (m, world frame; valid once the world has been stepped)."""
         _, verts = self.client.getMeshData(self.body, flags=self.client.MESH_DATA_SIMULATION_MESH)
         return np.asarray(verts, dtype=np.float64)
 
-    def deformation(self) -> float:
+    def volume_changes(self, nodes: np.ndarray | None = None) -> np.ndarray:
+        """Absolute volume change ``(t,)`` (m^3) of each tetrahedron against the rest mesh, thesis 3.3.4."""
+        return np.abs(tetrahedron_volumes(self.nodes() if nodes is None else nodes, self.tets) - self.rest)
+
+    def deformation(self, nodes: np.ndarray | None = None) -> float:
         """Sum of absolute volume changes of the tetrahedra (m^3), thesis 3.3.4."""
-        return float(np.sum(np.abs(tetrahedron_volumes(self.nodes(), self.tets) - self.rest)))
+        return float(np.sum(self.volume_changes(nodes)))
