@@ -12,6 +12,7 @@ batch size, ``m`` a number of body points.  SI units throughout.
 
 from __future__ import annotations
 
+import itertools
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -416,7 +417,7 @@ class PlanningProblem:
         if self.cost is None or len(configurations) < 2:
             return 0.0
         dense = np.vstack([configurations[:1]] + [self.space.discretize(a, b, step)[1:]
-                                                   for a, b in zip(configurations[:-1], configurations[1:])])
+                                                   for a, b in itertools.pairwise(configurations)])
         steps = np.asarray(self.space.distance(dense[:-1], dense[1:]), dtype=np.float64)
         return float(np.sum(self.cost.cost(dense[1:]) * steps))
 

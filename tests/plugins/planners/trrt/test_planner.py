@@ -3,6 +3,7 @@ anytime termination (iterations, callback, Ctrl-C) and determinism."""
 
 from __future__ import annotations
 
+import itertools
 import os
 import signal
 
@@ -27,7 +28,7 @@ def test_a_solved_path_is_valid_and_its_cost_is_the_path_integral(name):
     assert result.status is Status.SOLVED
     path = result.path.configurations
     assert np.allclose(path[0], problem.start) and problem.in_goal(path[-1:])[0]
-    dense = np.vstack([problem.space.discretize(a, b, problem.scene.resolution) for a, b in zip(path[:-1], path[1:])])
+    dense = np.vstack([problem.space.discretize(a, b, problem.scene.resolution) for a, b in itertools.pairwise(path)])
     assert problem.is_valid(dense).all()
     assert result.cost == pytest.approx(problem.path_cost(path, problem.scene.resolution))
     assert result.statistics["nodes"] >= len(path) and result.statistics["time_to_first"] > 0
@@ -40,7 +41,7 @@ def test_a_cost_ceiling_of_zero_keeps_every_state_of_the_path_free_of_deformatio
     result = planner.plan(problem, np.random.default_rng(1))
     assert result.status is Status.SOLVED and result.cost == 0.0
     path = result.path.configurations
-    dense = np.vstack([problem.space.discretize(a, b, problem.scene.resolution) for a, b in zip(path[:-1], path[1:])])
+    dense = np.vstack([problem.space.discretize(a, b, problem.scene.resolution) for a, b in itertools.pairwise(path)])
     assert np.all(problem.cost.cost(dense) == 0.0)
 
 
@@ -84,4 +85,4 @@ def test_anytime_run_keeps_the_cheapest_solution_and_ctrl_c_returns_it():
     history = np.array(result.statistics["cost_history"])
     assert np.all(np.diff(history[:, 1]) < 0) and result.cost == history[-1, 1]
     finite = [b for b in seen if np.isfinite(b)]
-    assert all(b1 >= b2 for b1, b2 in zip(finite, finite[1:]))        # the best cost never rises
+    assert all(b1 >= b2 for b1, b2 in itertools.pairwise(finite))        # the best cost never rises
