@@ -375,7 +375,12 @@ class PunctureChecker:
             self._masks.append(crop)
             self.initial.append(_topology_padded(crop))
         self.names = [names[k] for k in self.ids]
-        self._id_to_slot = {k: i for i, k in enumerate(self.ids)}
+        # slot of the watched object at each voxel of the grid padded by one voxel (-1: none), so that
+        # a body point maps to its object with one clipped index computation and one lookup
+        slots = np.full(tuple(self._shape + 2), -1, dtype=np.int16)
+        for slot, k in enumerate(self.ids):
+            slots[1:-1, 1:-1, 1:-1][grid.object_id == k] = slot
+        self._slots = slots.ravel()
 
     def initial_state(self) -> PunctureState:
         """The state of the start node: nothing removed."""
@@ -396,18 +401,36 @@ class PunctureChecker:
         if pts.ndim < 2 or pts.shape[-1] != 3:
             raise DimensionError("body_points must return points (n, m, 3)", field="body_points",
                                  value=list(pts.shape))
-        idx, inside = self.grid.index(pts.reshape(-1, 3))
-        idx = idx[inside]
-        if len(idx) == 0:
+        # index in the padded grid, clipped so that points outside land in the empty border; per axis
+        # on (n, m) slices (numpy broadcasting over a length-3 inner axis is several times slower)
+        flat = None
+        inv = 1.0 / self.grid.resolution
+        for a in range(3):
+            c = pts[..., a] - (self.grid.lower[a] - self.grid.resolution)
+            c *= inv
+            np.maximum(c, 0.0, out=c)
+            np.minimum(c, self._shape[a] + 1.0, out=c)
+            ci = c.astype(np.int64)
+            if flat is None:
+                flat = ci
+            else:
+                flat *= self._shape[a] + 2
+                flat += ci
+        flat = flat.ravel()
+        slot_of = self._slots[flat]
+        hit = slot_of >= 0
+        if not hit.any():
             return out
-        owner = self.grid.object_id[idx[:, 0], idx[:, 1], idx[:, 2]]
-        for slot, k in enumerate(self.ids):
-            sel = idx[owner == k]
-            if len(sel) == 0:
-                continue
-            local = sel - self._lower[slot]
+        flat, slot_of = flat[hit], slot_of[hit]
+        _, py, pz = self._shape + 2
+        for slot in np.unique(slot_of):
+            cells = np.unique(flat[slot_of == slot])
+            # padded-grid (i + 1, j + 1, k + 1) -> crop-local (i - lo), with lo the crop's lower corner
+            i, rest = np.divmod(cells, py * pz)
+            j, k = np.divmod(rest, pz)
+            lo = self._lower[slot] + 1
             _, cy, cz = self._masks[slot].shape
-            out[slot] = np.unique((local[:, 0] * cy + local[:, 1]) * cz + local[:, 2])
+            out[slot] = ((i - lo[0]) * cy + (j - lo[1])) * cz + (k - lo[2])
         return out
 
     def extend(self, state: PunctureState, configurations: np.ndarray) -> tuple[PunctureState, bool, str]:
