@@ -383,11 +383,14 @@ class PunctureChecker:
         self._slots = slots.ravel()
 
     def initial_state(self) -> PunctureState:
-        """The state of the start node: nothing removed."""
+        """The state of the start node (thesis 4.3.4): no voxel removed from any watched object."""
         return PunctureState(tuple(np.zeros(0, dtype=np.int64) for _ in self.ids))
 
     def occupied(self, configurations: np.ndarray) -> list[np.ndarray]:
-        """Per watched object, the sorted crop-flat indices of its voxels occupied at ``configurations``."""
+        """Per watched object, the sorted crop-flat indices of its voxels the robot occupies (thesis 4.3.4).
+
+        ``configurations``: ``(n, d)`` or ``(d,)``; a voxel is occupied when it contains a body point.
+        """
         q = np.asarray(configurations, dtype=np.float64)
         if q.ndim == 1:
             q = q[None]
@@ -458,12 +461,12 @@ class PunctureChecker:
         return PunctureState(tuple(removed)), not problems, "; ".join(problems)
 
     def check(self, configurations: np.ndarray) -> tuple[bool, str]:
-        """Check a whole path ``(n, d)`` from the start in one call: ``(ok, reason)``."""
+        """Check a whole path ``(n, d)`` (points about a voxel apart) from the start: ``(ok, reason)``."""
         _, ok, reason = self.extend(self.initial_state(), configurations)
         return ok, reason
 
     def topologies(self, state: PunctureState) -> list[Topology]:
-        """The :class:`Topology` of each watched object with ``state``'s voxels removed."""
+        """The :class:`Topology` of each watched object with ``state``'s voxels removed (thesis 4.3.4)."""
         return [self._count(slot, r) for slot, r in enumerate(state.removed)]
 
     def _count(self, slot: int, removed: np.ndarray) -> Topology:
