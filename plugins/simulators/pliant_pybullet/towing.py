@@ -305,6 +305,27 @@ class Tower:
                             contacts=np.array(contacts, dtype=np.int64), seconds=time.perf_counter() - t0,
                             interrupted=interrupted)
 
+    def assess(self, q) -> dict:
+        """Deformation of one configuration ``q`` (7,): create the cube there and step until it settles.
+
+        What it takes the simulator to assess one configuration (thesis 3.3.5's comparison with the
+        voxel cost).  A cube created overlapping the wall is pushed out of it around its held core.
+        Returns ``deformation`` (m^3), ``steps``, ``settled`` (before ``max_settle_steps``),
+        ``create_s`` and ``settle_s`` (wall time, s) and ``contacts``.
+        """
+        q = check_path(q, "configuration")[0]
+        if self.soft is not None:
+            self.close()
+            self._build_walls()
+        t0 = time.perf_counter()
+        self._place(q)
+        t1 = time.perf_counter()
+        steps, nodes = self._settle(q)
+        t2 = time.perf_counter()
+        return {"deformation": self.soft.deformation(nodes), "steps": steps,
+                "settled": steps < self.options.max_settle_steps, "create_s": t1 - t0, "settle_s": t2 - t1,
+                "contacts": len(self.client.getContactPoints(bodyA=self.soft.body))}
+
     def close(self) -> None:
         """Disconnect the pybullet client."""
         if self.client is not None:
