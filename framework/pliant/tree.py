@@ -90,6 +90,17 @@ class Tree:
         self._parent[node] = parent
         self._path_cost[node] = path_cost
 
+    def rewire(self, node: int, parent: int, path_cost: float) -> np.ndarray:
+        """Re-parent ``node`` under ``parent`` with a new cost-from-root and shift every descendant's cost by the
+        same change (edge costs are unchanged, as for RRT*'s additive objectives); returns the descendants."""
+        if 0 <= parent < self._n and node in self.branch(parent):
+            raise DimensionError("parent is below node: the rewiring would form a cycle", field="parent", value=parent)
+        below = self.descendants(node)
+        delta = path_cost - self._path_cost[node]
+        self.set_parent(node, parent, path_cost)
+        self._path_cost[below] += delta
+        return below
+
     def set_path_cost(self, node: int, path_cost: float) -> None:
         """Overwrite the cost-from-root of ``node``."""
         self._path_cost[node] = path_cost

@@ -61,3 +61,16 @@ def test_rewiring_changes_the_branch_and_bad_parents_are_refused():
         tree.add(np.array([3.0]), parent=7)
     with pytest.raises(DimensionError, match="parent"):
         tree.set_parent(1, 1, 0.0)
+
+
+def test_rewire_shifts_the_subtree_costs_and_refuses_cycles():
+    tree = Tree(RealVectorSpace([0], [10]))
+    for k in range(5):                                     # a chain 0 - 1 - 2 - 3 - 4, path cost = index
+        tree.add(np.array([float(k)]), parent=k - 1, path_cost=float(k))
+    side = tree.add(np.array([0.5]), parent=0, path_cost=0.5)
+    below = tree.rewire(2, side, 1.0)                      # 2 gets cheaper by 1: so do 3 and 4
+    assert sorted(below.tolist()) == [3, 4]
+    assert np.allclose(tree.path_costs, [0, 1, 1, 2, 3, 0.5])
+    assert np.array_equal(tree.branch(4), [0, side, 2, 3, 4])
+    with pytest.raises(DimensionError, match="cycle"):
+        tree.rewire(2, 4, 0.0)                             # 4 is below 2

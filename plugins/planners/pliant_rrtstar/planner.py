@@ -1,0 +1,284 @@
+"""RRT* over any space and any cost model (Karaman & Frazzoli 2011), with the checks of thesis 4.3.4.
+
+Each iteration samples a configuration (or, with probability ``goal_bias``, the goal or a sampled goal
+configuration of a task-space target), steers the nearest node toward it by at most ``max_step``,
+then **chooses the parent** among the nodes within the radius ``r(n)`` of :mod:`pliant_rrtstar.radius`
+that gives the new node the cheapest valid path from the start, and **rewires** the other near nodes
+through the new node when that makes their path cheaper.  The objective is additive over edges:
+
+    cost(path) = sum_j c(q_j) d(q_{j-1}, q_j)  +  length_weight * length(path)
+
+— the integral of the state cost along the path discretised at ``check_step``
+(:meth:`PlanningProblem.path_cost`, thesis Table 3.1) plus an optional length term — so rewiring a
+node shifts the cost of its whole subtree by the same amount.
+
+**Puncture and cut detection** (thesis 4.3.4, :class:`pliant.topology.PunctureChecker`): every node
+stores the voxels its path from the start has swept out of each watched object.  An extension is
+checked from its parent's state; a rewire re-derives the state of the rewired node from its new
+parent and then of every descendant from its own parent, and is refused if any of them punctures or
+cuts an object — so every node's whole path from the start is always checked.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from pliant.errors import ConfigError
+from pliant.interfaces import Planner, PlanningProblem
+from pliant.options import option
+from pliant.progress import ProgressLine
+from pliant.results import Path, PlanResult, Status
+from pliant.termination import Termination
+from pliant.tree import Tree
+
+from pliant_rrtstar.edges import evaluate_edges, state_costs, state_validity
+from pliant_rrtstar.goal import TaskSpaceGoal
+from pliant_rrtstar.radius import near_radius, rrt_star_gamma
+
+
+@dataclass(frozen=True)
+class RRTStarOptions:
+    """Options of :class:`RRTStarPlanner` (distances in the space's metric; costs in the cost model's units)."""
+
+    max_step: float = option(0.1, "largest extension, and largest near radius (space metric units)", minimum=1e-9)
+    check_step: float | None = option(None, "edges are checked and their cost integrated every this distance "
+                                      "(default: the scene resolution, else max_step / 10)", minimum=1e-9)
+    goal_bias: float = option(0.05, "probability of sampling the goal (or a goal configuration of the target)",
+                              minimum=0.0, maximum=1.0)
+    rewire_factor: float = option(1.1, "gamma = this x Karaman & Frazzoli's lower bound (> 1 for asymptotic "
+                                  "optimality)", minimum=1.0)
+    gamma: float | None = option(None, "the radius constant gamma (metric units); default from the space's "
+                                 "volume (pliant_rrtstar.radius)", minimum=1e-12)
+    length_weight: float = option(0.0, "path cost = integral of the state cost + this x path length (cost per "
+                                  "metric unit)", minimum=0.0)
+    max_cost: float = option(math.inf, "no state of an edge may cost more than this", minimum=0.0)
+    tip: tuple[float, ...] | None = option(None, "task-space goal: a point of a rigid robot in its body frame (m, "
+                                           "3 values); needs target")
+    tip_index: int | None = option(None, "task-space goal: the index of one of the robot's body points (any "
+                                   "robot); needs target", minimum=0)
+    target: tuple[float, ...] | None = option(None, "task-space goal: the world point the tip must reach (m, 3 "
+                                              "values); replaces the goal configuration")
+    target_tolerance: float = option(0.01, "task-space goal: largest tip-to-target distance (m)", minimum=0.0)
+    goal_samples: int = option(20, "most goal configurations sampled for a task-space target", minimum=1)
+    max_time: float | None = option(60.0, "time budget (s); None for no limit", minimum=0.0)
+    max_iterations: int | None = option(None, "iteration budget; None for no limit", minimum=1)
+    stop_on_first: bool = option(False, "return the first solution instead of improving it to the budget")
+    puncture_check: bool | None = option(None, "refuse extensions and rewirings that puncture or cut an object "
+                                         "(thesis 4.3.4); default on when the problem has a scene and a robot")
+    progress: bool | None = option(None, "show a progress line (default: on a terminal)")
+
+    def validate(self) -> None:
+        """Cross-field checks: a target needs exactly one of tip / tip_index, and points have 3 values."""
+        for name in ("tip", "target"):
+            value = getattr(self, name)
+            if value is not None and len(value) != 3:
+                raise ConfigError("must have 3 values (x, y, z) in metres", field=name, value=value)
+        if self.target is not None and (self.tip is None) == (self.tip_index is None):
+            raise ConfigError("a target needs exactly one of tip or tip_index", field="tip",
+                              value=[self.tip, self.tip_index])
+        if self.target is None and (self.tip is not None or self.tip_index is not None):
+            raise ConfigError("tip and tip_index need a target", field="target", value=None)
+
+
+class RRTStarPlanner(Planner):
+    """RRT* (Karaman & Frazzoli 2011): asymptotically optimal, anytime.
+
+    Statistics: ``iterations``, ``nodes``, ``time``, ``time_to_first`` (s), ``cost_history``
+    (``[[t, best cost], ...]``, strictly decreasing), ``rewires``, ``rewires_refused`` (by puncture
+    or cut), ``punctures_refused`` (extensions and rewirings refused by puncture or cut),
+    ``invalid_edges``, ``gamma``, ``radius`` (final), ``goal_states`` (sampled for a task-space
+    target), ``solutions`` (nodes in the goal), ``puncture_check``, ``interrupted``.
+    """
+
+    Options = RRTStarOptions
+    name = "rrtstar"
+    example_scene = "triple-wall"
+    example_components = {"cost": "voxel"}
+
+    def plan(self, problem: PlanningProblem, rng: np.random.Generator,
+             termination: Termination | None = None) -> PlanResult:
+        o = self.options
+        t0 = time.perf_counter()
+        self.goal = None
+        if o.target is not None:
+            self.goal = TaskSpaceGoal(problem.robot, problem.space, o.target, o.target_tolerance, tip=o.tip,
+                                      tip_index=o.tip_index)
+            problem = dataclasses.replace(problem, goal_region=self.goal.contains)
+        self.problem = problem
+        space = problem.space
+        start, goal, invalid = problem.checked_endpoints()
+        if invalid is not None:
+            return PlanResult(invalid, planner=self.name, options=self._option_dict(),
+                              message=f"the {invalid.value.split()[1]} configuration is not valid")
+        c_start = float(state_costs(problem, start[None])[0])
+        if not state_validity(problem, start[None], np.array([c_start]), o.max_cost)[0]:
+            return PlanResult(Status.INVALID_START, planner=self.name, options=self._option_dict(),
+                              message="the start configuration costs more than max_cost")
+        if self.goal is not None:
+            self.goal.valid = lambda q: state_validity(problem, q, state_costs(problem, q), o.max_cost)
+        self.check_step = o.check_step or (problem.scene.resolution if problem.scene is not None else o.max_step / 10)
+        self.gamma = o.gamma or rrt_star_gamma(space, o.rewire_factor)
+        self.punctures = self._puncture_checker(problem)
+        self.tree = Tree(space)
+        self.tree.add(start, -1, c_start, 0.0)
+        self.topology = [self.punctures.initial_state()] if self.punctures is not None else None
+        self.stats = {"rewires": 0, "rewires_refused": 0, "punctures_refused": 0, "invalid_edges": 0}
+        self.goal_nodes: list[int] = []
+        self.goal_pool: list[np.ndarray] = []
+        history: list[list[float]] = []
+        best, best_node, first, radius = math.inf, -1, None, o.max_step
+        termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations,
+                                                 stop_on_first=o.stop_on_first)
+        progress = ProgressLine(self.name, enabled=o.progress)
+        with termination.watch():
+            iteration = 0
+            while not termination.should_stop(iteration, best, solved=best_node >= 0):
+                iteration += 1
+                radius = near_radius(len(self.tree) + 1, space.tangent_dim, self.gamma, o.max_step)
+                node = self._iterate(rng, goal, radius)
+                if node >= 0 and problem.in_goal(self.tree.configurations[node][None])[0]:
+                    self.goal_nodes.append(node)
+                if self.goal_nodes:
+                    costs = self.tree.path_costs[self.goal_nodes]
+                    i = int(np.argmin(costs))
+                    if costs[i] < best:
+                        if first is None:
+                            first = termination.elapsed
+                        best, best_node = float(costs[i]), self.goal_nodes[i]
+                        history.append([termination.elapsed, best])
+                progress.update(iterations=iteration, nodes=len(self.tree), best=best, r=radius)
+        progress.close()
+        stats = dict(self.stats, iterations=iteration, nodes=len(self.tree), time=time.perf_counter() - t0,
+                     time_to_first=first, cost_history=history, gamma=self.gamma, radius=radius,
+                     goal_states=len(self.goal_pool), solutions=len(self.goal_nodes),
+                     puncture_check=self.punctures is not None, interrupted=termination.interrupted)
+        if best_node < 0:
+            target = self.goal.target if self.goal is not None else None
+            gap = float(np.min(np.linalg.norm(self.goal.tip(self.tree.configurations) - target, axis=-1))) \
+                if self.goal is not None else float(np.min(space.distance(self.tree.configurations, goal)))
+            return PlanResult(Status.TIMEOUT, planner=self.name, statistics=stats, options=self._option_dict(),
+                              message=f"no solution within the budget (closest node {gap:.4g} from the goal)")
+        return PlanResult(Status.SOLVED, path=Path(self.tree.path_to(best_node), space_kind=space.kind), cost=best,
+                          planner=self.name, statistics=stats, options=self._option_dict())
+
+    # --- one iteration -----------------------------------------------------------------------------
+
+    def _sample(self, rng: np.random.Generator, goal: np.ndarray) -> np.ndarray:
+        o = self.options
+        if rng.random() >= o.goal_bias:
+            return self.problem.space.sample(rng, 1)[0]
+        if self.goal is None:
+            return goal
+        if len(self.goal_pool) < o.goal_samples and (not self.goal_pool or rng.random() < 0.5):
+            q = self.goal.sample(rng)
+            if q is not None:
+                self.goal_pool.append(q)
+        if not self.goal_pool:
+            return self.problem.space.sample(rng, 1)[0]
+        return self.goal_pool[int(rng.integers(len(self.goal_pool)))]
+
+    def _iterate(self, rng: np.random.Generator, goal: np.ndarray, radius: float) -> int:
+        """Sample, steer, choose the parent, add the node and rewire; the new node's index or -1."""
+        o, tree, problem = self.options, self.tree, self.problem
+        target = self._sample(rng, goal)
+        nearest = tree.nearest(target)
+        q_new = problem.space.steer(tree.configurations[nearest], target, o.max_step)
+        c_new = state_costs(problem, q_new[None])
+        if not state_validity(problem, q_new[None], c_new, o.max_cost)[0]:
+            return -1
+        near = tree.near(q_new, radius)
+        if nearest not in near:
+            near = np.append(near, nearest)
+        edges = evaluate_edges(problem, tree.configurations[near], q_new, self.check_step, o.length_weight,
+                               o.max_cost)
+        self.stats["invalid_edges"] += int(np.count_nonzero(~edges.valid))
+        totals = tree.path_costs[near] + edges.cost
+        parent, topology = -1, None
+        for i in np.argsort(totals, kind="stable"):
+            if not np.isfinite(totals[i]):
+                break
+            if self.punctures is not None:
+                topology, ok, _ = self.punctures.extend(self.topology[near[i]], edges.of(i))
+                if not ok:
+                    self.stats["punctures_refused"] += 1
+                    continue
+            parent = int(near[i])
+            break
+        if parent < 0:
+            return -1
+        node = tree.add(q_new, parent, float(c_new[0]), float(totals[i]))
+        if self.topology is not None:
+            self.topology.append(topology)
+        self._rewire(node, near[near != parent])
+        return node
+
+    # --- rewiring ----------------------------------------------------------------------------------
+
+    def _rewire(self, node: int, near: np.ndarray) -> None:
+        """Re-parent each of ``near`` under ``node`` when that makes its path cheaper (and valid, and no puncture)."""
+        if len(near) == 0:
+            return
+        o, tree = self.options, self.tree
+        q_node = tree.configurations[node]
+        edges = evaluate_edges(self.problem, q_node, tree.configurations[near], self.check_step, o.length_weight,
+                               o.max_cost)
+        ancestors = set(tree.branch(node).tolist())
+        for i in np.argsort(edges.cost, kind="stable"):
+            if not edges.valid[i]:
+                continue
+            x = int(near[i])
+            new_cost = float(tree.path_costs[node] + edges.cost[i])
+            if not new_cost < tree.path_costs[x] or x in ancestors:   # costs may have dropped by an earlier rewire
+                continue
+            if self.punctures is not None and not self._rewire_topology(node, x, edges.of(i)):
+                self.stats["rewires_refused"] += 1
+                self.stats["punctures_refused"] += 1
+                continue
+            tree.rewire(x, node, new_cost)
+            self.stats["rewires"] += 1
+
+    def _rewire_topology(self, node: int, x: int, edge: np.ndarray) -> bool:
+        """Re-derive the puncture state of ``x`` under ``node`` and of all its descendants; commit if all pass."""
+        tree, checker = self.tree, self.punctures
+        state, ok, _ = checker.extend(self.topology[node], edge)
+        if not ok:
+            return False
+        new = {x: state}
+        if not _same(state, self.topology[x]):       # descendants only depend on x through its swept voxels
+            q = tree.configurations
+            parents = tree.parents
+            for d in tree.descendants(x):
+                p = int(parents[d])
+                edge_states = self.problem.space.discretize(q[p], q[d], self.check_step)[1:]
+                new[int(d)], ok, _ = checker.extend(new[p], edge_states)
+                if not ok:
+                    return False
+        for k, s in new.items():
+            self.topology[k] = s
+        return True
+
+    # --- helpers -----------------------------------------------------------------------------------
+
+    def _option_dict(self) -> dict:
+        return dict(vars(self.options))
+
+    def _puncture_checker(self, problem: PlanningProblem):
+        wanted = self.options.puncture_check
+        available = problem.scene is not None and problem.robot is not None
+        if wanted and not available:
+            raise ConfigError("puncture_check needs a scene and a robot", field="planner.puncture_check", value=True)
+        if not (wanted or (wanted is None and available)):
+            return None
+        from pliant.topology import PunctureChecker
+        from pliant.voxelgrid import VoxelGrid
+
+        checker = PunctureChecker(VoxelGrid.from_scene(problem.scene), problem.robot.body_points)
+        return checker if checker.ids else None             # nothing the robot may enter: nothing to check
+
+
+def _same(a, b) -> bool:
+    return all(np.array_equal(x, y) for x, y in zip(a.removed, b.removed))
