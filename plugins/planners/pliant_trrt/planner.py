@@ -25,6 +25,7 @@ from pliant.interfaces import Planner, PlanningProblem
 from pliant.options import option
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
+from pliant.shortcut import shortcut
 from pliant.termination import Termination
 from pliant.tree import Tree
 
@@ -55,6 +56,8 @@ class TRRTOptions:
                                  "the cheapest)")
     puncture_check: bool = option(False, "refuse edges that puncture or cut an object of the voxel model "
                                   "(thesis 4.3.4; needs a scene)")
+    shortcut_iterations: int = option(0, "cost-aware shortcutting of the solution (pliant.shortcut): attempts; "
+                                      "0 returns T-RRT's own path", minimum=0)
     progress: bool | None = option(None, "show a progress line (default: on a terminal)")
 
 
@@ -157,6 +160,17 @@ class TRRTPlanner(Planner):
             return PlanResult(Status.TIMEOUT, planner=self.name, statistics=stats, options=self._option_dict(),
                               message=f"no solution within the budget (closest node {gap:.4g} from the goal)")
         path = self.tree.path_to(best_node)
+        if o.shortcut_iterations:
+            t_short = time.perf_counter()
+            stats["tree_cost"] = best
+            check = None
+            if self._punctures is not None:
+                punctures = self._punctures
+                check = lambda dense: punctures.check(dense)[0]  # noqa: E731 - the whole path from the start
+            path, best = shortcut(problem, path, rng, step=self._check_step, iterations=o.shortcut_iterations,
+                                  check=check)
+            stats["shortcut_time"] = time.perf_counter() - t_short
+            stats["time"] = time.perf_counter() - t0
         return PlanResult(Status.SOLVED, path=Path(path, space_kind=space.kind), cost=best, planner=self.name,
                           statistics=stats, options=self._option_dict())
 

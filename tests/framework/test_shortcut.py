@@ -1,0 +1,58 @@
+"""Cost-aware shortcutting: never costlier, always valid, vetoes respected, zig-zags straightened."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pliant import Pipeline
+from pliant.errors import DimensionError
+from pliant.interfaces import PlanningProblem
+from pliant.shortcut import densify, shortcut
+
+
+@pytest.fixture(scope="module")
+def problem():
+    return PlanningProblem.from_context(Pipeline("triple-wall", cost="voxel", planner="straight").build())
+
+
+def zigzag(problem, n=9):
+    """A valid but wasteful path: the straight line through the walls with every other state moved sideways."""
+    start, goal = problem.start, problem.goal
+    t = np.linspace(0, 1, n)[:, None]
+    path = start + t * (goal - start)
+    path[1:-1:2, 2] -= 0.03
+    assert problem.is_valid(densify(problem, path, problem.scene.resolution)).all()
+    return path
+
+
+def test_a_zigzag_through_the_walls_gets_cheaper_and_stays_valid(problem):
+    path = zigzag(problem)
+    step = problem.scene.resolution
+    before = problem.path_cost(path, step)
+    dense, cost = shortcut(problem, path, np.random.default_rng(0), step=step, iterations=300)
+    assert cost <= before and cost == pytest.approx(problem.path_cost(dense, step))
+    assert problem.is_valid(dense).all()
+    assert np.allclose(dense[0], path[0]) and np.allclose(dense[-1], path[-1])
+
+
+def test_with_a_length_weight_a_free_zigzag_straightens(problem):
+    space = problem.space
+    path = zigzag(problem)
+    step = problem.scene.resolution
+    dense, _ = shortcut(problem, path, np.random.default_rng(1), step=step, iterations=500, length_weight=1e6)
+    assert space.path_length(dense) < space.path_length(densify(problem, path, step))
+
+
+def test_a_veto_keeps_the_original_path(problem):
+    path = zigzag(problem)
+    step = problem.scene.resolution
+    dense, cost = shortcut(problem, path, np.random.default_rng(0), step=step, iterations=100, check=lambda p: False)
+    assert np.array_equal(dense, densify(problem, path, step))
+    assert cost == pytest.approx(problem.path_cost(path, step))
+
+
+def test_bad_arguments_name_the_field(problem):
+    with pytest.raises(DimensionError, match="step"):
+        shortcut(problem, zigzag(problem), np.random.default_rng(0), step=0.0)
+    with pytest.raises(DimensionError, match="iterations"):
+        shortcut(problem, zigzag(problem), np.random.default_rng(0), step=0.01, iterations=-1)
