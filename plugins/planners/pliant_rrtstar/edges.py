@@ -4,7 +4,10 @@ An edge ``a -> b`` is discretised as :meth:`Space.discretize` does (``ceil(d(a, 
 parts; the same interpolated states, bit for bit up to the interpolation's batching); its cost is the
 discrete integral of :meth:`PlanningProblem.path_cost` over the states after ``a``,
 ``sum_j c(q_j) d(q_{j-1}, q_j)``, plus ``length_weight * d(a, b)`` — so the cost of a path is the
-sum of its edges' costs, and a tree node's cost-from-root is exactly the path cost of its branch.
+sum of its edges' costs, and a tree node's cost-from-root is the path cost of its branch (to rounding).
+The steps ``d(q_{j-1}, q_j)`` are taken as ``d(a, b) / parts``: every built-in space interpolates at
+constant speed along its geodesic (R^n, SE(2), SE(3) with slerp, their compounds), so this equals the
+distance between consecutive states to rounding (tested against ``PlanningProblem.path_cost``).
 """
 
 from __future__ import annotations
@@ -72,10 +75,7 @@ def evaluate_edges(problem: PlanningProblem, starts: np.ndarray, ends: np.ndarra
     t = j * (1.0 / counts[owner])                         # as numpy.linspace computes i * (1 / n) ...
     t[offsets[1:] - 1] = 1.0                              # ... with the end exactly 1
     states = space.interpolate(starts[owner], ends[owner], t[:, None])
-    previous = np.empty_like(states)
-    previous[1:] = states[:-1]
-    previous[offsets[:-1]] = starts
-    steps = np.asarray(space.distance(previous, states), dtype=np.float64)
+    steps = (length / counts)[owner]                     # interpolation is at constant speed along the geodesic
     costs = state_costs(problem, states)
     ok = state_validity(problem, states, costs, max_cost)
     weighted = np.where(ok, costs * steps, 0.0)

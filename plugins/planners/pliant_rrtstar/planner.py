@@ -184,13 +184,20 @@ class RRTStarPlanner(Planner):
     def _iterate(self, rng: np.random.Generator, goal: np.ndarray, radius: float) -> int:
         """Sample, steer, choose the parent, add the node and rewire; the new node's index or -1."""
         o, tree, problem = self.options, self.tree, self.problem
+        space = problem.space
         target = self._sample(rng, goal)
-        nearest = tree.nearest(target)
-        q_new = problem.space.steer(tree.configurations[nearest], target, o.max_step)
+        to_target = tree.distances(target)
+        nearest = int(np.argmin(to_target))
+        q_new = space.steer(tree.configurations[nearest], target, o.max_step)
         c_new = state_costs(problem, q_new[None])
         if not state_validity(problem, q_new[None], c_new, o.max_cost)[0]:
             return -1
-        near = tree.near(q_new, radius)
+        # the near nodes: by the triangle inequality only nodes with |d(x, target) - d(q_new, target)| <= r can be
+        # within r of q_new, so the exact distance is computed for those alone
+        candidates = np.nonzero(np.abs(to_target - float(space.distance(q_new, target))) <= radius)[0]
+        d_new = np.atleast_1d(np.asarray(space.distance(tree.configurations[candidates], q_new), dtype=np.float64))
+        inside = d_new <= radius
+        near = candidates[inside][np.argsort(d_new[inside], kind="stable")]
         if nearest not in near:
             near = np.append(near, nearest)
         edges = evaluate_edges(problem, tree.configurations[near], q_new, self.check_step, o.length_weight,
