@@ -47,6 +47,9 @@ class TRRTOptions:
                                        "multiplied by it after n_fail_max refusals", minimum=1.0 + 1e-9)
     cost_scale: float | None = option(None, "K, the cost normalisation (cost per unit distance); default the "
                                       "mean state cost of start and goal, else 1", minimum=1e-300)
+    cost_range_cooling: bool = option(False, "after an uphill acceptance, cool by temperature_factor ** (rise / "
+                                      "(0.1 x cost range)) (Jaillet et al., IEEE T-RO 2010) instead of by "
+                                      "temperature_factor")
     max_cost: float = option(math.inf, "no state of an edge may cost more than this", minimum=0.0)
     refinement_ratio: float = option(0.1, "largest share of refinement nodes (the extension's sample was "
                                      "within max_step of the tree)", minimum=0.0, maximum=1.0)
@@ -107,7 +110,8 @@ class TRRTPlanner(Planner):
         c_start = float(state_cost(start[None])[0])
         c_goal = float(state_cost(goal[None])[0]) if problem.goal_region is None else c_start
         k = o.cost_scale or (0.5 * (c_start + c_goal) if c_start + c_goal > 0 else 1.0)
-        self.test = TransitionTest(o.initial_temperature, k, o.temperature_factor, o.n_fail_max, o.max_cost)
+        self.test = TransitionTest(o.initial_temperature, k, o.temperature_factor, o.n_fail_max, o.max_cost,
+                                   o.cost_range_cooling)
         self.tree = Tree(space)
         self.tree.add(start, -1, c_start, 0.0)
         self._topology = [self._punctures.initial_state()] if self._punctures is not None else None

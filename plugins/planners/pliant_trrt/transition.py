@@ -22,6 +22,8 @@ class TransitionTest:
     temperature: current T (> 0).  k: the cost normalisation K (cost per unit distance).
     alpha: heating / cooling factor (> 1).  n_fail_max: refusals in a row before heating.
     max_cost: states costlier than this are always refused.
+    cost_range_cooling: cool by ``alpha ** (rise / (0.1 * cost range))`` after an uphill acceptance (the
+    T-RO 2010 version of T-RRT; the cost range is that of the states tested so far) instead of ``alpha``.
     """
 
     temperature: float
@@ -29,7 +31,10 @@ class TransitionTest:
     alpha: float = 2.0
     n_fail_max: int = 10
     max_cost: float = math.inf
+    cost_range_cooling: bool = False
     n_fail: int = 0
+    lowest: float = math.inf
+    highest: float = -math.inf
     accepted_uphill: int = 0
     refused: int = 0
 
@@ -46,11 +51,19 @@ class TransitionTest:
         """Accept or refuse, updating the temperature and the failure count as the rule says."""
         if not new_cost <= self.max_cost:
             return False                    # above the cost ceiling: refused without touching the temperature
+        self.lowest = min(self.lowest, parent_cost, new_cost)
+        self.highest = max(self.highest, parent_cost, new_cost)
         p = self.probability(parent_cost, new_cost, distance)
         if p >= 1.0:
             return True
         if p > 0.0 and rng.random() < p:
-            self.temperature /= self.alpha
+            rise = new_cost - parent_cost
+            span = self.highest - self.lowest
+            if self.cost_range_cooling and span > 0:
+                # Jaillet et al. (2010, IEEE T-RO): cool more after a bigger climb, relative to the cost range seen
+                self.temperature /= self.alpha ** (rise / (0.1 * span))
+            else:
+                self.temperature /= self.alpha
             self.n_fail = 0
             self.accepted_uphill += 1
             return True

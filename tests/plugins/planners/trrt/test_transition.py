@@ -44,3 +44,13 @@ def test_states_above_the_cost_ceiling_are_refused_without_touching_the_temperat
     rng = np.random.default_rng(0)
     assert not test(0.0, 3.0, 1.0, rng) and not test(5.0, 2.5, 1.0, rng)     # even downhill, above the ceiling
     assert test.temperature == 1e12 and test.refused == 0
+
+
+def test_cost_range_cooling_cools_more_after_a_bigger_climb():
+    rng = np.random.default_rng(0)
+    small, big = (TransitionTest(temperature=1e12, alpha=2.0, cost_range_cooling=True) for _ in range(2))
+    for test in (small, big):
+        assert test(0.0, 0.0, 1.0, rng) and test(10.0, 10.0, 1.0, rng)       # the cost range seen: [0, 10]
+    assert small(0.0, 0.5, 1.0, rng) and big(0.0, 2.0, 1.0, rng)
+    assert small.temperature == pytest.approx(1e12 / 2.0 ** (0.5 / 1.0))
+    assert big.temperature == pytest.approx(1e12 / 2.0 ** (2.0 / 1.0))
