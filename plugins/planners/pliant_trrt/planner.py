@@ -55,8 +55,10 @@ class TRRTOptions:
                                      "within max_step of the tree)", minimum=0.0, maximum=1.0)
     max_time: float | None = option(60.0, "time budget (s); None for no limit", minimum=0.0)
     max_iterations: int | None = option(None, "iteration budget; None for no limit", minimum=1)
-    stop_on_first: bool = option(True, "return the first solution (else keep growing to the budget and return "
-                                 "the cheapest)")
+    stop_on_first: bool = option(True, "return the first solution (else run to the budget and return the "
+                                 "cheapest)")
+    anytime: str = option("grow", "without stop_on_first: keep growing the same tree (grow) or start a new tree "
+                          "after each solution (restart)", choices=("grow", "restart"))
     puncture_check: bool = option(False, "refuse edges that puncture or cut an object of the voxel model "
                                   "(thesis 4.3.4; needs a scene)")
     shortcut_iterations: int = option(0, "cost-aware shortcutting of the solution (pliant.shortcut): attempts; "
@@ -110,22 +112,19 @@ class TRRTPlanner(Planner):
         c_start = float(state_cost(start[None])[0])
         c_goal = float(state_cost(goal[None])[0]) if problem.goal_region is None else c_start
         k = o.cost_scale or (0.5 * (c_start + c_goal) if c_start + c_goal > 0 else 1.0)
-        self.test = TransitionTest(o.initial_temperature, k, o.temperature_factor, o.n_fail_max, o.max_cost,
-                                   o.cost_range_cooling)
-        self.tree = Tree(space)
-        self.tree.add(start, -1, c_start, 0.0)
-        self._topology = [self._punctures.initial_state()] if self._punctures is not None else None
-        stats = {"iterations": 0, "refinements_skipped": 0, "invalid_edges": 0, "punctures": 0, "gradient_kept": 0}
-        solutions: list[tuple[int, float]] = []
+        self._space = space
+        self._new_tree(start, c_start, k)
+        stats = {"iterations": 0, "refinements_skipped": 0, "invalid_edges": 0, "punctures": 0, "gradient_kept": 0,
+                 "trees": 1, "shortcut_time": 0.0}
         history: list[list[float]] = []
-        best, best_node, first = math.inf, -1, None
+        best, best_path, best_tree_cost, first, solutions = math.inf, None, math.nan, None, 0
         n_expand = n_refine = 0
         termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations,
                                                  stop_on_first=o.stop_on_first)
         progress = ProgressLine(self.name, enabled=o.progress)
         with termination.watch():
             iteration = 0
-            while not termination.should_stop(iteration, best, solved=bool(solutions)):
+            while not termination.should_stop(iteration, best, solved=solutions > 0):
                 iteration += 1
                 target = goal if (problem.goal_region is None and rng.random() < o.goal_bias) else \
                     space.sample(rng, 1)[0]
@@ -145,38 +144,56 @@ class TRRTPlanner(Planner):
                         float(space.distance(self.tree.configurations[node], goal)) <= o.max_step:
                     reached = self._extend(problem, node, goal, stats, rng)
                 if reached >= 0:
-                    cost = float(self.tree.path_costs[reached])
-                    solutions.append((reached, cost))
+                    solutions += 1
                     if first is None:
                         first = termination.elapsed
+                    tree_cost = float(self.tree.path_costs[reached])
+                    path, cost = self._finish(problem, self.tree.path_to(reached), tree_cost, rng, stats)
                     if cost < best:
-                        best, best_node = cost, reached
+                        best, best_path, best_tree_cost = cost, path, tree_cost
                         history.append([termination.elapsed, cost])
+                    if o.anytime == "restart" and not o.stop_on_first:
+                        self._new_tree(start, c_start, k)
+                        n_expand = n_refine = 0
+                        stats["trees"] += 1
                 progress.update(iterations=iteration, nodes=len(self.tree), best=best, T=self.test.temperature)
             stats["iterations"] = iteration
         progress.close()
         stats.update(nodes=len(self.tree), time=time.perf_counter() - t0, time_to_first=first,
                      cost_history=history, temperature=self.test.temperature, k=k,
                      uphill_accepted=self.test.accepted_uphill, refused=self.test.refused,
-                     solutions=len(solutions), interrupted=termination.interrupted)
-        if best_node < 0:
+                     solutions=solutions, interrupted=termination.interrupted, tree_cost=best_tree_cost)
+        if best_path is None:
             gap = float(np.min(space.distance(self.tree.configurations, goal)))
             return PlanResult(Status.TIMEOUT, planner=self.name, statistics=stats, options=self._option_dict(),
                               message=f"no solution within the budget (closest node {gap:.4g} from the goal)")
-        path = self.tree.path_to(best_node)
-        if o.shortcut_iterations:
-            t_short = time.perf_counter()
-            stats["tree_cost"] = best
-            check = None
-            if self._punctures is not None:
-                punctures = self._punctures
-                check = lambda dense: punctures.check(dense)[0]  # noqa: E731 - the whole path from the start
-            path, best = shortcut(problem, path, rng, step=self._check_step, iterations=o.shortcut_iterations,
-                                  check=check)
-            stats["shortcut_time"] = time.perf_counter() - t_short
-            stats["time"] = time.perf_counter() - t0
-        return PlanResult(Status.SOLVED, path=Path(path, space_kind=space.kind), cost=best, planner=self.name,
+        return PlanResult(Status.SOLVED, path=Path(best_path, space_kind=space.kind), cost=best, planner=self.name,
                           statistics=stats, options=self._option_dict())
+
+    def _new_tree(self, start: np.ndarray, c_start: float, k: float) -> None:
+        """A fresh tree rooted at the start, with a fresh temperature."""
+        o = self.options
+        self.test = TransitionTest(o.initial_temperature, k, o.temperature_factor, o.n_fail_max, o.max_cost,
+                                   o.cost_range_cooling)
+        self.tree = Tree(self._space)
+        self.tree.add(start, -1, c_start, 0.0)
+        self._topology = [self._punctures.initial_state()] if self._punctures is not None else None
+
+    def _finish(self, problem: PlanningProblem, path: np.ndarray, tree_cost: float, rng: np.random.Generator,
+                stats: dict) -> tuple[np.ndarray, float]:
+        """A solution as returned: the tree's path, shortcut when ``shortcut_iterations`` asks; and its cost."""
+        o = self.options
+        if not o.shortcut_iterations:
+            return path, tree_cost
+        t = time.perf_counter()
+        check = None
+        if self._punctures is not None:
+            punctures = self._punctures
+            check = lambda dense: punctures.check(dense)[0]  # noqa: E731 - the whole path from the start
+        path, cost = shortcut(problem, path, rng, step=self._check_step, iterations=o.shortcut_iterations,
+                              check=check)
+        stats["shortcut_time"] += time.perf_counter() - t
+        return path, cost
 
     def _option_dict(self) -> dict:
         return dict(vars(self.options))
