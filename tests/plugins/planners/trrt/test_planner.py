@@ -86,3 +86,17 @@ def test_anytime_run_keeps_the_cheapest_solution_and_ctrl_c_returns_it():
     assert np.all(np.diff(history[:, 1]) < 0) and result.cost == history[-1, 1]
     finite = [b for b in seen if np.isfinite(b)]
     assert all(b1 >= b2 for b1, b2 in itertools.pairwise(finite))        # the best cost never rises
+
+
+def test_restart_mode_grows_new_trees_and_keeps_the_cheapest_solution():
+    problem, planner = problem_and_planner("trrt", max_step=0.03, stop_on_first=False, anytime="restart",
+                                           shortcut_iterations=50)
+    result = planner.plan(problem, np.random.default_rng(3), Termination(max_iterations=3000))
+    stats = result.statistics
+    # every solution but the last one's ended a tree
+    assert result.status is Status.SOLVED and stats["trees"] >= 2 and stats["solutions"] in (stats["trees"] - 1,
+                                                                                             stats["trees"])
+    history = np.array(stats["cost_history"])
+    assert result.cost == history[-1, 1] == history[:, 1].min()
+    assert result.cost == pytest.approx(problem.path_cost(result.path.configurations, problem.scene.resolution))
+    assert stats["tree_cost"] >= result.cost                  # shortcutting never makes a path costlier
