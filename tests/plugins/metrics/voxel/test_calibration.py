@@ -12,7 +12,7 @@ def test_exact_scale_is_recovered_with_zero_error():
     measured = [33.9 * p for p in planned]
     cal = fit_calibration(planned, measured)
     assert cal.scale == pytest.approx(33.9)
-    assert cal.least_squares_scale == pytest.approx(33.9)
+    assert cal.least_squares_scale == pytest.approx(33.9) and cal.total_scale == pytest.approx(33.9)
     assert np.allclose(cal.path_errors, 0.0)
     assert np.allclose(cal.apply([1.0, 2.0]), [33.9, 67.8])
 
@@ -26,6 +26,9 @@ def test_noisy_measurements_give_the_thesis_style_errors():
     assert cal.path_errors[0] == pytest.approx(abs(2.05 * 3 - 6.9) / 6.9)
     assert cal.path_errors[1] == pytest.approx(abs(2.05 * 4 - 8.0) / 8.0)
     assert cal.mean_error == pytest.approx(cal.path_errors.mean())
+    # the ratio of totals makes the mean calibrated path cost equal the mean measured one
+    assert cal.total_scale == pytest.approx((6.9 + 8.0) / 7.0)
+    assert np.mean([cal.total_scale * p.sum() for p in planned]) == pytest.approx(np.mean([6.9, 8.0]))
 
 
 def test_bad_input_names_the_path():
