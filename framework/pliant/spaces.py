@@ -133,6 +133,27 @@ class Space(ABC):
         n = max(1, int(np.ceil(float(self.distance(a, b)) / step)))
         return self.interpolate(np.asarray(a)[None], np.asarray(b)[None], np.linspace(0.0, 1.0, n + 1)[:, None])
 
+    def mean(self, q: np.ndarray, weights: np.ndarray | None = None, iterations: int = 10) -> np.ndarray:
+        """The (weighted) mean ``(d,)`` of configurations ``(n, d)``: the Karcher mean through
+        :meth:`difference` / :meth:`retract` (angles wrap, quaternions stay unit), plain for R^n."""
+        q = np.atleast_2d(np.asarray(q, dtype=np.float64))
+        if len(q) == 0:
+            raise DimensionError("the mean of no configuration is undefined", field="q", value=[])
+        ref = q[0]
+        for _ in range(max(1, iterations)):
+            delta = np.average(self.difference(q, ref), axis=0, weights=weights)
+            ref = self.retract(ref, delta)
+            if float(np.max(np.abs(delta))) < 1e-12:
+                break
+        return ref
+
+    def variance(self, q: np.ndarray) -> np.ndarray:
+        """Per tangent coordinate, the mean squared difference ``(t,)`` of configurations ``(n, d)`` from their
+        :meth:`mean` (m^2, rad^2); zeros for a single configuration."""
+        q = np.atleast_2d(np.asarray(q, dtype=np.float64))
+        d = self.difference(q, self.mean(q))
+        return np.mean(d * d, axis=0)
+
     def path_length(self, path: np.ndarray) -> float:
         """Sum of distances between consecutive configurations of ``path`` ``(k, d)``."""
         path = np.asarray(path, dtype=np.float64)

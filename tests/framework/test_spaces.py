@@ -124,3 +124,20 @@ def test_round_trip_through_dict(name):
     again = space_from_dict(space.to_dict())
     a, b = space.sample(np.random.default_rng(0), 2)
     assert again.distance(a, b) == pytest.approx(space.distance(a, b))
+
+
+def test_mean_and_variance_on_known_sets():
+    rn = RealVectorSpace([0, 0], [10, 10])
+    pts = np.array([[1.0, 2.0], [3.0, 6.0]])
+    assert np.allclose(rn.mean(pts), [2.0, 4.0]) and np.allclose(rn.variance(pts), [1.0, 4.0])
+    se2 = SE2Space([0, 0], [10, 10])
+    wrapped = np.array([[1.0, 1.0, np.pi - 0.1], [1.0, 3.0, -np.pi + 0.1]])   # angles either side of +-pi
+    m = se2.mean(wrapped)
+    assert np.allclose(m[:2], [1.0, 2.0]) and abs(abs(m[2]) - np.pi) < 1e-9
+    assert np.allclose(se2.variance(wrapped), [0.0, 1.0, 0.01])
+    se3 = SE3Space([0, 0, 0], [1, 1, 1])
+    half = np.sin(0.1)
+    quats = np.array([[0.5, 0.5, 0.5, 0, 0, half, np.cos(0.1)], [0.5, 0.5, 0.5, 0, 0, -half, np.cos(0.1)]])
+    assert np.allclose(se3.mean(quats), [0.5, 0.5, 0.5, 0, 0, 0, 1.0])
+    assert np.allclose(se3.variance(quats), [0, 0, 0, 0, 0, 0.04])
+    assert np.allclose(se3.mean(quats[:1]), quats[0]) and np.allclose(se3.variance(quats[:1]), 0.0)
