@@ -35,14 +35,14 @@ node when it clusters with the node's belief into a single cluster.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 from pliant.errors import ConfigError, DimensionError
 from pliant.interfaces import RobotModel, Simulator
 from pliant.spaces import Space
 from pliant.voxelgrid import VoxelGrid
-from scipy.cluster.hierarchy import fcluster, linkage
+from scipy.cluster.hierarchy import linkage
 
 CLUSTERING_METHODS = ("pc", "wcr", "ac", "distance")
 
@@ -120,9 +120,16 @@ class ClusteringContext:
         return lower, upper
 
     @cached_property
-    def blocked(self) -> np.ndarray:
-        """Flat bool occupancy of the grid plus one trailing ``True`` (the index of points outside it)."""
-        return np.append(self.grid.occupied.ravel(), True)
+    def region_axes(self) -> tuple[int, ...]:
+        """The axes (0 x, 1 y, 2 z) some region bounds; 2-D regions leave z out."""
+        lower, upper = self.region_bounds
+        return tuple(k for k in range(3) if np.isfinite(lower[:, k]).any() or np.isfinite(upper[:, k]).any())
+
+    @cached_property
+    def padded_occupancy(self) -> tuple[np.ndarray, np.ndarray]:
+        """Flat bool occupancy of the grid padded by one blocked voxel on every side, and the padded shape."""
+        padded = np.pad(self.grid.occupied, 1, constant_values=True)
+        return padded.ravel(), np.array(padded.shape, dtype=np.intp)
 
 
 def default_distance_threshold(context: ClusteringContext) -> float:
@@ -180,26 +187,33 @@ def _check_thresholds(wcr_threshold: float, distance_threshold: float | None,
 # --- pairwise distances of the spatial-feature pass ----------------------------------------------
 
 def wcr_signatures(q: np.ndarray, context: ClusteringContext) -> np.ndarray:
-    """Convex region signatures, bool ``(n, m, R)``: region ``r`` contains body point ``j`` of ``q[i]`` (5.3.3).
+    """Convex region signatures, bool ``(R, n, m)``: region ``r`` contains body point ``j`` of ``q[i]`` (5.3.3).
 
     Region boxes are closed (a point on a face is inside); 2-D regions test ``(x, y)`` only.
     """
     lower, upper = context.region_bounds
     pts = context.robot.body_points(q)                                      # (n, m, 3)
-    p = pts[:, :, None, :]
-    return np.all((p >= lower) & (p <= upper), axis=-1)
+    n, m, _ = pts.shape
+    inside = np.ones((len(lower), n * m), dtype=bool)
+    for k in context.region_axes:                                           # the long axis innermost
+        pk = pts[:, :, k].reshape(1, -1)
+        inside &= (lower[:, k, None] <= pk) & (pk <= upper[:, k, None])
+    return inside.reshape(len(lower), n, m)
 
 
 def wcr_distances(q: np.ndarray, context: ClusteringContext) -> np.ndarray:
     """``(n, n)`` D_WCR: fraction of body points whose region sets at ``q[a]`` and ``q[b]`` are disjoint (5.3.3).
 
-    One batched matrix product over the points: ``shared[j, a, b] = S[a, j] . S[b, j] > 0``.
-    The diagonal is 0 (a configuration is always with itself).
+    The region sets are packed as bit masks (one byte per 8 regions); two sets intersect when the AND
+    of their masks is non-zero, evaluated for all pairs and points at once (``(n, n, m)``).  A point in
+    no region has an empty mask and so shares nothing.  The diagonal is 0.
     """
-    sig = wcr_signatures(q, context)                                        # (n, m, R)
-    s = np.ascontiguousarray(sig.transpose(1, 0, 2), dtype=np.float32)      # (m, n, R)
-    shared = np.matmul(s, s.transpose(0, 2, 1)) > 0.5                       # (m, n, n)
-    d = 1.0 - shared.mean(axis=0, dtype=np.float64)
+    sig = wcr_signatures(q, context)                                        # (R, n, m)
+    m = sig.shape[2]
+    packed = np.packbits(sig, axis=0)                                       # (B, n, m) uint8
+    shared = packed[:, :, None, :] & packed[:, None, :, :]                  # (B, n, n, m)
+    shared = np.bitwise_or.reduce(shared, axis=0) if len(packed) > 1 else shared[0]
+    d = 1.0 - np.count_nonzero(shared, axis=2) / m
     np.fill_diagonal(d, 0.0)
     return d
 
@@ -225,18 +239,24 @@ def actuation_centres(q: np.ndarray, context: ClusteringContext) -> np.ndarray:
 
 
 def _segments_free(a: np.ndarray, b: np.ndarray, context: ClusteringContext) -> np.ndarray:
-    """Bool ``(p,)``: every segment ``a[i, k] -> b[i, k]`` (``(p, c, 3)``) is free, sampled every half voxel.
+    """Bool ``(p,)``: every segment ``a[i, k] -> b[i, k]`` (``(p, c, 3)``, m) is free, sampled every half voxel.
 
-    Samples outside the grid count as blocked (the robot cannot leave the workspace).
+    Every segment gets the sample count of the longest one (``ceil(2 L / resolution) + 1``); samples
+    outside the grid count as blocked (the robot cannot leave the workspace).
     """
     grid = context.grid
-    length = np.linalg.norm(b - a, axis=-1)
-    samples = int(np.ceil(float(length.max(initial=0.0)) / (0.5 * grid.resolution))) + 1
-    t = np.linspace(0.0, 1.0, max(samples, 2))
-    pts = a[:, :, None, :] + t[:, None] * (b - a)[:, :, None, :]           # (p, c, s, 3)
-    flat = grid.flat_index(pts)
-    blocked = context.blocked[flat]                                         # -1 -> the trailing True
-    return ~blocked.reshape(len(a), -1).any(axis=1)
+    padded, shape = context.padded_occupancy
+    u0 = (a - grid.lower) / grid.resolution + 1.0                           # padded voxel coordinates
+    du = (b - a) / grid.resolution
+    longest = float(np.sqrt((du * du).sum(axis=-1)).max(initial=0.0))
+    t = np.linspace(0.0, 1.0, max(int(np.ceil(2.0 * longest)) + 1, 2))
+    flat = None
+    for k in range(3):                                                      # per axis: samples innermost
+        uk = u0[:, :, k, None] + du[:, :, k, None] * t                      # (p, c, s)
+        np.clip(uk, 0.0, shape[k] - 1.0, out=uk)                            # outside -> the blocked border
+        ik = uk.astype(np.intp)
+        flat = ik if flat is None else flat * shape[k] + ik
+    return ~padded[flat].reshape(len(a), -1).any(axis=1)
 
 
 def ac_distances(q: np.ndarray, context: ClusteringContext, pairs: tuple[np.ndarray, np.ndarray] | None = None
@@ -244,7 +264,7 @@ def ac_distances(q: np.ndarray, context: ClusteringContext, pairs: tuple[np.ndar
     """``(n, n)`` AC distances: 0 when the segments between corresponding actuation centres are free, else 1."""
     n = len(q)
     centres = actuation_centres(q, context)
-    i, j = np.triu_indices(n, 1) if pairs is None else pairs
+    i, j = _triu(n) if pairs is None else pairs
     d = np.zeros((n, n))
     if len(i):
         free = _segments_free(centres[i], centres[j], context)
@@ -260,7 +280,7 @@ def pc_distances(q: np.ndarray, context: ClusteringContext, rng: np.random.Gener
     ``context.duration`` seconds; a run succeeds when it ends within ``goal_tolerance`` of its target.
     """
     n = len(q)
-    i, j = np.triu_indices(n, 1) if pairs is None else pairs
+    i, j = _triu(n) if pairs is None else pairs
     d = np.zeros((n, n))
     if not len(i):
         return d
@@ -283,12 +303,37 @@ def space_distances(q: np.ndarray, context: ClusteringContext) -> np.ndarray:
 
 # --- complete-link clustering -------------------------------------------------------------------
 
-def _first_appearance(labels: np.ndarray) -> np.ndarray:
-    """Relabel to ``0..k-1`` in order of first appearance."""
-    _, first, inverse = np.unique(labels, return_index=True, return_inverse=True)
-    rank = np.empty(len(first), dtype=np.int64)
-    rank[np.argsort(first)] = np.arange(len(first))
+@lru_cache(maxsize=64)
+def _triu(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs ``i < j`` of ``n`` items (cached: ``np.triu_indices`` costs as much as a small clustering)."""
+    i, j = np.triu_indices(n, 1)
+    i.flags.writeable = j.flags.writeable = False
+    return i, j
+
+
+def _first_appearance(roots: np.ndarray) -> np.ndarray:
+    """Relabel ``(n,)`` cluster keys to ``0..k-1`` in order of first appearance."""
+    keys, first, inverse = np.unique(roots, return_index=True, return_inverse=True)
+    rank = np.empty(len(keys), dtype=np.int64)
+    rank[np.argsort(first)] = np.arange(len(keys))
     return rank[inverse.ravel()]
+
+
+def _cut(tree: np.ndarray, n: int, threshold: float) -> np.ndarray:
+    """Flat clusters of a monotone linkage ``tree`` cut at ``threshold``, labels by first appearance.
+
+    Equal to ``fcluster(tree, threshold, criterion="distance")`` up to the label numbering (checked by the
+    tests); done here because ``fcluster`` spends most of its ~100 us validating the tree.  The merges
+    at heights ``<= threshold`` are a prefix of a complete-link tree (its heights never decrease); every
+    leaf's cluster is its topmost ancestor within that prefix, found by pointer jumping.
+    """
+    merges = int(np.searchsorted(tree[:, 2], threshold, side="right"))
+    parent = np.arange(n + merges, dtype=np.intp)
+    children = tree[:merges, :2].astype(np.intp)
+    parent[children[:, 0]] = parent[children[:, 1]] = np.arange(n, n + merges)
+    for _ in range(max(1, int(np.ceil(np.log2(n + merges))))):
+        parent = parent[parent]
+    return _first_appearance(parent[:n])
 
 
 def complete_link(distances: np.ndarray, threshold: float, groups: np.ndarray | None = None) -> np.ndarray:
@@ -312,9 +357,9 @@ def complete_link(distances: np.ndarray, threshold: float, groups: np.ndarray | 
         return np.zeros(n, dtype=np.int64)
     if n == 1:
         return np.zeros(1, dtype=np.int64)
-    condensed = d[np.triu_indices(n, 1)]
+    condensed = d[_triu(n)]
     tree = linkage(condensed, method="complete")
-    return _first_appearance(fcluster(tree, t=threshold, criterion="distance"))
+    return _cut(tree, n, threshold)
 
 
 def _feature_distances(q: np.ndarray, method: str, context: ClusteringContext,
