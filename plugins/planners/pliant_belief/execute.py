@@ -1,0 +1,157 @@
+"""Executing a partial policy through any simulator with a controller, adapting it online (thesis 5.3.5).
+
+:func:`execute_policy` resets the simulator at the policy's start, then repeats: take the policy's action
+(a target configuration), drive toward it with the controller (:func:`pliant.execution.drive`: until the
+controller reports it reached, gives up because the robot is stuck, or the action's time runs out), and
+query the policy (thesis Algorithm 4) with the configuration reached and the action performed.  The query
+matches the observation to the action's outcomes, adapts the probabilities (eq. 5.2-5.3) or inserts an
+unforeseen outcome, and returns the next action.  Execution stops on
+
+- ``success``: the configuration reached is within the goal tolerance of the policy's goal (without a goal
+  in the policy: the query reports a goal vertex);
+- ``failure``: the policy reports ``P(node -> goal) < P_goal`` (or no route to the goal), or it stops at a
+  goal vertex whose belief did not bring the robot within the goal tolerance;
+- ``timeout``: the total time limit; ``action limit``: the number of actions.
+
+Everything is recorded (:class:`PolicyExecutionRecord`): each action, the outcome node matched or inserted,
+the probability changes, the trajectory with contacts and the movable objects' poses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from pliant.errors import ConfigError, DimensionError
+from pliant.execution import drive
+from pliant.interfaces import Controller, Simulator
+
+from pliant_belief.policy import Matcher, PartialPolicy
+
+
+@dataclass
+class PolicyExecutionRecord:
+    """What happened while executing a partial policy (thesis 5.3.5).
+
+    configurations: ``(k, d)`` states after every control step (the first is the start); times ``(k,)`` s;
+    contacts ``(k,)`` whether the robot touched anything in that step.
+    objects: movable objects' poses ``(k, p)`` by name (:meth:`Simulator.object_poses`), empty when fixed.
+    actions: one entry per action performed: ``index``, ``from_node``, ``action_id``, ``kind`` (forward /
+    reverse), ``target`` ``(d,)``, ``start_time`` / ``end_time`` (s), ``drive`` (reached / stuck / timeout),
+    ``reached`` (the configuration reached), ``node`` (matched or inserted), ``inserted``, ``matching``,
+    ``status`` (continue / goal / failure) and ``probability`` (``P(node -> goal)`` after the update).
+    adaptations: the probability changes of every query ``{"action_index", "action", "outcome", "before",
+    "after"}`` (eq. 5.2-5.3).
+    outcome: ``success``, ``failure``, ``timeout`` or ``action limit``; final_node: the last vertex reached.
+    """
+
+    configurations: np.ndarray
+    times: np.ndarray
+    contacts: np.ndarray
+    actions: list[dict]
+    adaptations: list[dict]
+    outcome: str
+    final_node: int
+    events: list[str] = field(default_factory=list)
+    objects: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        return self.outcome == "success"
+
+    def to_dict(self) -> dict:
+        """JSON-ready description (arrays as lists)."""
+        actions = [{k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in a.items()} for a in self.actions]
+        return {"configurations": self.configurations.tolist(), "times": self.times.tolist(),
+                "contacts": self.contacts.tolist(), "actions": actions, "adaptations": list(self.adaptations),
+                "outcome": self.outcome, "final_node": self.final_node, "events": list(self.events),
+                "objects": {name: poses.tolist() for name, poses in self.objects.items()}}
+
+
+def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Controller, rng: np.random.Generator,
+                   *, matcher: Matcher | None = None, period: float = 0.1, time_limit: float = 300.0,
+                   action_limit: int = 100, action_time_limit: float = 30.0, start: np.ndarray | None = None
+                   ) -> PolicyExecutionRecord:
+    """Execute ``policy`` in ``simulator`` with ``controller``, querying and adapting it after every action.
+
+    ``matcher(particles, q) -> bool`` (else ``policy.matcher``) matches observations to nodes (thesis
+    Algorithm 4).  ``period``: control period (s); ``time_limit``: total budget (s); ``action_limit``: most
+    actions; ``action_time_limit``: most seconds one action may drive.  ``start`` ``(d,)`` (default: the start
+    node's expected configuration) is where the simulator is reset.  The policy itself is adapted in place.
+    """
+    if not (period > 0 and time_limit > 0 and action_time_limit > 0):
+        raise DimensionError("period, time_limit and action_time_limit must be positive seconds",
+                             field="period/time_limit/action_time_limit", value=(period, time_limit, action_time_limit))
+    if isinstance(action_limit, bool) or not isinstance(action_limit, (int, np.integer)) or action_limit < 1:
+        raise ConfigError("action_limit must be a positive integer", field="action_limit", value=action_limit)
+    matcher = matcher if matcher is not None else policy.matcher
+    if matcher is None:
+        raise ConfigError("execution needs a matcher(particles, q) -> bool", field="matcher", value=None)
+    space = policy.space
+    q0 = policy.nodes[policy.start_node].expected if start is None else np.asarray(start, dtype=np.float64)
+    if q0.shape != (space.dim,) or not np.all(np.isfinite(q0)):
+        raise DimensionError(f"start must be a finite configuration of shape ({space.dim},)", field="start",
+                             value=np.asarray(q0).tolist())
+    simulator.reset(q0)
+    q = simulator.configuration()
+    states, times, contacts, events = [q.copy()], [0.0], [False], []
+    objects = [simulator.object_poses()]
+    actions: list[dict] = []
+    adaptations: list[dict] = []
+    t = 0.0
+    node = policy.start_node
+
+    def in_goal(q: np.ndarray) -> bool:
+        return policy.goal is not None and float(space.distance(q, policy.goal)) <= policy.goal_tolerance
+
+    action = policy.first_action()
+    if in_goal(q):
+        outcome = "success"
+    elif action is None:
+        outcome = "success" if policy.goal is None and policy.is_goal(node) else "failure"
+        events.append("the policy has no action from the start")
+    else:
+        outcome = ""
+    while not outcome:
+        if len(actions) >= action_limit:
+            outcome = "action limit"
+            events.append(f"t={t:.2f}s: {action_limit} actions performed")
+            break
+        if t >= time_limit - 1e-12:
+            outcome = "timeout"
+            events.append(f"t={t:.2f}s: time limit")
+            break
+        s, ts, cs, driven = drive(simulator, controller, action.target, rng, period=period,
+                                  time_limit=min(action_time_limit, time_limit - t), start_time=t, poses=objects)
+        start_time = t
+        states += s
+        times += ts
+        contacts += cs
+        if ts:
+            t = ts[-1]
+        q = simulator.configuration()
+        step = policy.query_step(q, action.id, matcher)
+        index = len(actions)
+        actions.append({"index": index, "from_node": node, "action_id": action.id, "kind": action.kind,
+                        "target": action.target.copy(), "start_time": start_time, "end_time": t, "drive": driven,
+                        "reached": q.copy(), "node": step.node, "inserted": step.inserted,
+                        "matching": list(step.matching), "status": step.status, "probability": step.probability})
+        adaptations += [{"action_index": index, **change} for change in step.changes]
+        if step.inserted:
+            events.append(f"t={t:.2f}s: unforeseen outcome of action {action.id}, inserted node {step.node}")
+        node = step.node
+        if in_goal(q):
+            outcome = "success"
+        elif step.status == "failure":
+            outcome = "failure"
+            events.append(f"t={t:.2f}s: P(node {node} -> goal) = {step.probability:.3g} < P_goal")
+        elif step.status == "goal":
+            outcome = "success" if policy.goal is None else "failure"
+            if outcome == "failure":
+                events.append(f"t={t:.2f}s: stopped at goal node {node} outside the goal tolerance")
+        else:
+            action = step.action
+    names = objects[0]
+    poses = {name: np.array([p[name] for p in objects], dtype=np.float64) for name in names}
+    return PolicyExecutionRecord(np.array(states), np.array(times), np.array(contacts, dtype=bool), actions,
+                                 adaptations, outcome, node, events, poses)
