@@ -60,6 +60,7 @@ class ClusteringContext:
     regions: the scene's convex regions (``Region.lower`` / ``upper``, axis-aligned boxes in metres,
         2-D boxes bound ``(x, y)`` only); needed by ``"wcr"``.
     grid: the voxel grid of the environment; occupied voxels (``object_id != -1``) block AC segments.
+        May be ``None`` (no scene) for the methods other than ``"ac"``.
     simulator: the local planner of ``"pc"`` (``simulate`` from particles to particles); may be ``None``
         for the other methods.
     goal_tolerance: ``epsilon_goal`` of ``"pc"`` (units of ``space.distance``): a simulation ending within
@@ -70,7 +71,7 @@ class ClusteringContext:
     space: Space
     robot: RobotModel
     regions: list
-    grid: VoxelGrid
+    grid: VoxelGrid | None
     simulator: Simulator | None = None
     goal_tolerance: float = 0.1
     duration: float = 5.0
@@ -133,7 +134,8 @@ class ClusteringContext:
 
 
 def default_distance_threshold(context: ClusteringContext) -> float:
-    """Second-pass threshold used when none is given: ``8 * grid.resolution`` (units of ``space.distance``).
+    """Second-pass threshold used when none is given: ``8 * grid.resolution`` (units of ``space.distance``;
+    ``8 * goal_tolerance`` when the context has no grid).
 
     Eight voxels is the value of the authors' 2-D experiments (1.0 at resolution 0.125, with extension
     steps of 10 voxels): wide enough that the spread of one outcome under actuation noise (a few voxels)
@@ -141,6 +143,8 @@ def default_distance_threshold(context: ClusteringContext) -> float:
     (e.g. stuck at a corner vs. slid along a wall) split.  For joint spaces, whose distance is not in
     metres, pass ``distance_threshold`` explicitly (the authors used pi/2 for Baxter).
     """
+    if context.grid is None:
+        return DISTANCE_THRESHOLD_VOXELS * float(context.goal_tolerance)
     return DISTANCE_THRESHOLD_VOXELS * float(context.grid.resolution)
 
 
@@ -167,6 +171,8 @@ def _check_method(method: str, context: ClusteringContext) -> None:
     if method == "wcr" and not context.regions:
         raise ConfigError("WCR clustering needs the scene's convex regions, and this scene has none",
                           field="regions", value=[])
+    if method == "ac" and context.grid is None:
+        raise ConfigError("AC clustering needs the scene's voxel grid", field="grid", value=None)
     if method == "pc" and context.simulator is None:
         raise ConfigError("PC clustering needs a simulator (the local planner)", field="simulator", value=None)
 

@@ -56,6 +56,7 @@ def test_context_from_pipeline_context():
     assert len(cc.regions) == 5 and cc.goal_tolerance == pytest.approx(0.4375)
     assert cc.grid.occupied.any() and cc.simulator is not None
     assert default_distance_threshold(cc) == pytest.approx(8 * 0.125)
+    assert default_distance_threshold(dataclasses.replace(cc, grid=None)) == pytest.approx(8 * 0.4375)
     assert set(CLUSTERING_METHODS) == {"pc", "wcr", "ac", "distance"}
 
 
@@ -239,6 +240,7 @@ def test_bad_input_names_the_field_and_value():
         (lambda: cluster_particles(np.where(np.eye(4, 3) > 0, np.nan, q), "ac", cc), DimensionError, "particles",
          "nan"),
         (lambda: cluster_particles(q, "wcr", dataclasses.replace(cc, regions=[])), ConfigError, "regions", "[]"),
+        (lambda: cluster_particles(q, "ac", dataclasses.replace(cc, grid=None)), ConfigError, "grid", "None"),
         (lambda: cluster_particles(q, "pc", dataclasses.replace(cc, simulator=None)), ConfigError, "simulator",
          "None"),
         (lambda: cluster_particles(q, "wcr", cc, wcr_threshold=1.5), ConfigError, "wcr_threshold", "1.5"),
