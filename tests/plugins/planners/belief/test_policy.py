@@ -10,8 +10,9 @@ import time
 
 import numpy as np
 import pytest
-from pliant import registry
+from pliant import load_scene, registry
 from pliant.errors import ConfigError, DimensionError, PlanningError
+from pliant.interfaces import Context
 from pliant.results import PlanResult, Status
 from pliant.spaces import RealVectorSpace
 from pliant_belief.belief import BeliefNode, BeliefTree, effective_probability
@@ -273,6 +274,14 @@ def test_bad_input_names_the_field():
 # --- execution on se2-maze ---------------------------------------------------------------------------------
 
 
+def maze_context(scene: str) -> Context:
+    """A fresh context (the shared ``scene_context`` ones must not gain a simulator) with the kinematic simulator."""
+    ctx = Context(scene=load_scene(scene))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    ctx.simulator = registry.create("simulator", "kinematic", ctx)
+    return ctx
+
+
 def maze_tree(ctx):
     """A hand-built policy down the right passage and along the bottom corridor to the goal (every node free)."""
     space = ctx.robot.space
@@ -287,13 +296,11 @@ def maze_tree(ctx):
     return tree
 
 
-def test_execute_policy_on_se2_maze_reaches_the_goal(scene_context):
+def test_execute_policy_on_se2_maze_reaches_the_goal():
     from pliant_belief.clustering import ClusteringContext, matches
 
-    ctx = scene_context("se2-maze")
-    ctx.simulator = registry.create("simulator", "kinematic", ctx)
+    ctx = maze_context("se2-maze")
     controller = registry.create("controller", "contact", ctx)
-    assert not ctx.simulator.grid.occupied.all()
     tree = maze_tree(ctx)
     cluster_ctx = ClusteringContext.from_context(ctx)
     policy = PartialPolicy.from_tree(tree, goal=ctx.scene.goal, goal_tolerance=ctx.scene.goal_tolerance,
@@ -316,13 +323,12 @@ def test_execute_policy_on_se2_maze_reaches_the_goal(scene_context):
     assert data["adaptations"] and all(c["after"] >= c["before"] for c in data["adaptations"])
 
 
-def test_execution_in_the_blocked_maze_inserts_the_unforeseen_outcome_and_terminates(scene_context):
+def test_execution_in_the_blocked_maze_inserts_the_unforeseen_outcome_and_terminates():
     """se2-maze with the block added during execution (thesis 5.4.3): the robot gets stuck on the block, the
     stuck configuration matches no planned outcome and is inserted; with no alternative route the policy's
     P(goal) falls below P_goal and execution stops with a failure (instead of pushing on)."""
-    planned = scene_context("se2-maze")
-    ctx = scene_context("se2-maze:blocked")
-    ctx.simulator = registry.create("simulator", "kinematic", ctx)
+    planned = maze_context("se2-maze")
+    ctx = maze_context("se2-maze:blocked")
     controller = registry.create("controller", "contact", ctx)
     policy = PartialPolicy.from_tree(maze_tree(planned), goal=planned.scene.goal,
                                      goal_tolerance=planned.scene.goal_tolerance)
