@@ -71,3 +71,49 @@ def rigid_state_costs(rotations, positions, local, lower, inv_res, shape, classe
             else:
                 total += table[classes[i], outside]
         out[a] = total
+
+
+@numba.njit(cache=True, nogil=True)
+def _axis(p, lower, resolution, size):
+    """Continuous voxel coordinate of ``p`` on one axis: (lower index, upper index, fraction, varies)."""
+    c = (p - lower) / resolution - 0.5
+    live = (c >= 0.0) and (c <= size - 1.0) and size > 1
+    c = min(max(c, 0.0), size - 1.0)
+    lo = min(int(np.floor(c)), max(size - 2, 0))
+    return lo, min(lo + 1, size - 1), c - lo, live
+
+
+@numba.njit(cache=True, nogil=True)
+def trilinear_with_gradient(field_, lower, resolution, points, value, gradient):
+    """Trilinear interpolation of ``field_`` ``(nx, ny, nz)`` (voxel-centred samples) at world ``points``
+    ``(n, m, 3)``: fills ``value`` ``(n, m)`` and its exact gradient ``gradient`` ``(n, m, 3)`` (per metre).
+
+    The same arithmetic as :func:`pliant.voxelgrid._trilinear` and ``_trilinear_gradient`` (clamping to
+    the grid; a clamped axis has zero derivative), fused into one pass without temporaries.
+    """
+    nx, ny, nz = field_.shape
+    n, m = points.shape[0], points.shape[1]
+    for a in range(n):
+        for i in range(m):
+            x0, x1, fx, lx = _axis(points[a, i, 0], lower[0], resolution, nx)
+            y0, y1, fy, ly = _axis(points[a, i, 1], lower[1], resolution, ny)
+            z0, z1, fz, lz = _axis(points[a, i, 2], lower[2], resolution, nz)
+            c000, c001 = field_[x0, y0, z0], field_[x0, y0, z1]
+            c010, c011 = field_[x0, y1, z0], field_[x0, y1, z1]
+            c100, c101 = field_[x1, y0, z0], field_[x1, y0, z1]
+            c110, c111 = field_[x1, y1, z0], field_[x1, y1, z1]
+            c00 = c000 * (1.0 - fz) + c001 * fz
+            c01 = c010 * (1.0 - fz) + c011 * fz
+            c10 = c100 * (1.0 - fz) + c101 * fz
+            c11 = c110 * (1.0 - fz) + c111 * fz
+            c0 = c00 * (1.0 - fy) + c01 * fy
+            c1 = c10 * (1.0 - fy) + c11 * fy
+            value[a, i] = c0 * (1.0 - fx) + c1 * fx
+            gx = c1 - c0
+            gy = (c01 - c00) * (1.0 - fx) + (c11 - c10) * fx
+            d0 = (c001 - c000) * (1.0 - fy) + (c011 - c010) * fy
+            d1 = (c101 - c100) * (1.0 - fy) + (c111 - c110) * fy
+            gz = d0 * (1.0 - fx) + d1 * fx
+            gradient[a, i, 0] = gx / resolution if lx else 0.0
+            gradient[a, i, 1] = gy / resolution if ly else 0.0
+            gradient[a, i, 2] = gz / resolution if lz else 0.0

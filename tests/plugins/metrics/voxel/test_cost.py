@@ -186,3 +186,19 @@ def test_padding_grows_objects(scene_context):
     assert padded.grid.occupied.sum() > plain.grid.occupied.sum()
     q = np.array([0.71, 0.5, 0.51, 0, 0, 0, 1.0])
     assert padded.cost(q)[0] > plain.cost(q)[0]
+
+
+def test_the_fused_sdf_kernel_equals_the_grid_interpolation():
+    import pliant
+    from pliant.interfaces import Context
+
+    ctx = Context(scene=pliant.load_scene("cube-wall"))
+    ctx.robot = pliant.registry.create("robot", "rigid", ctx)
+    cost = pliant.registry.create("cost", "voxel", ctx)
+    rng = np.random.default_rng(0)
+    q = ctx.robot.space.sample(rng, 6)
+    q[:3, :3] = [[0.7, 0.5, 0.5], [0.3, 0.48, 0.5], [-0.2, 1.3, 0.5]]      # in a hole, at the wall, outside
+    points = ctx.robot.body_points(q)
+    value, gradient = cost._sdf_with_gradient(points)
+    assert np.allclose(value, cost.grid.sdf_at(points), atol=1e-12)
+    assert np.allclose(gradient, cost.grid.sdf_gradient_at(points), atol=1e-12)
