@@ -275,8 +275,8 @@ class SE2Space(_RigidMotionSpace):
         t = np.asarray(t, dtype=np.float64)
         xy = a[..., :2] + t * (b[..., :2] - a[..., :2])
         th = wrap_angle(a[..., 2:] + t * wrap_angle(b[..., 2:] - a[..., 2:]))
-        xy, th = np.broadcast_arrays(xy, th)
-        return np.concatenate([xy, th], axis=-1)
+        shape = np.broadcast_shapes(xy.shape[:-1], th.shape[:-1])      # leading (batch) axes only
+        return np.concatenate([np.broadcast_to(xy, shape + (2,)), np.broadcast_to(th, shape + (1,))], axis=-1)
 
     def is_valid(self, q):
         q = np.asarray(q, dtype=np.float64)

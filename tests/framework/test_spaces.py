@@ -141,3 +141,13 @@ def test_mean_and_variance_on_known_sets():
     assert np.allclose(se3.mean(quats), [0.5, 0.5, 0.5, 0, 0, 0, 1.0])
     assert np.allclose(se3.variance(quats), [0, 0, 0, 0, 0, 0.04])
     assert np.allclose(se3.mean(quats[:1]), quats[0]) and np.allclose(se3.variance(quats[:1]), 0.0)
+
+
+@pytest.mark.parametrize("space", [RealVectorSpace([0, 0], [10, 10]), SE2Space([0, 0], [10, 10]),
+                                   SE3Space([0, 0, 0], [10, 10, 10])], ids=lambda s: s.kind)
+def test_steer_and_interpolate_keep_the_shape_of_one_configuration(space):
+    a, b = space.sample(np.random.default_rng(0), 2)
+    for t in (0.3, np.asarray(0.3), np.float64(0.3)):
+        assert space.interpolate(a, b, t).shape == (space.dim,)
+    assert space.steer(a, b, 1e-3).shape == (space.dim,)
+    assert space.steer(a[None], b[None], 1e-3).shape == (1, space.dim)
