@@ -41,7 +41,9 @@ log = logging.getLogger(__name__)
 #: the order in which components are built; each sees the ones before it in its Context
 BUILD_ORDER = ("robot", "cost", "simulator", "controller", "planner", "metric", "learner", "driver")
 TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable", "execution"}
-EXECUTION_KEYS = {"period": 0.1, "time_limit": 60.0}
+EXECUTION_KEYS = {"period": 0.1, "time_limit": 60.0, "action_limit": 100}
+#: ``[execution]`` keys that are not numbers: the simulator to execute in, and the scene variant it simulates
+EXECUTION_WORLD_KEYS = ("simulator", "variant")
 DEFAULT_ROBOT = {"rigid": "rigid", "urdf": "pinocchio"}
 
 
@@ -70,7 +72,7 @@ class RunRecord:
     output: Path
     timings: dict[str, float]
     files: list[Path] = field(default_factory=list)
-    execution: ExecutionRecord | None = None
+    execution: ExecutionRecord | Any = None      # a policy's own record type when the result is a policy
 
     def summary_rows(self) -> list[tuple[str, str]]:
         """``(quantity, value)`` rows for the report table."""
@@ -92,9 +94,12 @@ class RunRecord:
             rows.append((f"metric {key}", f"{value:.6g}"))
         if self.execution is not None:
             e = self.execution
-            rows += [("execution", e.outcome), ("execution time (s)", f"{e.times[-1]:.2f}"),
-                     ("waypoints reached", str(e.waypoints_reached)),
-                     ("steps in contact", f"{int(e.contacts.sum())} of {len(e.contacts) - 1}")]
+            rows += [("execution", e.outcome), ("execution time (s)", f"{e.times[-1]:.2f}")]
+            if hasattr(e, "waypoints_reached"):
+                rows.append(("waypoints reached", str(e.waypoints_reached)))
+            if hasattr(e, "actions"):
+                rows.append(("actions executed", str(len(e.actions))))
+            rows.append(("steps in contact", f"{int(e.contacts.sum())} of {len(e.contacts) - 1}"))
         for key, value in self.timings.items():
             rows.append((f"time {key} (s)", f"{value:.3f}"))
         return rows
@@ -131,7 +136,7 @@ class Pipeline:
         if not isinstance(disable, (list, tuple, set, frozenset)) or not all(isinstance(d, str) for d in disable):
             raise PipelineError("must be a list of plugin names", source=source, field="disable", value=disable)
         self.disable = frozenset(disable)
-        self.execution = _execution_settings(execution, source)
+        self.execution, self.execution_world = _execution_settings(execution, source)
         self.scene_spec = scene
         self.components: dict[str, ComponentSpec] = {}
         self.instances: dict[str, Component] = {}
@@ -258,15 +263,41 @@ class Pipeline:
                 metrics = dict(metric.evaluate(result.path, problem, rng))
                 timings["metric"] = time.perf_counter() - t0
         execution = None
-        if result is not None and result.path is not None and context.simulator is not None \
-                and context.controller is not None:
+        if result is not None and (result.path is not None or result.policy is not None) \
+                and context.simulator is not None and context.controller is not None:
             t0 = time.perf_counter()
-            execution = execute(context.simulator, context.controller, result.path, rng, **self.execution)
+            simulator = self.execution_simulator(context)
+            settings = self.execution
+            if result.policy is not None:
+                execution = result.policy.execute(simulator, context.controller, rng, context=context, **settings)
+            else:
+                execution = execute(simulator, context.controller, result.path, rng, period=settings["period"],
+                                    time_limit=settings["time_limit"])
             timings["execute"] = time.perf_counter() - t0
         record = RunRecord(self, context, result, problem, metrics, self.output, timings, execution=execution)
         if write:
             self.write_report(record)
         return record
+
+    def execution_simulator(self, context: Context):
+        """The simulator executions run in: the pipeline's own, or the ``[execution]`` table's ``simulator``
+        (with the robot rebuilt for it) on the pipeline's scene or its ``variant``."""
+        world = self.execution_world
+        if not world:
+            return context.simulator
+        scene = self.load_scene()
+        if "variant" in world:
+            base = self.scene_spec
+            name = base.get("name") if isinstance(base, dict) else base
+            candidate = self.base_dir / str(name)
+            scene = load_scene(candidate if candidate.is_file() else name, variant=world["variant"])
+        world_context = Context(scene=scene, seed=self.seed)
+        robot_spec = self.components.get("robot", ComponentSpec(DEFAULT_ROBOT[scene.robot.kind]))
+        world_context.robot = self.registry.create("robot", robot_spec.name, world_context, source=self.source,
+                                                   disabled=self.disable, **robot_spec.options)
+        spec = world.get("simulator") or self.components["simulator"]
+        return self.registry.create("simulator", spec.name, world_context, source=self.source,
+                                    disabled=self.disable, **spec.options)
 
     def write_report(self, record: RunRecord) -> None:
         """Write ``result.json``, ``run.json``, figures from report hooks and ``report.md``."""
@@ -303,6 +334,11 @@ class Pipeline:
         if self.disable:
             out["disable"] = sorted(self.disable)
         out["execution"] = dict(self.execution)
+        if "simulator" in self.execution_world:
+            spec = self.execution_world["simulator"]
+            out["execution"]["simulator"] = {"name": spec.name, **spec.options}
+        if "variant" in self.execution_world:
+            out["execution"]["variant"] = self.execution_world["variant"]
         for kind, spec in self.components.items():
             out[kind] = {"name": spec.name, **spec.options}
         return out
@@ -320,20 +356,36 @@ def _scene_pipeline(scene_data: dict, path: Path) -> dict:
     return {"name": scene_data.get("name", path.stem), "scene": path.name, **table}
 
 
-def _execution_settings(table: Any, source: str) -> dict[str, float]:
-    """The ``[execution]`` table: control ``period`` and ``time_limit`` in seconds."""
+def _execution_settings(table: Any, source: str) -> tuple[dict[str, float], dict[str, Any]]:
+    """The ``[execution]`` table: control ``period`` and ``time_limit`` (s), a policy's ``action_limit``;
+    optionally the ``simulator`` to execute in (a name or a table with options; default the pipeline's) and
+    the scene ``variant`` that simulator runs (e.g. an obstacle added during execution, thesis 5.4.3)."""
     if table is None:
-        return dict(EXECUTION_KEYS)
+        return dict(EXECUTION_KEYS), {}
     if not isinstance(table, dict):
         raise PipelineError("must be a table with period and time_limit", source=source, field="execution",
                             value=table)
-    out = dict(EXECUTION_KEYS)
+    out: dict[str, float] = dict(EXECUTION_KEYS)
+    world: dict[str, Any] = {}
     for key, value in table.items():
-        if key not in EXECUTION_KEYS:
-            raise PipelineError(f"unknown field (fields: {', '.join(EXECUTION_KEYS)})", source=source,
-                                field=f"execution.{key}", value=value)
-        out[key] = check_number(value, source, f"execution.{key}", positive=True, error=PipelineError)
-    return out
+        if key == "simulator":
+            world["simulator"] = _component_spec(value, source, "execution.simulator")
+        elif key == "variant":
+            if not isinstance(value, str) or not value:
+                raise PipelineError("must be a scene variant name", source=source, field="execution.variant",
+                                    value=value)
+            world["variant"] = value
+        elif key not in EXECUTION_KEYS:
+            raise PipelineError(f"unknown field (fields: {', '.join([*EXECUTION_KEYS, *EXECUTION_WORLD_KEYS])})",
+                                source=source, field=f"execution.{key}", value=value)
+        elif key == "action_limit":
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise PipelineError("must be a positive integer", source=source, field="execution.action_limit",
+                                    value=value)
+            out[key] = value
+        else:
+            out[key] = check_number(value, source, f"execution.{key}", positive=True, error=PipelineError)
+    return out, world
 
 
 def _component_spec(spec: Any, source: str, kind: str) -> ComponentSpec:

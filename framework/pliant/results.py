@@ -84,6 +84,16 @@ class Policy:
     def to_dict(self) -> dict:
         raise NotImplementedError
 
+    def execute(self, simulator, controller, rng, *, context=None, period: float = 0.1, time_limit: float = 60.0,
+                action_limit: int = 100):
+        """Run the policy in ``simulator`` with ``controller`` (control ``period`` and ``time_limit`` in s, at
+        most ``action_limit`` actions); ``context`` is the pipeline's (scene, robot...).  Returns an execution
+        record with ``outcome``, ``success``, ``configurations``, ``times``, ``contacts`` and ``to_dict()``.
+
+        Policy kinds that can be executed override this.
+        """
+        raise ConfigError(f"policies of kind '{self.kind}' cannot be executed", field="policy.kind", value=self.kind)
+
     @classmethod
     def from_dict(cls, data: dict) -> Policy:
         kind = data.get("kind")

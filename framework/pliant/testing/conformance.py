@@ -186,7 +186,9 @@ def check_component(kind: str, name: str, scene: str | None = None, seed: int = 
     """Create ``kind``/``name`` in a context for ``scene`` and run the checks of its kind.
 
     The scene defaults to the component class's ``example_scene`` attribute, else the built-in test
-    scene.  ``components`` names the other components it needs (``cost="voxel"``).
+    scene.  ``components`` names the other components it needs (``cost="voxel"``); the class's
+    ``example_components`` and ``example_options`` (e.g. a small iteration budget for an anytime
+    planner, so the check is quick and deterministic) are used too.
     """
     reg = registry or default_registry()
     cls = reg.entry(kind, name).load()
@@ -197,7 +199,7 @@ def check_component(kind: str, name: str, scene: str | None = None, seed: int = 
         ctx = build_context(scene, reg, robot=name, **components)
         return check_robot(ctx.robot, seed, who)
     ctx = build_context(scene, reg, **components)
-    component = reg.create(kind, name, ctx)
+    component = reg.create(kind, name, ctx, **getattr(cls, "example_options", {}))
     _require(isinstance(component, Component), who, "is a Component")
     if kind == "cost":
         samples = ctx.space.sample(np.random.default_rng(seed), 8)

@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from pliant.actuation import angular_mask
 from pliant.interfaces import PlanningProblem
 
 from pliant_belief.belief import BeliefNode, BeliefTree, effective_probability
@@ -24,15 +25,17 @@ from pliant_belief.belief import BeliefNode, BeliefTree, effective_probability
 class LocalPlannerSettings:
     """What EXTEND needs (units in each field's name or doc).
 
-    particles: N_particles.  attempts: N_attempt.  speed: the robot's typical speed in the space's metric
-    per second (durations of actions are ``distance / speed + settle``).  settle: seconds added to every
-    action.  min_progress: an extension whose outcome moved less than this (space metric) adds nothing.
+    particles: N_particles.  attempts: N_attempt.  speed / angular_speed: the actuators' speed limits
+    (m/s or rad/s per translational / rotational tangent coordinate; joints count as translational); an
+    action lasts as long as its slowest coordinate needs at those speeds, plus ``settle`` seconds.
+    min_progress: an extension whose outcome moved less than this (space metric) adds nothing.
     reversibility: whether to simulate back to estimate reverse probabilities (Contact RRT skips it).
     """
 
     particles: int
     attempts: int
     speed: float
+    angular_speed: float
     settle: float
     min_progress: float
     reversibility: bool = True
@@ -41,7 +44,9 @@ class LocalPlannerSettings:
 def action_duration(problem: PlanningProblem, start: np.ndarray, target: np.ndarray,
                     settings: LocalPlannerSettings) -> float:
     """Seconds to simulate an action from ``start`` toward ``target``."""
-    return float(problem.space.distance(start, target)) / settings.speed + settings.settle
+    delta = np.abs(problem.space.difference(target, start))
+    limits = np.where(angular_mask(problem.space), settings.angular_speed, settings.speed)
+    return float(np.max(delta / limits)) + settings.settle
 
 
 def initial_particles(node: BeliefNode, n: int, rng: np.random.Generator) -> np.ndarray:

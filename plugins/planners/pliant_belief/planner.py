@@ -50,6 +50,8 @@ class BeliefPlannerOptions:
     p_goal: float = option(0.5, "P_goal: least probability of reaching the goal for a solution", minimum=0.0,
                            maximum=1.0)
     attempts: int = option(50, "N_attempt: tries (with reversing) counted in the effective probability", minimum=1)
+    importance: float = option(500.0, "A_importance of eq. 5.2-5.3: weight of an executed outcome against one "
+                               "simulated particle when the policy adapts", minimum=0.0)
     goal_bias: float = option(0.1, "probability of targeting the goal", minimum=0.0, maximum=1.0)
     alpha_p: float = option(0.75, "alpha_P of eq. 5.1: weight of the path probability", minimum=0.0, maximum=1.0)
     alpha_v: float = option(0.75, "alpha_V of eq. 5.1: weight of the belief's variance", minimum=0.0, maximum=1.0)
@@ -61,8 +63,9 @@ class BeliefPlannerOptions:
                                   maximum=1.0)
     distance_threshold: float | None = option(None, "second clustering pass: complete-link threshold (space "
                                               "metric); default the clustering module's", minimum=0.0)
-    speed: float = option(1.0, "typical speed (space metric per s): an action is simulated for distance / speed "
-                          "+ settle seconds", minimum=1e-9)
+    speed: float = option(1.0, "translation (or joint) speed limit of the actuators (m/s, rad/s): an action is "
+                          "simulated as long as its slowest coordinate needs, plus settle", minimum=1e-9)
+    angular_speed: float = option(0.125, "rotation speed limit of SE(2)/SE(3) actuators (rad/s)", minimum=1e-9)
     settle: float = option(2.0, "seconds added to every action's simulation", minimum=0.0)
     min_progress: float | None = option(None, "an action whose outcome moved less than this adds nothing "
                                         "(default: the scene resolution)", minimum=0.0)
@@ -85,6 +88,7 @@ class BeliefPlanner(Planner):
     Options = BeliefPlannerOptions
     example_scene = "se2-maze"
     example_components = {"simulator": "kinematic"}
+    example_options = {"max_time": None, "max_iterations": 40, "particles": 8}
 
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:
@@ -103,7 +107,8 @@ class BeliefPlanner(Planner):
         resolution = problem.scene.resolution if problem.scene is not None else o.max_step / 20
         self._min_progress = o.min_progress if o.min_progress is not None else resolution
         n = 1 if o.mode in ("contact", "simple") else o.particles
-        settings = LocalPlannerSettings(particles=n, attempts=o.attempts, speed=o.speed, settle=o.settle,
+        settings = LocalPlannerSettings(particles=n, attempts=o.attempts, speed=o.speed,
+                                        angular_speed=o.angular_speed, settle=o.settle,
                                         min_progress=self._min_progress, reversibility=o.mode == "belief")
         cluster = self._clusterer(problem, rng) if o.mode != "simple" else None
         if o.mode == "simple":
@@ -163,9 +168,14 @@ class BeliefPlanner(Planner):
     def _policy(self, tree: BeliefTree, problem: PlanningProblem):
         from pliant_belief.policy import PartialPolicy
 
-        return PartialPolicy.from_tree(tree, p_goal=self.options.p_goal, attempts=self.options.attempts,
-                                       goal=problem.goal, goal_tolerance=problem.goal_tolerance,
-                                       clustering=self.options.clustering)
+        o = self.options
+        policy = PartialPolicy.from_tree(tree, p_goal=o.p_goal, attempts=o.attempts, importance=o.importance,
+                                         goal=problem.goal, goal_tolerance=problem.goal_tolerance,
+                                         clustering=o.clustering if o.mode != "simple" else "distance")
+        if o.mode != "simple":
+            policy.use_clustering(self.clustering_context, wcr_threshold=o.wcr_threshold,
+                                  distance_threshold=o.distance_threshold)
+        return policy
 
     def _clusterer(self, problem: PlanningProblem, rng: np.random.Generator):
         from pliant_belief.clustering import ClusteringContext, cluster_particles
@@ -175,7 +185,8 @@ class BeliefPlanner(Planner):
         context = ClusteringContext(space=problem.space, robot=problem.robot,
                                     regions=list(scene.regions) if scene is not None else [],
                                     grid=VoxelGrid.from_scene(scene, static_only=True) if scene is not None else None,
-                                    simulator=problem.simulator, goal_tolerance=self._min_progress,
+                                    simulator=problem.simulator,
+                                    goal_tolerance=problem.goal_tolerance or 2 * self._min_progress,
                                     duration=o.settle + o.max_step / o.speed)
         self.clustering_context = context
 

@@ -549,6 +549,36 @@ class PartialPolicy(Policy):
             if rid not in self.actions or not 0 <= k < n:
                 raise ConfigError("a reverse action is missing", field="policy.reverse_of", value=[k, rid])
 
+    def use_clustering(self, context, *, wcr_threshold: float = 0.75, distance_threshold: float | None = None,
+                       rng: np.random.Generator | None = None) -> None:
+        """Set :attr:`matcher` to the clustering match of Algorithm 4 (:func:`pliant_belief.clustering.matches`)
+        with the policy's clustering method, over a pipeline ``context`` (scene, robot, simulator)."""
+        from pliant_belief.clustering import ClusteringContext, matches
+
+        method = self.clustering or "distance"
+        clustering_context = context if isinstance(context, ClusteringContext) else \
+            ClusteringContext.from_context(context)
+
+        def matcher(particles: np.ndarray, q: np.ndarray) -> bool:
+            return matches(particles, q, method, clustering_context, wcr_threshold=wcr_threshold,
+                           distance_threshold=distance_threshold, rng=rng)
+
+        self.matcher = matcher
+
+    def execute(self, simulator, controller, rng, *, context=None, period: float = 0.1, time_limit: float = 60.0,
+                action_limit: int = 100):
+        """Execute with :func:`pliant_belief.execute.execute_policy` (thesis 5.3.5); without a :attr:`matcher`,
+        the clustering match is built from ``context``."""
+        from pliant_belief.execute import execute_policy
+
+        if self.matcher is None:
+            if context is None:
+                raise ConfigError("executing a policy needs a matcher or the pipeline's context", field="context",
+                                  value=None)
+            self.use_clustering(context)
+        return execute_policy(self, simulator, controller, rng, period=period, time_limit=time_limit,
+                              action_limit=int(action_limit))
+
     def save(self, path: str | FilePath) -> None:
         """Write the policy as JSON (parent directories are created)."""
         path = FilePath(path)
