@@ -1,0 +1,111 @@
+"""The belief-space RRT of thesis 5.3.1-5.3.2 on se2-maze: splits, probabilities, solutions, baselines."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pliant import Pipeline
+from pliant.interfaces import PlanningProblem
+from pliant.results import Status
+from pliant.voxelgrid import VoxelGrid
+from pliant_belief.belief import BeliefNode, BeliefTree, effective_probability
+from pliant_belief.local import LocalPlannerSettings, extend
+
+
+def maze(**planner):
+    pipe = Pipeline("se2-maze", simulator={"name": "kinematic", "kp": 0.5, "angular_velocity_limit": 0.125},
+                    planner={"name": "belief", "max_time": None, **planner})
+    ctx = pipe.build()
+    return PlanningProblem.from_context(ctx), ctx.extras["planner"]
+
+
+SETTINGS = LocalPlannerSettings(particles=12, attempts=50, speed=1.0, angular_speed=0.125, settle=2.0,
+                                min_progress=0.125)
+
+
+def one_extension(starts, target, seed=0):
+    problem, planner = maze()
+    cluster = planner._clusterer(problem, np.random.default_rng(seed))
+    tree = BeliefTree(problem.space)
+    tree.add(BeliefNode(particles=np.asarray(starts, dtype=np.float64), action=None, parent=-1, action_id=0))
+    counters = {"particles_simulated": 0}
+    new = extend(tree, 0, np.asarray(target, dtype=np.float64), problem, cluster, SETTINGS,
+                 np.random.default_rng(seed), counters)
+    return tree, new, counters
+
+
+def test_particles_straddling_a_wall_split_and_their_probabilities_sum_to_one():
+    # half the belief in the middle passage, half in the right one; the target lies in the wall between
+    starts = [[5.5, 5.0, 0.0]] * 6 + [[8.0, 5.0, 0.0]] * 6
+    tree, new, counters = one_extension(starts, [6.75, 5.0, 0.0])
+    assert len(new) == 2 and all(tree.nodes[i].split for i in new)
+    assert sum(tree.nodes[i].probability for i in new) == pytest.approx(1.0)
+    assert len({tree.nodes[i].action_id for i in new}) == 1
+    sides = sorted(float(tree.nodes[i].expected[0]) for i in new)
+    assert sides[0] < 6.5 < 7.0 < sides[1]                       # one outcome each side of the wall
+    assert counters["particles_simulated"] == 12 * (1 + 2)       # forward, then back from each outcome
+
+
+def test_a_motion_in_free_space_does_not_split():
+    rng = np.random.default_rng(0)
+    starts = np.array([8.0, 5.0, 0.0]) + rng.uniform(-0.05, 0.05, (12, 3))
+    tree, new, _ = one_extension(starts, [8.0, 4.0, 0.0])
+    assert len(new) == 1 and not tree.nodes[new[0]].split
+    node = tree.nodes[new[0]]
+    assert node.probability == 1.0 and node.reverse_probability == 1.0 and node.effective_probability == 1.0
+    assert node.expected[1] == pytest.approx(4.0, abs=0.1)
+
+
+def test_the_effective_probability_is_the_retry_formula():
+    # by hand: p = 0.5, every miss returns (r = 1): 1 - 0.5^3 after three attempts
+    assert effective_probability(0.5, 1.0, 3) == pytest.approx(0.875)
+    # no return after a miss: only the first attempt counts
+    assert effective_probability(0.3, 0.0, 10) == pytest.approx(0.3)
+    # brute force over the attempt tree
+    p, r, n = 0.4, 0.7, 5
+    total, alive = 0.0, 1.0
+    for _ in range(n):
+        total += alive * p
+        alive *= (1 - p) * r
+    assert effective_probability(p, r, n) == pytest.approx(total)
+
+
+def test_the_planner_finds_a_policy_that_reaches_the_goal_with_p_goal():
+    problem, planner = maze(particles=8, max_iterations=120, p_goal=0.51)
+    result = planner.plan(problem, np.random.default_rng(0))
+    assert result.status is Status.SOLVED and result.policy is not None
+    stats = result.statistics
+    assert stats["solutions"] >= 1 and stats["best_probability"] >= 0.51
+    assert stats["particles_stored"] == sum(len(n.particles) for n in planner.tree.nodes)
+    assert stats["particles_simulated"] >= stats["particles_stored"] - 8
+    for solution in planner.tree.solutions:
+        last = planner.tree.nodes[solution[-1]]
+        assert solution[0] == 0 and last.path_probability * last.goal_fraction >= 0.51
+        assert all(planner.tree.nodes[b].parent == a for a, b in zip(solution, solution[1:]))
+    # a solved branch leaves nearest-neighbour consideration (thesis 5.3.1)
+    assert set(planner.tree.solutions[0][1:]) & planner.tree.excluded
+    again = planner.plan(problem, np.random.default_rng(0))
+    assert np.array_equal(again.path.configurations, result.path.configurations)
+
+
+def test_simple_rrt_never_touches_a_wall_and_contact_rrt_uses_one_particle():
+    problem, planner = maze(mode="simple", max_iterations=400)
+    result = planner.plan(problem, np.random.default_rng(1))
+    assert result.status is Status.SOLVED
+    grid = VoxelGrid.from_scene(problem.scene, static_only=True)
+    dense = np.vstack([problem.space.discretize(a, b, 0.125) for a, b in zip(result.path.configurations[:-1],
+                                                                            result.path.configurations[1:])])
+    flat = grid.flat_index(problem.robot.body_points(dense))
+    assert not grid.occupied.reshape(-1)[flat[flat >= 0]].any()
+    problem, planner = maze(mode="contact", max_iterations=60)
+    planner.plan(problem, np.random.default_rng(0))
+    assert all(len(n.particles) == 1 for n in planner.tree.nodes)
+
+
+def test_a_pipeline_plans_a_policy_and_executes_it():
+    record = Pipeline.from_file("maze-policy", overrides=[
+        "planner.max_time=false", "planner.max_iterations=150", "planner.particles=8", "execution.simulator=kinematic",
+        "execution.time_limit=600", 'output="/tmp/pliant-test-maze-policy"']).run(write=False)
+    assert record.result.status is Status.SOLVED
+    assert record.execution is not None and len(record.execution.actions) >= 1
+    assert record.execution.outcome in ("success", "failure", "timeout", "action limit")
