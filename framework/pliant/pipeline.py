@@ -356,6 +356,22 @@ def _scene_pipeline(scene_data: dict, path: Path) -> dict:
     return {"name": scene_data.get("name", path.stem), "scene": path.name, **table}
 
 
+def _override_execution(table: Any, rest: str, value: Any, source: str, key: str) -> dict:
+    """``execution.KEY=value``, ``execution.simulator=NAME`` or ``execution.simulator.OPTION=value``."""
+    table = dict(table) if isinstance(table, dict) else {}
+    if rest.startswith("simulator."):
+        current = table.get("simulator")
+        if current is None:
+            raise PipelineError("set execution.simulator=NAME before its options", source=source, field=key,
+                                value=value)
+        simulator = dict(current) if isinstance(current, dict) else {"name": current}
+        simulator[rest.removeprefix("simulator.")] = value
+        table["simulator"] = simulator
+    else:
+        table[rest] = value
+    return table
+
+
 def _execution_settings(table: Any, source: str) -> tuple[dict[str, float], dict[str, Any]]:
     """The ``[execution]`` table: control ``period`` and ``time_limit`` (s), a policy's ``action_limit``;
     optionally the ``simulator`` to execute in (a name or a table with options; default the pipeline's) and
@@ -447,6 +463,9 @@ def apply_overrides(data: dict, overrides: list[str] | dict[str, Any], source: s
             table = dict(current) if isinstance(current, dict) else {"name": current}
             table[rest] = value
             out["scene"] = table
+            continue
+        if head == "execution":
+            out["execution"] = _override_execution(out.get("execution"), rest, value, source, key)
             continue
         if head in TOP_LEVEL:
             raise PipelineError("this field has no sub-fields", source=source, field=key, value=value)

@@ -1,0 +1,173 @@
+"""The experiments of thesis 5.4 as commands: plan many policies, execute each many times, tabulate.
+
+``pliant belief-experiment NAME`` runs one experiment.  A *task* plans one policy (a pipeline file, a
+variant's overrides, a seed) and executes it ``--executions`` times in each execution world of the
+experiment (e.g. the maze with and without the block added during execution, thesis 5.4.3).  Tasks run
+in parallel over ``--jobs`` processes (one core each), every finished task is appended to
+``out/experiments/NAME/runs.jsonl`` at once, and a second invocation resumes: tasks already on file are
+skipped (``--fresh`` forgets them).  The table (P_plan, P_exec as mean [std] over plans, actions,
+planning statistics) is printed and written with the runs to ``summary.json``.
+
+Experiments (pipelines in ``scenes/pipelines``):
+
+- ``maze``: se2-maze (``maze-policy``), executions unblocked and blocked (thesis: 97% / 73%).
+- ``table-5.1``: se3-peg-in-hole (``peg-policy``), gamma = 1/8, clustering PC, AC and WCR at
+  D_WCR in {0.125, 0.25, 0.5, 0.75, 0.99}.
+- ``table-5.2``: se3-peg-in-hole, Simple RRT, Contact RRT, 24 and 48 particles, gamma in
+  {0, 1/16, 1/8, 1/4}.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pliant.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One row of an experiment: a label, the pipeline and its overrides for planning, the execution worlds
+    (label -> overrides of the ``[execution]`` table, e.g. ``execution.variant=blocked``)."""
+
+    label: str
+    pipeline: str
+    overrides: tuple[str, ...] = ()
+    worlds: dict[str, tuple[str, ...]] = field(default_factory=lambda: {"": ()})
+
+
+def _gamma(g: float) -> tuple[str, ...]:
+    """Planning and execution noise ``gamma`` (linear, m/s) and ``gamma / 4`` (angular), thesis 5.4.1."""
+    noise = "none" if g == 0 else "bounded"
+    return (f'simulator.noise="{noise}"', f"simulator.noise_linear={g}", f"simulator.noise_angular={g / 4}",
+            f'execution.simulator.noise="{noise}"', f"execution.simulator.noise_linear={g}",
+            f"execution.simulator.noise_angular={g / 4}")
+
+
+def experiments() -> dict[str, list[Variant]]:
+    """The experiments by name (see the module docstring)."""
+    maze_worlds = {"unblocked": (), "blocked": ('execution.variant="blocked"',)}
+    table_51 = [Variant("PC", "peg-policy", ('planner.clustering="pc"',)),
+                Variant("AC", "peg-policy", ('planner.clustering="ac"',))]
+    table_51 += [Variant(f"WCR {t}", "peg-policy", ('planner.clustering="wcr"', f"planner.wcr_threshold={t}"))
+                 for t in (0.125, 0.25, 0.5, 0.75, 0.99)]
+    table_52 = []
+    for g in (0.0, 1 / 16, 1 / 8, 1 / 4):
+        table_52 += [Variant(f"simple, gamma {g:g}", "peg-policy", ('planner.mode="simple"', *_gamma(g))),
+                     Variant(f"contact, gamma {g:g}", "peg-policy",
+                             ('planner.mode="contact"', 'simulator.noise="none"', *_gamma(g)[3:])),
+                     Variant(f"24 particles, gamma {g:g}", "peg-policy", ("planner.particles=24", *_gamma(g))),
+                     Variant(f"48 particles, gamma {g:g}", "peg-policy", ("planner.particles=48", *_gamma(g)))]
+    return {"maze": [Variant("belief, WCR 0.75", "maze-policy", (), maze_worlds)],
+            "table-5.1": table_51, "table-5.2": table_52}
+
+
+def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exec_time: float) -> dict:
+    """Plan one policy and execute it ``executions`` times in every world; a JSON-ready record."""
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    import pliant
+    from pliant.interfaces import PlanningProblem
+
+    from pliant_belief.policy import PartialPolicy
+
+    base = [*variant.overrides, f"planner.max_time={plan_time}", "planner.progress=false", f"seed={seed}"]
+    pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=base)
+    context = pipeline.build()
+    problem = PlanningProblem.from_context(context)
+    t0 = time.perf_counter()
+    result = context.extras["planner"].plan(problem, np.random.default_rng(seed))
+    stats = {k: v for k, v in result.statistics.items() if isinstance(v, (int, float, str, bool)) or v is None}
+    record = {"variant": variant.label, "seed": seed, "planned": result.status.value == "solved",
+              "plan_seconds": time.perf_counter() - t0, "statistics": stats, "executions": {}}
+    if result.policy is None:
+        return record
+    saved = result.policy.to_dict()
+    for world, world_overrides in variant.worlds.items():
+        runs = []
+        world_pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=[*base, *world_overrides])
+        simulator = world_pipeline.execution_simulator(context)
+        for k in range(executions):
+            policy = PartialPolicy.from_dict(saved)      # every execution starts from the planned policy
+            policy.matcher = result.policy.matcher
+            execution = policy.execute(simulator, context.controller, np.random.default_rng(10_000 * seed + k),
+                                       context=context, time_limit=exec_time,
+                                       action_limit=int(world_pipeline.execution["action_limit"]))
+            runs.append({"outcome": execution.outcome, "actions": len(execution.actions),
+                         "seconds": float(execution.times[-1])})
+        record["executions"][world or "default"] = runs
+    return record
+
+
+def summarise(records: list[dict], variants: list[Variant]) -> list[dict]:
+    """Per variant and world: P_plan, P_exec mean [std] over planned policies, actions per success."""
+    rows = []
+    for v in variants:
+        mine = [r for r in records if r["variant"] == v.label]
+        planned = [r for r in mine if r["planned"]]
+        for world in v.worlds:
+            key = world or "default"
+            rates = [np.mean([e["outcome"] == "success" for e in r["executions"].get(key, [])])
+                     for r in planned if r["executions"].get(key)]
+            actions = [e["actions"] for r in planned for e in r["executions"].get(key, []) if e["outcome"] == "success"]
+            firsts = [r["statistics"].get("time_to_first") for r in planned if r["statistics"].get("time_to_first")]
+            rows.append({"variant": v.label, "world": key, "plans": len(mine),
+                         "p_plan": len(planned) / len(mine) if mine else float("nan"),
+                         "p_exec": float(np.mean(rates)) if rates else float("nan"),
+                         "p_exec_std": float(np.std(rates)) if rates else float("nan"),
+                         "actions": float(np.mean(actions)) if actions else float("nan"),
+                         "actions_std": float(np.std(actions)) if actions else float("nan"),
+                         "time_to_first": float(np.mean(firsts)) if firsts else float("nan"),
+                         "particles_simulated": float(np.mean([r["statistics"].get("particles_simulated", 0)
+                                                               for r in planned])) if planned else float("nan"),
+                         "particles_stored": float(np.mean([r["statistics"].get("particles_stored", 0)
+                                                            for r in planned])) if planned else float("nan"),
+                         "solutions": float(np.mean([r["statistics"].get("solutions", 0)
+                                                     for r in planned])) if planned else float("nan")})
+    return rows
+
+
+def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, exec_time: float, jobs: int,
+                   fresh: bool, output: Path, only: list[str] | None = None, echo=print) -> list[dict]:
+    """Run (or resume) experiment ``name``; returns the summary rows."""
+    table = experiments()
+    if name not in table:
+        raise ConfigError(f"unknown experiment (experiments: {', '.join(table)})", field="NAME", value=name)
+    for key, value in (("plans", plans), ("executions", executions), ("jobs", jobs)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ConfigError("must be a positive integer", field=key, value=value)
+    for key, value in (("plan_time", plan_time), ("exec_time", exec_time)):
+        if not (isinstance(value, (int, float)) and value > 0):
+            raise ConfigError("must be a positive number of seconds", field=key, value=value)
+    variants = [v for v in table[name] if not only or v.label in only]
+    directory = output / name
+    directory.mkdir(parents=True, exist_ok=True)
+    log = directory / "runs.jsonl"
+    if fresh and log.exists():
+        log.unlink()
+    records = [json.loads(line) for line in log.read_text().splitlines() if line.strip()] if log.exists() else []
+    done = {(r["variant"], r["seed"]) for r in records}
+    todo = [(v, s) for v in variants for s in range(plans) if (v.label, s) not in done]
+    echo(f"{name}: {len(records)} tasks on file, {len(todo)} to go, {jobs} at a time")
+    try:
+        with ProcessPoolExecutor(max_workers=jobs) as pool, log.open("a") as sink:
+            futures = {pool.submit(run_task, v, s, plan_time, executions, exec_time): (v, s) for v, s in todo}
+            for k, future in enumerate(as_completed(futures), start=1):
+                record = future.result()
+                records.append(record)
+                sink.write(json.dumps(record) + "\n")
+                sink.flush()
+                outcome = {w: f"{sum(e['outcome'] == 'success' for e in runs)}/{len(runs)}"
+                           for w, runs in record["executions"].items()}
+                echo(f"[{k}/{len(todo)}] {record['variant']} seed {record['seed']}: "
+                     f"{'planned' if record['planned'] else 'no policy'}, executions {outcome}")
+    except KeyboardInterrupt:
+        echo("interrupted: finished tasks are kept; run again to resume")
+    rows = summarise(records, variants)
+    (directory / "summary.json").write_text(json.dumps({"experiment": name, "rows": rows, "plan_time": plan_time,
+                                                        "executions": executions}, indent=1))
+    return rows
