@@ -5,7 +5,49 @@ form for the core's tangent conventions (world-frame twists): R^3 ``J = I``; SE(
 ``J = [e_x, e_y, (-r_y, r_x, 0)]``; SE(3) ``(v, w)`` ``J = [I | -[r]x]``.  The kernel transforms the
 body's surface points, finds the colliding ones, their entry-face normals and depths exactly as
 :mod:`.contact` does, and accumulates the normal equations ``J^T J`` and ``J^T dp`` of eq. 8.5 per
-particle, without any per-point temporaries.
+particle, without any per-point temporaries.  With the effort-limited solver (the default,
+below) it collects the constraint rows ``a_i = J_i^T n_i`` and push-outs instead, and calls the
+same compiled :func:`effort_correction` as the generic path (it lives in this file because numba's
+cache is invalidated per source file: a solver in another module would leave a stale kernel).
+
+The effort-limited contact correction: minimum dissipation against the controller's effort limits
+---------------------------------------------------------------------------------------------------
+
+RESOLVECOLLISIONS (thesis eq. 8.5) maps the point push-outs to the configuration by least squares,
+``dq = J^+ [dp_1; dp_2; ...]``.  That fit asks every colliding point to move by exactly its push-out
+*vector* (tangential slip included), so contacts with different normals near each other (a convex
+corner) or several points of one face at different depths are "explained" by a rotation, however
+far the contact is from the body's reference point: the L-block of se2-maze turned by 1 rad against
+its command at a corner, 60 times its speed limit.  Rescaling the rotation by a length does not
+help: with two or more contact points ``J`` has full column rank and the least-squares solution does
+not depend on the metric of ``dq``.
+
+A compliant robot is driven by a controller whose *effort* is limited: a force limit ``F`` on the
+translation and a torque limit ``T`` on the rotation (independent limits, as in the pymunk execution
+simulator and in real actuators).  Quasi-statically, an obstacle displaces the robot from its command
+in the directions where the controller saturates, and by the maximum-dissipation principle (the
+controller's effort limits form a box *limit surface*, as the support friction does for quasi-static
+pushing) the displacement ``dq`` minimises the work done against the controller,
+
+    D(dq) = F ||dq_v|| + T ||dq_w||  =  F (||dq_v|| + l ||dq_w||),    l = T / F (m),
+
+subject to no penetration of the colliding points, ``n_i . J_i dq >= depth_i + clearance``.  So a
+contact whose lever arm about the reference point is shorter than ``l`` pushes the body away without
+turning it, and only a longer lever turns it — as in the dynamic simulator.  Only the normal of each
+contact is constrained (frictionless, like eq. 8.5's normal push-outs), and shallower points are not
+forced to the surface (inequalities, not equalities), so the body does not snap flush to a wall.
+
+Generally, tangent coordinates are split into *groups* with weights ``w_g`` (rigid bodies: the
+translation with 1 and the rotation with ``l``; joint-space robots: each joint with 1), and
+
+    minimise  sum_g w_g ||dq_g||   subject to  a_i . dq >= b_i,   a_i = J_i^T n_i.
+
+It is solved by iteratively reweighted least squares (each iterate a quadratic program in the metric
+``diag(w_g / ||dq_g||)``, the first one in ``diag(w_g^2)``, the ellipsoidal limit surface), each
+quadratic program exactly by an active-set method on the contact multipliers (Lawson-Hanson:
+``dq = M^-1 sum_i a_i lambda_i``, ``lambda_i >= 0``, at most about ``t`` of them nonzero).  Both the
+generic numpy path and the fused rigid-body kernel call this one compiled function, so they agree to
+rounding.
 """
 
 from __future__ import annotations
@@ -14,6 +56,177 @@ import numba
 import numpy as np
 
 KIND_R3, KIND_SE2, KIND_SE3 = 0, 1, 2
+SOLVE_LEAST_SQUARES, SOLVE_EFFORT = 0, 1
+
+#: iteration cap of the reweighting (each round one quadratic program)
+OUTER_ITERATIONS = 12
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _quadratic_program(a, b, count, minv, tol, lam, active, out, warm):
+    """``out = argmin 1/2 dq^T M dq`` s.t. ``a[i] . dq >= b[i]``, ``M = diag(1 / minv)``; returns the active count.
+
+    Lawson-Hanson active set on the dual, ``min_{lambda >= 0} 1/2 lambda^T A M^-1 A^T lambda - b^T lambda``
+    with ``dq = M^-1 A^T lambda``: the most violated constraint joins the active set, the equality
+    problem on the active set is solved exactly, and constraints whose multiplier would turn negative
+    leave it.  At most ``t`` constraints are independent, so the systems are tiny and the solution is
+    exact (a flat face pushed evenly gives a pure translation).  ``lam`` (count,) and ``active``
+    (count,) carry the multipliers and the active set: with ``warm`` the previous ones are the start
+    (the reweighting changes only the metric, so the active set mostly stays).
+    """
+    t = a.shape[1]
+    if not warm:
+        for j in range(count):
+            lam[j] = 0.0
+            active[j] = False
+        for c in range(t):
+            out[c] = 0.0
+    members = np.empty(count, dtype=np.int64)
+    pending = warm                                    # re-solve the carried active set in the new metric first
+    for _ in range(3 * count + 3 * t):
+        worst = -1
+        if not pending:
+            # the most violated inactive constraint
+            worst_v = tol
+            for j in range(count):
+                if active[j]:
+                    continue
+                v = b[j]
+                for c in range(t):
+                    v -= a[j, c] * out[c]
+                if v > worst_v:
+                    worst, worst_v = j, v
+            if worst < 0:
+                break
+            active[worst] = True
+        pending = False
+        for _inner in range(count + 1):
+            m = 0
+            for j in range(count):
+                if active[j]:
+                    members[m] = j
+                    m += 1
+            if m == 0:
+                break
+            w = np.empty((m, m))
+            z = np.empty(m)
+            trace = 0.0
+            for u in range(m):
+                for v in range(m):
+                    s = 0.0
+                    for c in range(t):
+                        s += a[members[u], c] * minv[c] * a[members[v], c]
+                    w[u, v] = s
+                z[u] = b[members[u]]
+                trace += w[u, u]
+            for u in range(m):                       # dependent contacts (more than t) stay solvable
+                w[u, u] += 1e-12 * max(trace / m, 1e-300)
+            z = np.linalg.solve(w, z)
+            if np.all(z > 0.0):
+                for u in range(m):
+                    lam[members[u]] = z[u]
+                break
+            # step toward z until a multiplier reaches zero; that constraint leaves the active set
+            alpha = 1.0
+            for u in range(m):
+                if z[u] <= 0.0:
+                    denominator = lam[members[u]] - z[u]
+                    ratio = lam[members[u]] / denominator if denominator > 0.0 else 0.0
+                    alpha = min(alpha, ratio)
+            for u in range(m):
+                j = members[u]
+                lam[j] += alpha * (z[u] - lam[j])
+                if lam[j] <= 1e-300 or (z[u] <= 0.0 and lam[j] <= 1e-15 * max(abs(z[u]), 1e-300)):
+                    lam[j] = 0.0
+                    active[j] = False
+        for c in range(t):
+            out[c] = 0.0
+        for j in range(count):
+            if lam[j] != 0.0:
+                for c in range(t):
+                    out[c] += minv[c] * a[j, c] * lam[j]
+        if worst >= 0 and not active[worst]:
+            break                                    # it could not take load: no progress is possible
+    return 0
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def effort_correction(a, b, count, group, weight, tol, out):
+    """Write to ``out`` (t,) the ``dq`` minimising ``sum_g weight[g] ||dq_g||`` s.t. ``a[i] . dq >= b[i]``.
+
+    ``a`` (>= count, t) holds the constraint rows ``J_i^T n_i`` and ``b`` (>= count,) the push-outs
+    (m) of the first ``count`` colliding points; ``group`` (t,) the group of each tangent coordinate
+    and ``weight`` (G,) the groups' weights (1 for translation, the effort length ``l`` in metres for
+    rotation).  ``tol`` (m): constraints violated by less are left, and the reweighting stops once
+    the weighted change of ``dq`` is below it.  With two groups (a rigid body) the pure translation is
+    tried first and kept when its contact torque is within the limit (exactly optimal then); otherwise
+    the first iterate is the quadratic program in ``diag(weight^2)`` and the others reweight it toward
+    the sum of norms.  When the constraints cannot
+    all hold (the body is squeezed), the caller's collision check reverts the microstep.
+    """
+    t = a.shape[1]
+    ngroups = weight.shape[0]
+    minv = np.empty(t)
+    lam = np.empty(count)
+    active = np.empty(count, dtype=np.bool_)
+    norms = np.empty(ngroups)
+    previous = np.zeros(t)
+    floor = 1e-6 * tol
+    if ngroups == 2:
+        # A rigid body: try the pure translation first.  It is optimal (KKT of the sum of norms) iff the
+        # contact forces that stop it, scaled to the force limit, exert at most the torque limit:
+        # ||(A^T lambda)_w|| <= w_1 w_0 ||dq_v||, lambda the translation-only multipliers.
+        for c in range(t):
+            minv[c] = 1.0 / (weight[0] * weight[0]) if group[c] == 0 else 0.0
+        _quadratic_program(a, b, count, minv, tol, lam, active, out, False)
+        feasible = True
+        for j in range(count):
+            v = b[j]
+            for c in range(t):
+                v -= a[j, c] * out[c]
+            if v > tol:
+                feasible = False
+                break
+        if feasible:
+            force = 0.0
+            torque = 0.0
+            for c in range(t):
+                s = 0.0
+                for j in range(count):
+                    s += a[j, c] * lam[j]
+                if group[c] == 0:
+                    force += out[c] * out[c]
+                else:
+                    torque += s * s
+            if np.sqrt(torque) <= weight[1] * weight[0] * np.sqrt(force):
+                return
+    for c in range(t):
+        minv[c] = 1.0 / (weight[group[c]] * weight[group[c]])
+    for outer in range(OUTER_ITERATIONS):
+        _quadratic_program(a, b, count, minv, tol, lam, active, out, outer > 0)
+        # reweight: the metric w_g / ||dq_g|| majorises w_g ||dq_g|| at the current iterate
+        for g in range(ngroups):
+            norms[g] = 0.0
+        for c in range(t):
+            norms[group[c]] += out[c] * out[c]
+        moved = 0.0
+        for g in range(ngroups):
+            norms[g] = np.sqrt(norms[g])
+            s = 0.0
+            for c in range(t):
+                if group[c] == g:
+                    s += (out[c] - previous[c]) ** 2
+            moved += weight[g] * np.sqrt(s)
+        nonzero = 0
+        for g in range(ngroups):
+            if norms[g] > 0.0:
+                nonzero += 1
+        if nonzero <= 1 or (outer > 0 and moved < tol):
+            break           # (one group moving, e.g. a pure translation: reweighting keeps the solution)
+        for c in range(t):
+            g = group[c]
+            minv[c] = max(weight[g] * norms[g], floor) / (weight[g] * weight[g])
+            previous[c] = out[c]
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -43,8 +256,11 @@ def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal,
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat, exposed, deep_normal, deep_depth,
-                clearance, lhs, rhs, p, motion, nrm, free_clearance, distance, reach):
+                clearance, lhs, rhs, p, motion, nrm, free_clearance, distance, reach, rows, pushes):
     """Normal equations of one body placed by ``r_`` (3, 3) / ``pos`` (3,); returns the colliding count.
+
+    The colliding points' constraint rows ``J_i^T n_i`` and push-outs are written to ``rows`` (k, t)
+    and ``pushes`` (k,) too, in the order of the body's points.
 
     ``r0`` / ``pos0`` place the body before the microstep: a colliding point's motion is measured
     from there (computed only for colliding points).  Points with ``distance[i] > reach`` are skipped:
@@ -84,10 +300,20 @@ def _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat
             for c in range(3):
                 nrm[c] /= max(depth, 1e-300)
         distance[i] = reach
-        hits += 1
         push = depth + clearance * res
         dp0, dp1, dp2 = nrm[0] * push, nrm[1] * push, nrm[2] * push
         rx, ry, rz = p[0] - pos[0], p[1] - pos[1], p[2] - pos[2]
+        pushes[hits] = push
+        if kind == KIND_R3:
+            rows[hits, 0], rows[hits, 1], rows[hits, 2] = nrm[0], nrm[1], nrm[2]
+        elif kind == KIND_SE2:
+            rows[hits, 0], rows[hits, 1], rows[hits, 2] = nrm[0], nrm[1], -ry * nrm[0] + rx * nrm[1]
+        else:
+            rows[hits, 0], rows[hits, 1], rows[hits, 2] = nrm[0], nrm[1], nrm[2]
+            rows[hits, 3] = ry * nrm[2] - rz * nrm[1]
+            rows[hits, 4] = rz * nrm[0] - rx * nrm[2]
+            rows[hits, 5] = rx * nrm[1] - ry * nrm[0]
+        hits += 1
         if kind == KIND_R3:
             for c in range(3):
                 lhs[c, c] += 1.0
@@ -208,12 +434,14 @@ def _motion_bound(kind, delta, radius):
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def fused_microstep(kind, q, step, local, lower, res, shape, occupied_flat, exposed, deep_normal, deep_depth,
-                    free_clearance, radius, clearance, max_corrections, damping, odometer, distances, out,
-                    converged, touched):
+                    free_clearance, radius, clearance, max_corrections, damping, solver, group, weight, tol,
+                    odometer, distances, out, converged, touched):
     """One microstep with RESOLVECOLLISIONS for every particle (thesis eq. 8.3-8.5), fully compiled.
 
-    ``q`` (n, d) moves by ``step`` (n, t); corrections ``dq = (J^T J)^-1 J^T dp`` repeat up to
-    ``max_corrections`` times; a particle that still collides is put back at ``q`` (``converged``
+    ``q`` (n, d) moves by ``step`` (n, t); corrections repeat up to ``max_corrections`` times, each
+    ``dq = (J^T J)^-1 J^T dp`` (``solver`` SOLVE_LEAST_SQUARES, eq. 8.5 with relative ``damping``) or
+    the effort-limited correction :func:`effort_correction` (SOLVE_EFFORT: tangent ``group``/``weight``,
+    tolerance ``tol`` in m); a particle that still collides is put back at ``q`` (``converged``
     False).  ``touched`` reports whether any correction was needed.  ``odometer`` (n,) and
     ``distances`` (n, k) carry the broad phase between microsteps: zeros check every point.
     """
@@ -230,6 +458,9 @@ def fused_microstep(kind, q, step, local, lower, res, shape, occupied_flat, expo
     nrm = np.empty(3)
     trial = np.empty(d)
     moved = np.empty(d)
+    rows = np.empty((local.shape[0], t))
+    pushes = np.empty(local.shape[0])
+    dq = np.empty(t)
     for a in range(n):
         _placement(kind, q[a], r0, pos0)
         _retract(kind, q[a], step[a], trial)
@@ -242,17 +473,20 @@ def fused_microstep(kind, q, step, local, lower, res, shape, occupied_flat, expo
             _placement(kind, trial, r_, pos)
             hits = _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat, exposed,
                                deep_normal, deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance,
-                               distance, reach)
+                               distance, reach, rows, pushes)
             if hits == 0:
                 converged[a] = True
                 break
             touched[a] = True
-            trace = 0.0
-            for c in range(t):
-                trace += lhs[c, c]
-            for c in range(t):
-                lhs[c, c] += damping * max(trace / t, 1e-12)
-            dq = np.linalg.solve(lhs, rhs)
+            if solver == SOLVE_EFFORT:
+                effort_correction(rows, pushes, hits, group, weight, tol, dq)
+            else:
+                trace = 0.0
+                for c in range(t):
+                    trace += lhs[c, c]
+                for c in range(t):
+                    lhs[c, c] += damping * max(trace / t, 1e-12)
+                dq[:] = np.linalg.solve(lhs, rhs)
             _retract(kind, trial, dq, moved)
             trial[:] = moved
             reach += _motion_bound(kind, dq, radius)

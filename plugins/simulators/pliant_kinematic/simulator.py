@@ -5,8 +5,12 @@ Each control step (``1 / frequency`` s) a P/PD law commands a tangent displaceme
 ``F(dq)``, :mod:`pliant.noise`) is drawn per microstep.  The step is cut into microsteps so that no
 body point moves more than ``step_fraction`` of a voxel; after each, RESOLVECOLLISIONS (eq. 8.4-8.5)
 pushes penetrating points out along the face they entered through (:mod:`.contact`) and maps the
-point corrections to the configuration by least squares, ``dq = J^+ [dp_1; dp_2; ...]`` (or, with
-``solver = "qp"``, a quadratic program that forbids first-order penetration outright).  When the
+push-outs to the configuration.  The default ``solver = "effort"`` takes the displacement of least
+dissipation against the controller's force and torque limits, ``min ||dq_v|| + l ||dq_w||`` subject to
+``n_i . J_i dq >= depth_i`` (:func:`.rigid_kernel.effort_correction`): eq. 8.5's least squares,
+``dq = J^+ [dp_1; dp_2; ...]`` (``solver = "least-squares"``, or ``"qp"`` with first-order penetration
+forbidden), explains push-outs at a corner by large rotations against the command, which a compliant
+robot with a torque limit does not make when the lever arm is shorter than ``l = T / F``.  When the
 corrections do not converge, the microstep is reverted and the particle's step is halved (adaptive
 step scaling against oscillation); after ``max_halvings`` it stays where it is for the rest of the step.
 
@@ -28,7 +32,15 @@ from pliant.options import option
 from pliant.voxelgrid import VoxelGrid
 
 from pliant_kinematic.contact import ContactModel
-from pliant_kinematic.rigid_kernel import KIND_R3, KIND_SE2, KIND_SE3, fused_microstep
+from pliant_kinematic.rigid_kernel import (
+    KIND_R3,
+    KIND_SE2,
+    KIND_SE3,
+    SOLVE_EFFORT,
+    SOLVE_LEAST_SQUARES,
+    effort_correction,
+    fused_microstep,
+)
 
 
 @dataclass(frozen=True)
@@ -53,13 +65,19 @@ class KinematicOptions:
     max_corrections: int = option(8, "collision-resolution iterations per microstep", minimum=1)
     max_halvings: int = option(4, "adaptive step scaling: halvings before a particle gives up", minimum=0)
     clearance: float = option(0.01, "points are pushed this far past the surface, in voxels", minimum=0.0)
-    solver: str = option("least-squares", "contact correction: least-squares (eq. 8.5) or qp (no penetration)",
-                         choices=("least-squares", "qp"))
+    solver: str = option("effort", "contact correction: effort (minimum dissipation against the controller's "
+                         "force and torque limits, see pliant_kinematic.rigid_kernel), least-squares (eq. 8.5 as "
+                         "in the thesis) or qp (eq. 8.5 with no first-order penetration)",
+                         choices=("effort", "least-squares", "qp"))
+    effort_length: float | None = option(None, "effort solver, rigid bodies: the controller's torque limit over "
+                                         "its force limit (m), the lever arm beyond which contact turns the body; "
+                                         "default: the body's radius of gyration about its reference point",
+                                         minimum=1e-9)
     reach_tolerance: float | None = option(None, "distance to the target that counts as reached (space "
                                            "metric); default: the scene's goal tolerance, else one voxel")
     stuck_fraction: float = option(0.05, "stuck when a control step moves less than this fraction of what it "
                                    "commanded", minimum=0.0, maximum=1.0)
-    fused_kernel: bool = option(True, "use the fused numba kernel for rigid bodies (least-squares solver only)")
+    fused_kernel: bool = option(True, "use the fused numba kernel for rigid bodies (effort and least-squares solvers)")
     self_collision: bool = option(True, "resolve contacts between a multi-link robot's own links (app. B's "
                                   "momentum model); robots without links ignore it")
     damping: float = option(1e-6, "Levenberg-Marquardt damping of eq. 8.5, relative to the mean diagonal of "
@@ -100,7 +118,7 @@ class KinematicSimulator(Simulator):
         self.per_actuator = bool(o.joint_velocity_limits) or placement is None
         kinds = {"rn": KIND_R3, "se2": KIND_SE2, "se3": KIND_SE3}
         self.kernel_kind = kinds.get(self.space.kind) if (placement is not None and o.fused_kernel
-                                                          and o.solver == "least-squares") else None
+                                                          and o.solver != "qp") else None
         self.reach_radius = None
         self._broad_phase = None
         self.self_collision = o.self_collision and self.robot.self_contacts(
@@ -108,11 +126,32 @@ class KinematicSimulator(Simulator):
         if placement is not None:
             self.surface_local = np.ascontiguousarray(placement[2][self.surface])
             self.reach_radius = float(np.max(np.linalg.norm(self.surface_local, axis=1)))
+        self.effort_groups, self.effort_weights = self._effort_metric(placement)
         self.dt = 1.0 / o.frequency
         self.reach = o.reach_tolerance if o.reach_tolerance is not None else (
             scene.goal_tolerance if scene.goal_tolerance > 0 else scene.resolution)
         self._q = np.array(scene.start, dtype=np.float64)[None]
         self._contact = False
+
+    def _effort_metric(self, placement):
+        """Groups of the tangent coordinates and their weights for the effort solver (:mod:`.rigid_kernel`).
+
+        A rigid body has a force limit on its translation and a torque limit on its rotation: two
+        groups, weighted 1 and ``effort_length`` (torque limit / force limit, m).  Its default is the
+        radius of gyration ``sqrt(mean |r|^2)`` of the body's points about the reference point: the
+        limits that give the body's linear and angular accelerations the same effect at that radius.
+        Joint-space robots have one effort limit per actuator: every coordinate its own group, weight 1.
+        """
+        t = self.space.tangent_dim
+        if placement is None or not self.angular.any():
+            if placement is not None:                     # a translating body: one force limit
+                return np.zeros(t, dtype=np.int64), np.ones(1)
+            return np.arange(t, dtype=np.int64), np.ones(t)
+        length = self.options.effort_length
+        if length is None:
+            local = placement[2]
+            length = float(np.sqrt(np.mean(np.sum(local ** 2, axis=1))))
+        return self.angular.astype(np.int64), np.array([1.0, max(length, 1e-9)])
 
     # --- the control law ----------------------------------------------------------------------
 
@@ -280,14 +319,27 @@ class KinematicSimulator(Simulator):
         converged = np.empty(n, dtype=np.bool_)
         touched = np.empty(n, dtype=np.bool_)
         c = self.contact
+        solver = SOLVE_EFFORT if self.options.solver == "effort" else SOLVE_LEAST_SQUARES
         fused_microstep(self.kernel_kind, np.ascontiguousarray(q), np.ascontiguousarray(step), self.surface_local,
                         c.lower, c.res, c._shape, c.occupied_flat, c.exposed, c.deep_normal, c.deep_depth,
                         c.free_clearance, self.reach_radius, self.options.clearance, self.options.max_corrections,
-                        self.options.damping, *self._broad_phase, out, converged, touched)
+                        self.options.damping, solver, self.effort_groups, self.effort_weights, self._effort_tol,
+                        *self._broad_phase, out, converged, touched)
         return out, converged, touched
 
+    @property
+    def _effort_tol(self) -> float:
+        """Tolerance (m) of the effort solver: a tenth of the default clearance, far below a voxel."""
+        return 1e-3 * self.grid.resolution
+
     def _correct(self, q, pts, before, hit):
-        """One correction ``dq = J^+ dp`` (eq. 8.5) for particles ``(a, d)`` with colliding points ``hit``."""
+        """One correction for particles ``(a, d)`` with colliding points ``hit`` (eq. 8.5, or the effort solver).
+
+        ``least-squares``: ``dq = J^+ dp`` over the push-out vectors (thesis eq. 8.5); ``qp``: the same
+        with first-order non-penetration constraints; ``effort`` (default): the displacement of least
+        dissipation against the controller's effort limits with only the contact normals constrained
+        (:mod:`.rigid_kernel`), which a rigid body shares with the fused kernel.
+        """
         used = np.nonzero(hit.any(axis=0))[0]           # surface points colliding in some particle
         hit = hit[:, used]
         pts, before = pts[:, used], before[:, used]
@@ -300,7 +352,14 @@ class KinematicSimulator(Simulator):
         jac = self.robot.point_jacobians(q, self.surface[used])              # (a, k, 3, t)
         t = jac.shape[-1]
         masked = (jac * hit[..., None, None]).reshape(a, 3 * k, t)
-        if self.options.solver == "qp":
+        if self.options.solver == "effort":
+            dq = np.zeros((a, t))
+            constraint = np.einsum("kc,kct->kt", normals, jac[rows, cols])       # a_i = J_i^T n_i
+            for p in range(a):
+                sel = rows == p
+                effort_correction(np.ascontiguousarray(constraint[sel]), np.ascontiguousarray(push[sel]),
+                                  int(sel.sum()), self.effort_groups, self.effort_weights, self._effort_tol, dq[p])
+        elif self.options.solver == "qp":
             dq = self._qp_corrections(masked, dp, rows, cols, normals, push, jac)
         else:
             lhs = np.swapaxes(masked, 1, 2) @ masked

@@ -217,3 +217,96 @@ def test_forward_and_back_batches():
     back = sim.simulate(forward.final, starts, np.random.default_rng(0), 4.0)
     assert forward.reached.all() and back.reached.all()
     assert np.allclose(back.final[:, :3], starts[:, :3], atol=0.07)
+
+
+# --- the effort-limited contact correction (se2-maze: contact must not spin the L-block) -----------------
+
+MAZE_CONTROL = {"kp": 0.5, "velocity_limit": 1.0, "angular_velocity_limit": 0.125}
+#: (start, target) pairs where eq. 8.5's least squares turned the L-block against its command at a corner
+MAZE_CORNERS = [(np.array([7.75, 7.75, 0.0]), np.array([6.68, 6.19, -0.65])),
+                (np.array([3.56, 7.21, 1.32]), np.array([3.32, 5.35, 2.0]))]
+
+
+@functools.cache
+def maze():
+    ctx = Context(scene=load_scene("se2-maze"))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    return ctx
+
+
+def heading_error(q, target):
+    return np.abs((target[2] - q[..., 2] + np.pi) % (2 * np.pi) - np.pi)
+
+
+@pytest.mark.parametrize("fused", [True, False])
+@pytest.mark.parametrize("case", range(len(MAZE_CORNERS)))
+def test_contact_at_a_corner_does_not_turn_the_body_against_its_command(case, fused):
+    start, target = MAZE_CORNERS[case]
+    sim = registry.create("simulator", "kinematic", maze(), fused_kernel=fused, **MAZE_CONTROL)
+    out = sim.simulate(start[None], target, np.random.default_rng(0), 8.0, record=True)
+    traj = out.trajectories[0]
+    assert out.in_contact[0]
+    # the heading never gets farther from the commanded one than it started (+ 0.02 rad of contact slack) ...
+    assert np.all(heading_error(traj, target) <= heading_error(start, target) + 0.02)
+    # ... turns at no more than the speed limit, and reaches the commanded heading, as pymunk does
+    turn = np.abs((np.diff(traj[:, 2]) + np.pi) % (2 * np.pi) - np.pi)
+    assert np.all(turn <= 0.125 * 0.1 + 0.01)
+    assert heading_error(out.final[0], target) < 0.02
+    # (the second start overlaps the wall corner by two points: the first step pushes them out)
+    assert not ContactModel(sim.grid).colliding(maze().robot.body_points(traj[1:])).any()
+    # the thesis's least squares (kept as an option) is the behaviour this replaces
+    old = registry.create("simulator", "kinematic", maze(), solver="least-squares", **MAZE_CONTROL)
+    before = old.simulate(start[None], target, np.random.default_rng(0), 8.0)
+    assert heading_error(before.final[0], target) > heading_error(start, target) + 0.5
+
+
+def test_the_corner_case_ends_near_the_dynamic_simulator():
+    start, target = MAZE_CORNERS[0]
+    pytest.importorskip("pymunk")
+    dynamic = registry.create("simulator", "pymunk", maze(), **MAZE_CONTROL)
+    kinematic = registry.create("simulator", "kinematic", maze(), **MAZE_CONTROL)
+    a = kinematic.simulate(start[None], target, np.random.default_rng(0), 8.0).final[0]
+    b = dynamic.simulate(start[None], target, np.random.default_rng(0), 8.0).final[0]
+    assert maze().robot.space.distance(a, b) < 0.1          # it slid down the passage as pymunk does
+
+
+def test_effort_correction_pushes_a_short_lever_out_without_turning():
+    from pliant_kinematic.rigid_kernel import effort_correction
+
+    groups, weights = np.array([0, 0, 1]), np.array([1.0, 0.9])
+    out = np.empty(3)
+    # one contact at lever 0.5 < 0.9 m, normal +x, 1 cm deep: exactly a translation (a quadratic metric, the
+    # ellipsoidal limit surface, would turn it by 2.4e-3 rad)
+    effort_correction(np.array([[1.0, 0.0, -0.5]]), np.array([0.01]), 1, groups, weights, 1e-6, out)
+    assert np.allclose(out, [0.01, 0.0, 0.0], atol=1e-12)
+    # a lever of 2 m > 0.9 m: a pure rotation is cheaper (0.9 * 0.005 < 0.01)
+    effort_correction(np.array([[1.0, 0.0, 2.0]]), np.array([0.01]), 1, groups, weights, 1e-6, out)
+    assert np.allclose(out, [0.0, 0.0, 0.005], atol=1e-6)
+    # a flat face pushed evenly at many points: exactly a translation (the active set has no GS-order bias)
+    levers = np.linspace(-0.5, 0.5, 9)
+    rows = np.array([[0.0, 1.0, x] for x in levers])
+    effort_correction(rows, np.full(9, 0.01), 9, groups, weights, 1e-6, out)
+    assert np.allclose(out, [0.0, 0.01, 0.0], atol=1e-9)
+    # a tilted face (depth 0 to 1 cm) with levers under 0.9 m: translated by the deepest depth, not snapped flush
+    depth = 0.005 + 0.01 * levers
+    effort_correction(rows, depth, 9, groups, weights, 1e-6, out)
+    assert np.all(rows @ out >= depth - 1e-6) and np.allclose(out, [0.0, 0.01, 0.0], atol=1e-12)
+    # the thesis's least squares instead turns it flush (the fit explains the depths by a rotation of 0.01 rad)
+    assert np.allclose(np.linalg.lstsq(rows, depth, rcond=None)[0][1:], [0.005, 0.01])
+
+
+@pytest.mark.parametrize("scene", ["se3-peg-in-hole", "se2-maze"])
+def test_fused_kernel_equals_the_generic_path_with_the_thesis_least_squares(scene):
+    ctx = Context(scene=load_scene(scene))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    options = {"noise": "bounded", "noise_linear": 0.125, "noise_angular": 0.03, "solver": "least-squares"}
+    fused = registry.create("simulator", "kinematic", ctx, **options)
+    generic = registry.create("simulator", "kinematic", ctx, fused_kernel=False, **options)
+    if scene == "se2-maze":
+        starts, target = np.repeat([[7.75, 7.75, 0.0]], 8, axis=0), np.array([9.0, 0.75, 0.5])
+    else:
+        starts, target = np.repeat(pose(6, 6, 3.55)[None], 8, axis=0), pose(5, 5, 2)
+    a = fused.simulate(starts, target, np.random.default_rng(3), 2.0)
+    b = generic.simulate(starts, target, np.random.default_rng(3), 2.0)
+    assert a.in_contact.any()
+    assert np.allclose(a.final, b.final, atol=1e-9)
