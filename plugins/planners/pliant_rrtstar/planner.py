@@ -98,6 +98,7 @@ class RRTStarPlanner(Planner):
     name = "rrtstar"
     example_scene = "triple-wall"
     example_components = {"cost": "voxel"}
+    example_options = {"max_time": None, "max_iterations": 1500}     # conformance: quick and deterministic
 
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:

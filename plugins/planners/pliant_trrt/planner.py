@@ -88,6 +88,7 @@ class TRRTPlanner(Planner):
     name = "trrt"
     example_scene = "triple-wall"
     example_components = {"cost": "voxel"}
+    example_options = {"max_time": None, "max_iterations": 20000}    # conformance: deterministic budget
 
     # --- the gradient hook (GradienT-RRT overrides) --------------------------------------------------
 
