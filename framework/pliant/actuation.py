@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pliant.errors import DimensionError
 from pliant.spaces import Space
 
 
@@ -37,3 +38,17 @@ def limit_velocity(velocity: np.ndarray, angular: np.ndarray, linear_limit: floa
             norm = np.linalg.norm(v[:, mask], axis=1, keepdims=True)
             v[:, mask] /= np.maximum(norm / lim, 1.0)
     return v
+
+
+def actuator_limits(space: Space, velocity_limit: float, angular_velocity_limit: float,
+                    joint_velocity_limits=()) -> np.ndarray:
+    """Speed limit ``(t,)`` of every actuator: ``joint_velocity_limits`` when given (one per tangent
+    coordinate), else ``angular_velocity_limit`` (rad/s) for rotations and ``velocity_limit`` (m/s or rad/s)
+    for the rest.  Raises :class:`DimensionError` naming ``simulator.joint_velocity_limits``."""
+    t = space.tangent_dim
+    if joint_velocity_limits:
+        if len(joint_velocity_limits) != t:
+            raise DimensionError(f"needs one limit per actuator ({t})", field="simulator.joint_velocity_limits",
+                                 value=list(joint_velocity_limits))
+        return np.asarray(joint_velocity_limits, dtype=np.float64)
+    return np.where(angular_mask(space), angular_velocity_limit, velocity_limit)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pliant.actuation import angular_mask, limit_velocity
+from pliant.actuation import actuator_limits, angular_mask, limit_velocity
 from pliant.errors import DimensionError
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
 from pliant.noise import NOISE_MODELS, ActuationNoise
@@ -52,14 +52,7 @@ class SteppedSimulator(Simulator):
         o = self.options
         self.space = self.robot.space
         self.angular = angular_mask(self.space)
-        t = self.space.tangent_dim
-        if o.joint_velocity_limits:
-            if len(o.joint_velocity_limits) != t:
-                raise DimensionError(f"needs one limit per actuator ({t})", field="simulator.joint_velocity_limits",
-                                     value=list(o.joint_velocity_limits))
-            self.limits = np.asarray(o.joint_velocity_limits, dtype=np.float64)
-        else:
-            self.limits = np.where(self.angular, o.angular_velocity_limit, o.velocity_limit)
+        self.limits = actuator_limits(self.space, o.velocity_limit, o.angular_velocity_limit, o.joint_velocity_limits)
         # as in the kinematic simulator: articulated robots (and explicit limits) cap every actuator by one
         # common factor; rigid bodies cap the norms of translation and rotation separately
         self.per_actuator = bool(o.joint_velocity_limits) or self.robot.rigid_placement(

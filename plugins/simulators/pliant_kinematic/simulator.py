@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.actuation import angular_mask, limit_velocity
+from pliant.actuation import actuator_limits, angular_mask, limit_velocity
 from pliant.errors import DimensionError
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
 from pliant.noise import NOISE_MODELS, ActuationNoise
@@ -103,15 +103,8 @@ class KinematicSimulator(Simulator):
         self.contact = ContactModel(self.grid)
         self.surface = self.robot.surface_indices()
         o = self.options
-        t = self.space.tangent_dim
         self.angular = angular_mask(self.space)
-        if o.joint_velocity_limits:
-            if len(o.joint_velocity_limits) != t:
-                raise DimensionError(f"needs one limit per actuator ({t})", field="simulator.joint_velocity_limits",
-                                     value=list(o.joint_velocity_limits))
-            self.limits = np.asarray(o.joint_velocity_limits, dtype=np.float64)
-        else:
-            self.limits = np.where(self.angular, o.angular_velocity_limit, o.velocity_limit)
+        self.limits = actuator_limits(self.space, o.velocity_limit, o.angular_velocity_limit, o.joint_velocity_limits)
         scale = np.where(self.angular, o.noise_angular, o.noise_linear)
         self.noise = ActuationNoise(o.noise, scale, self.limits)
         placement = self.robot.rigid_placement(np.asarray(scene.start, dtype=np.float64)[None])
