@@ -13,6 +13,15 @@ def pliant_register(registrar):
 
 
 @hookimpl
+def pliant_report(run, directory):
+    if run.result is None or run.result.policy is None or getattr(run.result.policy, "kind", "") != "partial-policy":
+        return None
+    from pliant_belief.figures import draw_policy
+
+    return draw_policy(run, directory)
+
+
+@hookimpl
 def pliant_add_commands(subparsers):
     parser = subparsers.add_parser(
         "belief-experiment", help="thesis 5.4 experiments: plan policies, execute them, tabulate success",

@@ -104,7 +104,7 @@ def test_conformance():
 
 
 def test_demo_pipeline_end_to_end(tmp_path):
-    record = Pipeline.from_file("demo", overrides=["planner.values=11", f'output="{tmp_path}"']).run()
+    record = Pipeline.from_file("triple-wall-pareto", overrides=["planner.values=11", f'output="{tmp_path}"']).run()
     assert record.result.status is Status.SOLVED
     for name in ("report.md", "result.json", "pareto_front.png", "pareto_paths.png", "path.png"):
         assert (tmp_path / name).is_file(), name
