@@ -43,9 +43,7 @@ BLUE_HOLE_X, GREY_HOLE_X = 0.71, 0.30
 
 def which_hole(problem, configurations) -> str:
     """The hole a path passes: the one nearest (in x) to its states inside the wall's slab."""
-    from pliant.shortcut import densify
-
-    dense = densify(problem, configurations, problem.scene.resolution)
+    dense = problem.densify(configurations, problem.scene.resolution)
     inside = dense[np.abs(dense[:, 1] - 0.5) <= 0.03]
     if not len(inside):
         return "none"

@@ -406,6 +406,14 @@ class PlanningProblem:
             return start, goal, Status.INVALID_GOAL
         return start, goal, None
 
+    def densify(self, configurations: np.ndarray, step: float) -> np.ndarray:
+        """The path ``(k, d)`` with states inserted so that consecutive ones are at most ``step`` apart."""
+        configurations = np.atleast_2d(np.asarray(configurations, dtype=np.float64))
+        if len(configurations) < 2:
+            return configurations.copy()
+        return np.vstack([configurations[:1]] + [self.space.discretize(a, b, step)[1:]
+                                                  for a, b in itertools.pairwise(configurations)])
+
     def path_cost(self, configurations: np.ndarray, step: float) -> float:
         """The discrete integral of the state cost along a path ``(k, d)``: ``sum_j c(q_j) |q_j - q_{j-1}|``.
 
@@ -413,11 +421,9 @@ class PlanningProblem:
         on how many waypoints a planner kept (thesis Table 3.1: "the integral of costs incurred at each
         state in a trajectory"); 0 without a cost model.  NaN when a state is infeasible.
         """
-        configurations = np.atleast_2d(np.asarray(configurations, dtype=np.float64))
-        if self.cost is None or len(configurations) < 2:
+        dense = self.densify(configurations, step)
+        if self.cost is None or len(dense) < 2:
             return 0.0
-        dense = np.vstack([configurations[:1]] + [self.space.discretize(a, b, step)[1:]
-                                                   for a, b in itertools.pairwise(configurations)])
         steps = np.asarray(self.space.distance(dense[:-1], dense[1:]), dtype=np.float64)
         return float(np.sum(self.cost.cost(dense[1:]) * steps))
 

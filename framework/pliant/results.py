@@ -102,6 +102,25 @@ class Policy:
                               value=kind)
         return Policy._kinds[kind].from_dict(data)
 
+    def save(self, path: str | FilePath) -> None:
+        """Write the policy as JSON (parent directories are created)."""
+        path = FilePath(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(self.to_dict(), indent=1))
+
+    @classmethod
+    def load(cls, path: str | FilePath) -> Policy:
+        """Read a policy written by :meth:`save` (of ``cls``'s kind, or any kind when called on the base)."""
+        try:
+            data = json.loads(FilePath(path).read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ConfigError(f"cannot read policy file: {exc}", source=str(path), field="<file>") from None
+        try:
+            return cls.from_dict(data)
+        except ConfigError as exc:
+            raise ConfigError(exc.message, source=str(path), field=exc.field,
+                              **({"value": exc.value} if exc.has_value else {})) from None
+
 
 @dataclass
 class PlanResult:
@@ -129,6 +148,17 @@ class PlanResult:
     @property
     def solved(self) -> bool:
         return self.status.success
+
+    @classmethod
+    def invalid_endpoint(cls, status: Status, planner: str, options: dict | None = None,
+                         statistics: dict | None = None) -> PlanResult:
+        """The result of a query whose start or goal failed validity (``status`` is INVALID_START or
+        INVALID_GOAL, as :meth:`PlanningProblem.checked_endpoints` returns it)."""
+        which = {Status.INVALID_START: "start", Status.INVALID_GOAL: "goal"}.get(status)
+        if which is None:
+            raise ConfigError("not an endpoint status", field="status", value=status.value)
+        return cls(status, planner=planner, options=dict(options or {}), statistics=dict(statistics or {}),
+                   message=f"the {which} configuration is not valid")
 
     def to_dict(self) -> dict:
         return {"status": self.status.value, "path": None if self.path is None else self.path.to_dict(),

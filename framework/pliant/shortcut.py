@@ -9,22 +9,12 @@ validity and the optional ``check`` (e.g. puncture detection of the whole path, 
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Callable
 
 import numpy as np
 
 from pliant.errors import DimensionError
 from pliant.interfaces import PlanningProblem
-
-
-def densify(problem: PlanningProblem, configurations: np.ndarray, step: float) -> np.ndarray:
-    """The path ``(k, d)`` with states inserted so that consecutive ones are at most ``step`` apart."""
-    configurations = np.atleast_2d(np.asarray(configurations, dtype=np.float64))
-    if len(configurations) < 2:
-        return configurations.copy()
-    return np.vstack([configurations[:1]] + [problem.space.discretize(a, b, step)[1:]
-                                              for a, b in itertools.pairwise(configurations)])
 
 
 def _segment_costs(problem: PlanningProblem, dense: np.ndarray, length_weight: float) -> np.ndarray:
@@ -46,7 +36,7 @@ def shortcut(problem: PlanningProblem, configurations: np.ndarray, rng: np.rando
         raise DimensionError("step must be positive", field="step", value=step)
     if iterations < 0:
         raise DimensionError("iterations must be >= 0", field="iterations", value=iterations)
-    dense = densify(problem, configurations, step)
+    dense = problem.densify(configurations, step)
     segments = _segment_costs(problem, dense, length_weight)
     for _ in range(iterations):
         if len(dense) < 3:

@@ -126,10 +126,6 @@ class Tree:
         inside = np.nonzero((d <= radius) & self.active)[0]
         return inside[np.argsort(d[inside], kind="stable")]
 
-    def children(self, node: int) -> np.ndarray:
-        """Indices of the direct children of ``node``."""
-        return np.nonzero(self.parents == node)[0]
-
     def descendants(self, node: int) -> np.ndarray:
         """Indices of every node below ``node`` (breadth first, ``node`` excluded)."""
         out, frontier = [], np.array([node])

@@ -7,7 +7,7 @@ import pytest
 from pliant import Pipeline
 from pliant.errors import DimensionError
 from pliant.interfaces import PlanningProblem
-from pliant.shortcut import densify, shortcut
+from pliant.shortcut import shortcut
 
 
 @pytest.fixture(scope="module")
@@ -21,7 +21,7 @@ def zigzag(problem, n=9):
     t = np.linspace(0, 1, n)[:, None]
     path = start + t * (goal - start)
     path[1:-1:2, 2] -= 0.03
-    assert problem.is_valid(densify(problem, path, problem.scene.resolution)).all()
+    assert problem.is_valid(problem.densify(path, problem.scene.resolution)).all()
     return path
 
 
@@ -40,14 +40,14 @@ def test_with_a_length_weight_a_free_zigzag_straightens(problem):
     path = zigzag(problem)
     step = problem.scene.resolution
     dense, _ = shortcut(problem, path, np.random.default_rng(1), step=step, iterations=500, length_weight=1e6)
-    assert space.path_length(dense) < space.path_length(densify(problem, path, step))
+    assert space.path_length(dense) < space.path_length(problem.densify(path, step))
 
 
 def test_a_veto_keeps_the_original_path(problem):
     path = zigzag(problem)
     step = problem.scene.resolution
     dense, cost = shortcut(problem, path, np.random.default_rng(0), step=step, iterations=100, check=lambda p: False)
-    assert np.array_equal(dense, densify(problem, path, step))
+    assert np.array_equal(dense, problem.densify(path, step))
     assert cost == pytest.approx(problem.path_cost(path, step))
 
 

@@ -116,9 +116,6 @@ class BeliefTree:
         self.nodes.append(node)
         return len(self.nodes) - 1
 
-    def children(self, index: int) -> list[int]:
-        return [i for i, n in enumerate(self.nodes) if n.parent == index]
-
     def branch(self, index: int) -> list[int]:
         """Node indices from the root to ``index``."""
         chain = [index]

@@ -97,8 +97,7 @@ class BeliefPlanner(Planner):
         space = problem.space
         start, goal, invalid = problem.checked_endpoints()
         if invalid is not None:
-            return PlanResult(invalid, planner="belief", options=dict(vars(o)),
-                              message=f"the {invalid.value.split()[1]} configuration is not valid")
+            return PlanResult.invalid_endpoint(invalid, "belief", dict(vars(o)))
         if o.mode != "simple" and problem.simulator is None:
             raise ConfigError(f"mode '{o.mode}' simulates actions: the pipeline needs a simulator",
                               field="simulator", value=None)

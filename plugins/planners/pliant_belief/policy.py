@@ -59,11 +59,9 @@ from __future__ import annotations
 
 import heapq
 import itertools
-import json
 import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
-from pathlib import Path as FilePath
 from typing import ClassVar
 
 import numpy as np
@@ -578,25 +576,6 @@ class PartialPolicy(Policy):
             self.use_clustering(context)
         return execute_policy(self, simulator, controller, rng, period=period, time_limit=time_limit,
                               action_limit=int(action_limit))
-
-    def save(self, path: str | FilePath) -> None:
-        """Write the policy as JSON (parent directories are created)."""
-        path = FilePath(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_dict(), indent=1))
-
-    @classmethod
-    def load(cls, path: str | FilePath) -> PartialPolicy:
-        """Read a policy written by :meth:`save`."""
-        try:
-            data = json.loads(FilePath(path).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"cannot read policy file: {exc}", source=str(path), field="<file>") from None
-        try:
-            return cls.from_dict(data)
-        except ConfigError as exc:
-            raise ConfigError(exc.message, source=str(path), field=exc.field,
-                              **({"value": exc.value} if exc.has_value else {})) from None
 
 
 def attempts_needed(p: float, retry: float, p_goal: float, cap: int) -> int:

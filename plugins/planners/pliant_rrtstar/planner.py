@@ -113,8 +113,7 @@ class RRTStarPlanner(Planner):
         space = problem.space
         start, goal, invalid = problem.checked_endpoints()
         if invalid is not None:
-            return PlanResult(invalid, planner=self.name, options=self._option_dict(),
-                              message=f"the {invalid.value.split()[1]} configuration is not valid")
+            return PlanResult.invalid_endpoint(invalid, self.name, self._option_dict())
         c_start = float(state_costs(problem, start[None])[0])
         if not state_validity(problem, start[None], np.array([c_start]), o.max_cost)[0]:
             return PlanResult(Status.INVALID_START, planner=self.name, options=self._option_dict(),

@@ -48,7 +48,8 @@ class StraightLinePlanner(Planner):
                               statistics={"checked": checked, "time": time.perf_counter() - t0})
 
         if invalid is not None:
-            return result(invalid, message=f"the {invalid.value.split()[1]} configuration is not valid")
+            return PlanResult.invalid_endpoint(invalid, "straight", {"step": self.options.step},
+                                               {"checked": 0, "time": time.perf_counter() - t0})
         configs = space.discretize(start, goal, self.options.step)
         valid = problem.is_valid(configs)
         if not valid.all():

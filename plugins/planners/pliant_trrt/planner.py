@@ -105,8 +105,7 @@ class TRRTPlanner(Planner):
         space = problem.space
         start, goal, invalid = problem.checked_endpoints()
         if invalid is not None:
-            return PlanResult(invalid, planner=self.name, options=self._option_dict(),
-                              message=f"the {invalid.value.split()[1]} configuration is not valid")
+            return PlanResult.invalid_endpoint(invalid, self.name, self._option_dict())
         self._check_step = o.check_step or (problem.scene.resolution if problem.scene is not None else o.max_step / 10)
         self._punctures = self._puncture_checker(problem) if o.puncture_check else None
         state_cost = self._state_cost(problem)

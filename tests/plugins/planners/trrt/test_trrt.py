@@ -74,13 +74,13 @@ def test_anytime_run_keeps_the_cheapest_solution_and_ctrl_c_returns_it():
     problem, planner = problem_and_planner("trrt", max_step=0.03, stop_on_first=False)
     seen = []
 
-    def interrupt_after_two_solutions(iteration, best):
+    def interrupt_later(iteration, best):           # Ctrl-C 200 iterations after the first solution
         seen.append(best)
         if len([b for b in seen if np.isfinite(b)]) == 200:
             os.kill(os.getpid(), signal.SIGINT)
         return False
 
-    result = planner.plan(problem, np.random.default_rng(2), Termination(callback=interrupt_after_two_solutions))
+    result = planner.plan(problem, np.random.default_rng(2), Termination(callback=interrupt_later))
     assert result.status is Status.SOLVED and result.statistics["interrupted"]
     history = np.array(result.statistics["cost_history"])
     assert np.all(np.diff(history[:, 1]) < 0) and result.cost == history[-1, 1]

@@ -157,11 +157,12 @@ def test_scene_objects_of_any_shape_block_motion():
     assert out.in_contact[0] and out.final[0, 2] > 0.5 + 0.2
 
 
+@pytest.mark.parametrize("solver", ["effort", "least-squares"])    # the default, and the thesis's eq. 8.5
 @pytest.mark.parametrize("scene", ["se3-peg-in-hole", "se2-maze"])
-def test_fused_kernel_equals_the_generic_path(scene):
+def test_fused_kernel_equals_the_generic_path(scene, solver):
     ctx = Context(scene=load_scene(scene))
     ctx.robot = registry.create("robot", "rigid", ctx)
-    options = {"noise": "bounded", "noise_linear": 0.125, "noise_angular": 0.03}
+    options = {"noise": "bounded", "noise_linear": 0.125, "noise_angular": 0.03, "solver": solver}
     fused = registry.create("simulator", "kinematic", ctx, **options)
     generic = registry.create("simulator", "kinematic", ctx, fused_kernel=False, **options)
     if scene == "se2-maze":
@@ -293,20 +294,3 @@ def test_effort_correction_pushes_a_short_lever_out_without_turning():
     assert np.all(rows @ out >= depth - 1e-6) and np.allclose(out, [0.0, 0.01, 0.0], atol=1e-12)
     # the thesis's least squares instead turns it flush (the fit explains the depths by a rotation of 0.01 rad)
     assert np.allclose(np.linalg.lstsq(rows, depth, rcond=None)[0][1:], [0.005, 0.01])
-
-
-@pytest.mark.parametrize("scene", ["se3-peg-in-hole", "se2-maze"])
-def test_fused_kernel_equals_the_generic_path_with_the_thesis_least_squares(scene):
-    ctx = Context(scene=load_scene(scene))
-    ctx.robot = registry.create("robot", "rigid", ctx)
-    options = {"noise": "bounded", "noise_linear": 0.125, "noise_angular": 0.03, "solver": "least-squares"}
-    fused = registry.create("simulator", "kinematic", ctx, **options)
-    generic = registry.create("simulator", "kinematic", ctx, fused_kernel=False, **options)
-    if scene == "se2-maze":
-        starts, target = np.repeat([[7.75, 7.75, 0.0]], 8, axis=0), np.array([9.0, 0.75, 0.5])
-    else:
-        starts, target = np.repeat(pose(6, 6, 3.55)[None], 8, axis=0), pose(5, 5, 2)
-    a = fused.simulate(starts, target, np.random.default_rng(3), 2.0)
-    b = generic.simulate(starts, target, np.random.default_rng(3), 2.0)
-    assert a.in_contact.any()
-    assert np.allclose(a.final, b.final, atol=1e-9)
