@@ -190,6 +190,17 @@ class RobotModel(Component):
         """
         return np.arange(self.point_count())
 
+    def surface_faces(self) -> np.ndarray | None:
+        """Which body-frame axis directions leave the body at each surface point, or ``None``.
+
+        Bool ``(k, 6)`` in the order of :meth:`surface_indices`, columns ``-x, +x, -y, +y, -z, +z``
+        (body frame): the outward normals of the faces the point lies on (one for a point inside a face,
+        two on an edge, three at a corner).  Contact resolution uses them to tell a robot face sliding
+        past an obstacle's edge from a robot corner hitting a face (thesis app. B).  The default,
+        ``None``, means the robot cannot tell (the simulator then traces points along their motion only).
+        """
+        return None
+
     def point_count(self) -> int:
         return len(self.point_materials())
 

@@ -129,6 +129,14 @@ class RigidBody(RobotModel):
                                      dtype=np.int64)
         return self._surface
 
+    def surface_faces(self):
+        """For each surface point, the lattice directions (body frame) with no body point next to it."""
+        keys = np.round(self._points / self._spacing).astype(np.int64)
+        present = set(map(tuple, keys))
+        steps = [(-1, 0, 0), (1, 0, 0), (0, -1, 0), (0, 1, 0), (0, 0, -1), (0, 0, 1)]
+        return np.array([[(k[0] + a, k[1] + b, k[2] + c) not in present for a, b, c in steps]
+                         for k in map(tuple, keys[self.surface_indices()])], dtype=bool).reshape(-1, 6)
+
     def _local(self, indices):
         return self._points if indices is None else self._points[indices]
 

@@ -7,6 +7,14 @@ entered through is the exposed face it would leave through first, ``argmin_f dep
 over faces with ``n_f . d < 0``.  Its penetration is the distance to that face's plane.  Points
 in voxels with no exposed face (deep inside) use the SDF gradient and depth instead; points outside
 the grid are pushed back across the violated bounds (the grid's boundary is a wall).
+
+Tracing alone fails where a *face of the robot* slides past an obstacle's convex edge: a point of the
+robot's face that passes the edge within the clearance of both planes "entered" through the face it
+crossed last, which may be the one the robot's face is perpendicular to, and the push-out along it
+jams the robot at the edge (seen on se2-maze: the L-block stopped sliding down a wall's end).  When
+the robot says which of its faces a point lies on (:meth:`pliant.interfaces.RobotModel.surface_faces`),
+an entered exposed face anti-parallel to exactly one of those faces is the contact (a face against a
+face or an edge: its normal is the robot's); a robot corner, or no such face, falls back to tracing.
 """
 
 from __future__ import annotations
@@ -14,6 +22,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 from pliant.voxelgrid import VoxelGrid
+
+from pliant_kinematic.rigid_kernel import FACE_MATCH_COS
 
 #: outward normals of the six faces: -x, +x, -y, +y, -z, +z
 FACE_NORMALS = np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1]], dtype=np.float64)
@@ -62,8 +72,13 @@ class ContactModel:
         _colliding(points, self.lower, 1.0 / self.res, self._shape, self.occupied_flat, out)
         return out
 
-    def penetration(self, points: np.ndarray, motion: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Normals ``(k, 3)`` and depths ``(k,)`` (m) of colliding points ``(k, 3)`` moving along ``motion``."""
+    def penetration(self, points: np.ndarray, motion: np.ndarray, robot_faces: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Normals ``(k, 3)`` and depths ``(k,)`` (m) of colliding points ``(k, 3)`` moving along ``motion``.
+
+        ``robot_faces`` ``(k, 6, 3)``: world directions of the robot faces each point lies on (zero rows
+        where it lies on fewer than six; see the module docstring), or ``None``.
+        """
         k = len(points)
         normals = np.zeros((k, 3))
         depth = np.zeros(k)
@@ -92,6 +107,13 @@ class ContactModel:
             with np.errstate(divide="ignore", invalid="ignore"):
                 t_exit = np.where(exposed & (ndotd < -1e-15), d / -ndotd, np.inf)
             best = np.argmin(t_exit, axis=1)
+            if robot_faces is not None:
+                entered = np.isfinite(t_exit)
+                # cos between every entered obstacle face f and every robot face e: (k, 6, 6)
+                cos = np.einsum("fc,kec->kfe", FACE_NORMALS, robot_faces[ins])
+                matched = entered & (cos < -FACE_MATCH_COS).any(axis=2)
+                unique = matched.sum(axis=1) == 1
+                best = np.where(unique, np.argmax(matched, axis=1), best)
             none_entered = ~np.isfinite(t_exit[np.arange(len(ins)), best])
             if none_entered.any():
                 alt = np.argmin(np.where(exposed, d, np.inf), axis=1)

@@ -57,6 +57,8 @@ import numpy as np
 
 KIND_R3, KIND_SE2, KIND_SE3 = 0, 1, 2
 SOLVE_LEAST_SQUARES, SOLVE_EFFORT = 0, 1
+#: a robot face and an obstacle face count as anti-parallel within about 8 degrees
+FACE_MATCH_COS = 0.99
 
 #: iteration cap of the reweighting (each round one quadratic program)
 OUTER_ITERATIONS = 12
@@ -230,17 +232,36 @@ def effort_correction(a, b, count, group, weight, tol, out):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal, deep_depth, out_n):
-    """Normal (written to ``out_n``) and depth of a point inside occupied voxel ``flat``."""
+def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal, deep_depth, faces, r_, out_n):
+    """Normal (written to ``out_n``) and depth of a point inside occupied voxel ``flat``.
+
+    ``faces`` (6,) says which body-frame axis directions leave the robot at this point (its own face
+    normals, :meth:`pliant.interfaces.RobotModel.surface_faces`) and ``r_`` (3, 3) rotates them to the
+    world.  When exactly one exposed face the point moves into is anti-parallel to one of them, the
+    contact is the robot's face against the obstacle's edge or face, and that face wins; otherwise the
+    face the point entered through last (tracing back along ``motion``) does.
+    """
     lo0, lo1, lo2 = lower[0] + ix * res, lower[1] + iy * res, lower[2] + iz * res
     d = (p[0] - lo0, lo0 + res - p[0], p[1] - lo1, lo1 + res - p[1], p[2] - lo2, lo2 + res - p[2])
     ndotd = (-motion[0], motion[0], -motion[1], motion[1], -motion[2], motion[2])
     best, best_t = -1, np.inf
+    matched, matches = -1, 0
     for f in range(6):
         if exposed[flat, f] and ndotd[f] < -1e-15:
             t = d[f] / -ndotd[f]
             if t < best_t:
                 best_t, best = t, f
+            axis, sign = f // 2, (1.0 if f % 2 == 1 else -1.0)
+            for e in range(6):
+                if faces[e]:
+                    # world direction of the robot's face e, component along the voxel face's axis
+                    w = r_[axis, e // 2] * (1.0 if e % 2 == 1 else -1.0)
+                    if sign * w < -FACE_MATCH_COS:
+                        matched = f
+                        matches += 1
+                        break
+    if matches == 1:
+        best = matched
     if best < 0:
         best_d = np.inf
         for f in range(6):
@@ -255,8 +276,8 @@ def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal,
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat, exposed, deep_normal, deep_depth,
-                clearance, lhs, rhs, p, motion, nrm, free_clearance, distance, reach, rows, pushes):
+def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, occupied_flat, exposed, deep_normal,
+                deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance, distance, reach, rows, pushes):
     """Normal equations of one body placed by ``r_`` (3, 3) / ``pos`` (3,); returns the colliding count.
 
     The colliding points' constraint rows ``J_i^T n_i`` and push-outs are written to ``rows`` (k, t)
@@ -291,7 +312,8 @@ def _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat
             for c in range(3):
                 motion[c] = p[c] - (r0[c, 0] * local[i, 0] + r0[c, 1] * local[i, 1] + r0[c, 2] * local[i, 2]
                                     + pos0[c])
-            depth = _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal, deep_depth, nrm)
+            depth = _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal, deep_depth, faces[i],
+                                  r_, nrm)
         else:
             nrm[0] = max(lower[0] - p[0], 0.0) - max(p[0] - upper0, 0.0)
             nrm[1] = max(lower[1] - p[1], 0.0) - max(p[1] - upper1, 0.0)
@@ -433,7 +455,7 @@ def _motion_bound(kind, delta, radius):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def fused_microstep(kind, q, step, local, lower, res, shape, occupied_flat, exposed, deep_normal, deep_depth,
+def fused_microstep(kind, q, step, local, faces, lower, res, shape, occupied_flat, exposed, deep_normal, deep_depth,
                     free_clearance, radius, clearance, max_corrections, damping, solver, group, weight, tol,
                     odometer, distances, out, converged, touched):
     """One microstep with RESOLVECOLLISIONS for every particle (thesis eq. 8.3-8.5), fully compiled.
@@ -471,7 +493,7 @@ def fused_microstep(kind, q, step, local, lower, res, shape, occupied_flat, expo
         reach = odometer[a] + _motion_bound(kind, step[a], radius)
         for _ in range(max_corrections + 1):
             _placement(kind, trial, r_, pos)
-            hits = _accumulate(kind, r_, pos, local, r0, pos0, lower, res, shape, occupied_flat, exposed,
+            hits = _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, occupied_flat, exposed,
                                deep_normal, deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance,
                                distance, reach, rows, pushes)
             if hits == 0:

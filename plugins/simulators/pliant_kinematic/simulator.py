@@ -31,7 +31,7 @@ from pliant.noise import NOISE_MODELS, ActuationNoise
 from pliant.options import option
 from pliant.voxelgrid import VoxelGrid
 
-from pliant_kinematic.contact import ContactModel
+from pliant_kinematic.contact import FACE_NORMALS, ContactModel
 from pliant_kinematic.rigid_kernel import (
     KIND_R3,
     KIND_SE2,
@@ -102,6 +102,11 @@ class KinematicSimulator(Simulator):
         self.grid = VoxelGrid.from_scene(scene)
         self.contact = ContactModel(self.grid)
         self.surface = self.robot.surface_indices()
+        faces = self.robot.surface_faces()
+        self.surface_faces = None if faces is None else np.ascontiguousarray(faces, dtype=np.bool_)
+        if self.surface_faces is not None and self.surface_faces.shape != (len(self.surface), 6):
+            raise DimensionError("surface_faces() must be (k, 6), one row per surface point",
+                                 field="robot.surface_faces", value=list(self.surface_faces.shape))
         o = self.options
         self.angular = angular_mask(self.space)
         self.limits = actuator_limits(self.space, o.velocity_limit, o.angular_velocity_limit, o.joint_velocity_limits)
@@ -313,7 +318,10 @@ class KinematicSimulator(Simulator):
         touched = np.empty(n, dtype=np.bool_)
         c = self.contact
         solver = SOLVE_EFFORT if self.options.solver == "effort" else SOLVE_LEAST_SQUARES
+        faces = self.surface_faces if self.surface_faces is not None else np.zeros((len(self.surface_local), 6),
+                                                                                  dtype=np.bool_)
         fused_microstep(self.kernel_kind, np.ascontiguousarray(q), np.ascontiguousarray(step), self.surface_local,
+                        faces,
                         c.lower, c.res, c._shape, c.occupied_flat, c.exposed, c.deep_normal, c.deep_depth,
                         c.free_clearance, self.reach_radius, self.options.clearance, self.options.max_corrections,
                         self.options.damping, solver, self.effort_groups, self.effort_weights, self._effort_tol,
@@ -338,7 +346,8 @@ class KinematicSimulator(Simulator):
         pts, before = pts[:, used], before[:, used]
         a, k = hit.shape
         rows, cols = np.nonzero(hit)
-        normals, depth = self.contact.penetration(pts[rows, cols], pts[rows, cols] - before[rows, cols])
+        normals, depth = self.contact.penetration(pts[rows, cols], pts[rows, cols] - before[rows, cols],
+                                                  self._robot_faces(q, rows, used[cols]))
         push = depth + self.options.clearance * self.grid.resolution
         dp = np.zeros((a, k, 3))
         dp[rows, cols] = normals * push[:, None]
@@ -362,6 +371,18 @@ class KinematicSimulator(Simulator):
             dq = np.linalg.solve(lhs, rhs)[..., 0]
         moved = self.space.retract(q, dq)
         return self.space.enforce_bounds(moved) if self.space.kind == "rn" else moved
+
+    def _robot_faces(self, q, rows, points):
+        """World directions ``(k, 6, 3)`` of the robot faces that surface points ``points`` of particles
+        ``rows`` lie on (zero where not), or ``None`` when the robot does not report them."""
+        if self.surface_faces is None:
+            return None
+        placement = self.robot.rigid_placement(q)
+        if placement is None:
+            return None
+        rotations = placement[0][rows]                                          # (k, 3, 3)
+        directions = np.einsum("kij,ej->kei", rotations, FACE_NORMALS)          # (k, 6, 3)
+        return directions * self.surface_faces[points][..., None]
 
     def _qp_corrections(self, masked, dp, rows, cols, normals, push, jac):
         """Least-squares corrections subject to ``n_i . J_i dq >= depth_i`` for every colliding point."""

@@ -255,10 +255,42 @@ def test_contact_at_a_corner_does_not_turn_the_body_against_its_command(case, fu
     assert heading_error(out.final[0], target) < 0.02
     # (the second start overlaps the wall corner by two points: the first step pushes them out)
     assert not ContactModel(sim.grid).colliding(maze().robot.body_points(traj[1:])).any()
-    # the thesis's least squares (kept as an option) is the behaviour this replaces
+
+
+def test_the_thesis_least_squares_turns_the_body_against_its_command_at_a_corner():
+    """The behaviour the effort solver replaces (eq. 8.5's least squares, kept as an option)."""
+    start, target = MAZE_CORNERS[1]
     old = registry.create("simulator", "kinematic", maze(), solver="least-squares", **MAZE_CONTROL)
     before = old.simulate(start[None], target, np.random.default_rng(0), 8.0)
     assert heading_error(before.final[0], target) > heading_error(start, target) + 0.5
+
+
+@pytest.mark.parametrize("fused", [True, False])
+def test_a_robot_face_slides_past_the_end_of_a_wall(fused):
+    """The L-block's left face against the end of the wall between the right and middle passages: the
+    points of its face passing the wall's corner must push it along x (the face's normal), not up (the
+    wall's top face, which tracing alone picks for a point that crossed both planes within the clearance)
+    and jam it there."""
+    sim = registry.create("simulator", "kinematic", maze(), fused_kernel=fused, **MAZE_CONTROL)
+    start = np.array([7.2512, 6.876, 0.0])            # the face flush against the wall's end (x = 7.0)
+    out = sim.simulate(start[None], np.array([6.336, 6.336, 0.0]), np.random.default_rng(0), 5.0)
+    # it slides down along the wall to the target's height, never through it
+    assert out.final[0, 0] > 7.0 + 0.25 - 1e-3
+    assert abs(out.final[0, 1] - 6.336) < 0.05
+    faces = maze().robot.surface_faces()
+    assert faces.shape == (len(maze().robot.surface_indices()), 6)
+    # every point of a one-layer plate lies on both z faces; at most two in-plane faces meet at a corner
+    assert faces[:, 4:].all() and faces[:, :4].sum(axis=1).max() == 2
+
+
+def test_surface_faces_of_the_l_block_are_its_face_normals():
+    robot = maze().robot
+    local = robot.rigid_placement(np.zeros((1, 3)))[2][robot.surface_indices()]
+    faces = robot.surface_faces()
+    # the leftmost points of the L (x = -0.25) are on its -x face, the lowest (y = -0.25) on its -y face
+    assert np.all(faces[np.isclose(local[:, 0], local[:, 0].min()), 0])
+    assert np.all(faces[np.isclose(local[:, 1], local[:, 1].min()), 2])
+    assert not faces[~np.isclose(local[:, 0], local[:, 0].min()), 0].any()
 
 
 def test_the_corner_case_ends_near_the_dynamic_simulator():
