@@ -36,3 +36,21 @@ def test_bad_input_names_the_path():
         fit_calibration([np.ones(3), np.ones(3)], [np.ones(3), np.ones(2)])
     with pytest.raises(DimensionError):
         fit_calibration([np.zeros(3)], [np.ones(3)])
+
+
+def test_a_power_law_of_path_totals_is_recovered():
+    rng = np.random.default_rng(1)
+    planned = [rng.uniform(0, 5, n) for n in (10, 20, 40, 80)]
+    measured = [np.full(len(p), 2e-3 * p.sum() ** 0.5 / len(p)) for p in planned]   # sub-linear in the total
+    cal = fit_calibration(planned, measured)
+    assert cal.power_exponent == pytest.approx(0.5) and cal.power_factor == pytest.approx(2e-3)
+    totals = np.array([p.sum() for p in planned])
+    assert np.allclose(cal.apply_path(totals), [m.sum() for m in measured])
+    # a single scale cannot fit it: the ratio of totals leaves an error on some path
+    assert max(abs(cal.total_scale * t - m.sum()) / m.sum() for t, m in zip(totals, measured)) > 0.2
+
+
+def test_without_two_distinct_totals_there_is_no_power_law():
+    cal = fit_calibration([np.ones(3)], [2 * np.ones(3)])
+    assert np.isnan(cal.power_exponent)
+    assert cal.apply_path(3.0) == pytest.approx(cal.total_scale * 3.0)
