@@ -4,7 +4,8 @@
 variant's overrides, a seed) and executes it ``--executions`` times in each execution world of the
 experiment (e.g. the maze with and without the block added during execution, thesis 5.4.3).  Tasks run
 in parallel over ``--jobs`` processes (one core each), every finished task is appended to
-``out/experiments/NAME/runs.jsonl`` at once, and a second invocation resumes: tasks already on file are
+``out/experiments/NAME/runs.jsonl`` at once (each planned policy to ``policies/``, to replay it), and a
+second invocation resumes: tasks already on file are
 skipped (``--fresh`` forgets them).  The table (P_plan, P_exec as mean [std] over plans, actions,
 planning statistics) is printed and written with the runs to ``summary.json``.
 
@@ -67,8 +68,12 @@ def experiments() -> dict[str, list[Variant]]:
             "table-5.1": table_51, "table-5.2": table_52}
 
 
-def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exec_time: float) -> dict:
-    """Plan one policy and execute it ``executions`` times in every world; a JSON-ready record."""
+def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exec_time: float,
+             policy_file: Path | None = None) -> dict:
+    """Plan one policy and execute it ``executions`` times in every world; a JSON-ready record.
+
+    ``policy_file``: where to save the planned policy (JSON, :meth:`PartialPolicy.to_dict`), to replay it.
+    """
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     import pliant
     from pliant.interfaces import PlanningProblem
@@ -87,6 +92,10 @@ def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exe
     if result.policy is None:
         return record
     saved = result.policy.to_dict()
+    if policy_file is not None:
+        policy_file.parent.mkdir(parents=True, exist_ok=True)
+        policy_file.write_text(json.dumps(saved))
+        record["policy_file"] = str(policy_file)
     for world, world_overrides in variant.worlds.items():
         runs = []
         world_pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=[*base, *world_overrides])
@@ -131,6 +140,10 @@ def summarise(records: list[dict], variants: list[Variant]) -> list[dict]:
     return rows
 
 
+def _slug(label: str) -> str:
+    return "".join(c if c.isalnum() else "-" for c in label.lower()).strip("-")
+
+
 def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, exec_time: float, jobs: int,
                    fresh: bool, output: Path, only: list[str] | None = None, echo=print) -> list[dict]:
     """Run (or resume) experiment ``name``; returns the summary rows."""
@@ -155,7 +168,8 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     echo(f"{name}: {len(records)} tasks on file, {len(todo)} to go, {jobs} at a time")
     try:
         with ProcessPoolExecutor(max_workers=jobs) as pool, log.open("a") as sink:
-            futures = {pool.submit(run_task, v, s, plan_time, executions, exec_time): (v, s) for v, s in todo}
+            futures = {pool.submit(run_task, v, s, plan_time, executions, exec_time,
+                                   directory / "policies" / f"{_slug(v.label)}-seed{s}.json"): (v, s) for v, s in todo}
             for k, future in enumerate(as_completed(futures), start=1):
                 record = future.result()
                 records.append(record)

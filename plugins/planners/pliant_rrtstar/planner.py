@@ -53,6 +53,13 @@ class RRTStarOptions:
                                   "optimality)", minimum=1.0)
     gamma: float | None = option(None, "the radius constant gamma (metric units); default from the space's "
                                  "volume (pliant_rrtstar.radius)", minimum=1e-12)
+    k_nearest: bool = option(False, "choose parents and rewire among the k = e (1 + 1/d) log n nearest nodes "
+                             "(Karaman & Frazzoli's k-nearest RRT*) instead of the radius ball")
+    path_bias: float = option(0.0, "after the first solution, probability of sampling near the best path (a "
+                              "uniform point on it plus a Gaussian of path_bias_sigma per tangent coordinate; "
+                              "Akgun & Stilman 2011's local biasing)", minimum=0.0, maximum=1.0)
+    path_bias_sigma: float | None = option(None, "standard deviation of the path-bias samples (space metric "
+                                           "units; default max_step)", minimum=1e-12)
     length_weight: float = option(0.0, "path cost = integral of the state cost + this x path length (cost per "
                                   "metric unit)", minimum=0.0)
     max_cost: float = option(math.inf, "no state of an edge may cost more than this", minimum=0.0)
@@ -129,6 +136,7 @@ class RRTStarPlanner(Planner):
         self.stats = {"rewires": 0, "rewires_refused": 0, "punctures_refused": 0, "invalid_edges": 0}
         self.goal_nodes: list[int] = []
         self.goal_pool: list[np.ndarray] = []
+        self.best_node = -1
         history: list[list[float]] = []
         best, best_node, first, radius = math.inf, -1, None, o.max_step
         termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations,
@@ -139,6 +147,7 @@ class RRTStarPlanner(Planner):
             while not termination.should_stop(iteration, best, solved=best_node >= 0):
                 iteration += 1
                 radius = near_radius(len(self.tree) + 1, space.tangent_dim, self.gamma, o.max_step)
+                self.best_node = best_node
                 node = self._iterate(rng, goal, radius)
                 if node >= 0 and problem.in_goal(self.tree.configurations[node][None])[0]:
                     self.goal_nodes.append(node)
@@ -169,6 +178,8 @@ class RRTStarPlanner(Planner):
 
     def _sample(self, rng: np.random.Generator, goal: np.ndarray) -> np.ndarray:
         o = self.options
+        if self.best_node >= 0 and o.path_bias > 0 and rng.random() < o.path_bias:
+            return self._sample_near_best(rng)
         if rng.random() >= o.goal_bias:
             return self.problem.space.sample(rng, 1)[0]
         if self.goal is None:
@@ -180,6 +191,22 @@ class RRTStarPlanner(Planner):
         if not self.goal_pool:
             return self.problem.space.sample(rng, 1)[0]
         return self.goal_pool[int(rng.integers(len(self.goal_pool)))]
+
+    def _sample_near_best(self, rng: np.random.Generator) -> np.ndarray:
+        """A uniform point along the best path (by arc length) moved by a Gaussian in the tangent space."""
+        space = self.problem.space
+        path = self.tree.path_to(self.best_node)
+        sigma = self.options.path_bias_sigma or self.options.max_step
+        if len(path) == 1:
+            base = path[0]
+        else:
+            lengths = np.atleast_1d(space.distance(path[:-1], path[1:]))
+            at = rng.random() * float(lengths.sum())
+            k = min(int(np.searchsorted(np.cumsum(lengths), at)), len(lengths) - 1)
+            start = float(np.sum(lengths[:k]))
+            base = space.interpolate(path[k], path[k + 1], (at - start) / lengths[k] if lengths[k] > 0 else 0.0)
+        moved = space.retract(np.asarray(base)[None], rng.normal(0.0, sigma, (1, space.tangent_dim)))
+        return space.enforce_bounds(moved)[0]
 
     def _iterate(self, rng: np.random.Generator, goal: np.ndarray, radius: float) -> int:
         """Sample, steer, choose the parent, add the node and rewire; the new node's index or -1."""
@@ -194,10 +221,17 @@ class RRTStarPlanner(Planner):
             return -1
         # the near nodes: by the triangle inequality only nodes with |d(x, target) - d(q_new, target)| <= r can be
         # within r of q_new, so the exact distance is computed for those alone
-        candidates = np.nonzero(np.abs(to_target - float(space.distance(q_new, target))) <= radius)[0]
-        d_new = np.atleast_1d(np.asarray(space.distance(tree.configurations[candidates], q_new), dtype=np.float64))
-        inside = d_new <= radius
-        near = candidates[inside][np.argsort(d_new[inside], kind="stable")]
+        if o.k_nearest:
+            k = min(len(tree), math.ceil(math.e * (1.0 + 1.0 / space.tangent_dim) * math.log(len(tree) + 1)))
+            d_all = tree.distances(q_new)
+            near = np.argpartition(d_all, k - 1)[:k] if k < len(tree) else np.arange(len(tree))
+            near = near[np.argsort(d_all[near], kind="stable")]
+        else:
+            candidates = np.nonzero(np.abs(to_target - float(space.distance(q_new, target))) <= radius)[0]
+            d_new = np.atleast_1d(np.asarray(space.distance(tree.configurations[candidates], q_new),
+                                             dtype=np.float64))
+            inside = d_new <= radius
+            near = candidates[inside][np.argsort(d_new[inside], kind="stable")]
         if nearest not in near:
             near = np.append(near, nearest)
         edges = evaluate_edges(problem, tree.configurations[near], q_new, self.check_step, o.length_weight,

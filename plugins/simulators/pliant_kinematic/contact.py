@@ -9,12 +9,17 @@ in voxels with no exposed face (deep inside) use the SDF gradient and depth inst
 the grid are pushed back across the violated bounds (the grid's boundary is a wall).
 
 Tracing alone fails where a *face of the robot* slides past an obstacle's convex edge: a point of the
-robot's face that passes the edge within the clearance of both planes "entered" through the face it
-crossed last, which may be the one the robot's face is perpendicular to, and the push-out along it
-jams the robot at the edge (seen on se2-maze: the L-block stopped sliding down a wall's end).  When
-the robot says which of its faces a point lies on (:meth:`pliant.interfaces.RobotModel.surface_faces`),
-an entered exposed face anti-parallel to exactly one of those faces is the contact (a face against a
-face or an edge: its normal is the robot's); a robot corner, or no such face, falls back to tracing.
+robot's face that passes the edge "entered" through the obstacle face it crossed last, which may be
+the one the robot's face is perpendicular to, and the push-out along it jams the robot at the edge
+(seen on se2-maze: the L-block stopped sliding down a wall's end, and, tilted, at a passage's exit
+where the dynamic simulator slides on).  Where an obstacle edge meets a robot face the contact normal
+is the robot face's.  So when the robot says which of its faces a point lies on
+(:meth:`pliant.interfaces.RobotModel.surface_faces`), a point inside an *edge voxel* of the obstacle
+(exposed faces on two or more axes) that lies on exactly one robot face facing them (normals within
+60 degrees of anti-parallel to an exposed face) is pushed out along that robot face's normal, by the
+distance along it to the voxel's boundary — also when the robot face is tilted.  Robot edges and
+corners (two faces facing the obstacle), points in voxels with exposed faces on one axis (flat faces,
+where the obstacle's normal is right), and robots that do not report faces are traced.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import numba
 import numpy as np
 from pliant.voxelgrid import VoxelGrid
 
-from pliant_kinematic.rigid_kernel import FACE_MATCH_COS
+from pliant_kinematic.rigid_kernel import ROBOT_FACE_COS
 
 #: outward normals of the six faces: -x, +x, -y, +y, -z, +z
 FACE_NORMALS = np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1]], dtype=np.float64)
@@ -107,13 +112,6 @@ class ContactModel:
             with np.errstate(divide="ignore", invalid="ignore"):
                 t_exit = np.where(exposed & (ndotd < -1e-15), d / -ndotd, np.inf)
             best = np.argmin(t_exit, axis=1)
-            if robot_faces is not None:
-                entered = np.isfinite(t_exit)
-                # cos between every entered obstacle face f and every robot face e: (k, 6, 6)
-                cos = np.einsum("fc,kec->kfe", FACE_NORMALS, robot_faces[ins])
-                matched = entered & (cos < -FACE_MATCH_COS).any(axis=2)
-                unique = matched.sum(axis=1) == 1
-                best = np.where(unique, np.argmax(matched, axis=1), best)
             none_entered = ~np.isfinite(t_exit[np.arange(len(ins)), best])
             if none_entered.any():
                 alt = np.argmin(np.where(exposed, d, np.inf), axis=1)
@@ -121,6 +119,8 @@ class ContactModel:
             has_face = exposed[np.arange(len(ins)), best]
             normals[ins] = FACE_NORMALS[best]
             depth[ins] = d[np.arange(len(ins)), best]
+            if robot_faces is not None:
+                self._robot_face_normals(robot_faces[ins], exposed, np.isfinite(t_exit), d, normals, depth, ins)
             deep = ~has_face
             if deep.any():
                 g = self.grid.sdf_gradient_at(p[deep])
@@ -128,6 +128,28 @@ class ContactModel:
                 normals[ins[deep]] = g
                 depth[ins[deep]] = np.maximum(-self.grid.sdf_at(p[deep]), 0.5 * self.res)
         return normals, depth
+
+
+    @staticmethod
+    def _robot_face_normals(robot_faces, exposed, entered, d, normals, depth, ins) -> None:
+        """Overwrite the normals and depths of points in obstacle edge voxels that lie on one robot face
+        facing them (see the module docstring).  ``robot_faces`` ``(k, 6, 3)`` world directions (zero rows
+        where the point is not on that face), ``exposed`` / ``entered`` ``(k, 6)`` the voxel's exposed faces
+        and those the point moved into, ``d`` ``(k, 6)`` distances to the voxel's face planes."""
+        cos = np.einsum("fc,kec->kef", FACE_NORMALS, robot_faces)                 # (k, e, f)
+        score = np.where(exposed[:, None, :], -cos, -np.inf).max(axis=2)           # (k, e)
+        facing = score > ROBOT_FACE_COS
+        axes = exposed.reshape(-1, 3, 2).any(axis=2).sum(axis=1)
+        use = entered.any(axis=1) & (axes >= 2) & (facing.sum(axis=1) == 1)
+        if not use.any():
+            return
+        rows = np.nonzero(use)[0]
+        n = -robot_faces[rows, np.argmax(facing[rows], axis=1)]                   # (u, 3)
+        along = n @ FACE_NORMALS.T                                                   # (u, 6)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            exit_ = np.where(along > 1e-9, d[rows] / along, np.inf).min(axis=1)
+        normals[ins[rows]] = n
+        depth[ins[rows]] = exit_
 
 
 @numba.njit(cache=True, nogil=True)

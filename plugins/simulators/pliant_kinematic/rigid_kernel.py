@@ -57,8 +57,8 @@ import numpy as np
 
 KIND_R3, KIND_SE2, KIND_SE3 = 0, 1, 2
 SOLVE_LEAST_SQUARES, SOLVE_EFFORT = 0, 1
-#: a robot face and an obstacle face count as anti-parallel within about 8 degrees
-FACE_MATCH_COS = 0.99
+#: a robot face "faces" an entered obstacle face when their normals are within 60 degrees of anti-parallel
+ROBOT_FACE_COS = 0.5
 
 #: iteration cap of the reweighting (each round one quadratic program)
 OUTER_ITERATIONS = 12
@@ -235,33 +235,51 @@ def effort_correction(a, b, count, group, weight, tol, out):
 def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal, deep_depth, faces, r_, out_n):
     """Normal (written to ``out_n``) and depth of a point inside occupied voxel ``flat``.
 
-    ``faces`` (6,) says which body-frame axis directions leave the robot at this point (its own face
-    normals, :meth:`pliant.interfaces.RobotModel.surface_faces`) and ``r_`` (3, 3) rotates them to the
-    world.  When exactly one exposed face the point moves into is anti-parallel to one of them, the
-    contact is the robot's face against the obstacle's edge or face, and that face wins; otherwise the
-    face the point entered through last (tracing back along ``motion``) does.
+    ``faces`` (6,) says which body-frame axis directions leave the robot at this point (the robot's own
+    face normals, :meth:`pliant.interfaces.RobotModel.surface_faces`); ``r_`` (3, 3) rotates them to the
+    world.  See :mod:`.contact` for the rule: a point in an edge voxel of the obstacle (exposed faces on
+    two or more axes) that lies on exactly one robot face facing them is pushed out along that face's
+    normal; any other point through the face it entered last.
     """
     lo0, lo1, lo2 = lower[0] + ix * res, lower[1] + iy * res, lower[2] + iz * res
     d = (p[0] - lo0, lo0 + res - p[0], p[1] - lo1, lo1 + res - p[1], p[2] - lo2, lo2 + res - p[2])
     ndotd = (-motion[0], motion[0], -motion[1], motion[1], -motion[2], motion[2])
-    best, best_t = -1, np.inf
-    matched, matches = -1, 0
+    best, best_t, entered = -1, np.inf, 0
     for f in range(6):
         if exposed[flat, f] and ndotd[f] < -1e-15:
+            entered += 1
             t = d[f] / -ndotd[f]
             if t < best_t:
                 best_t, best = t, f
-            axis, sign = f // 2, (1.0 if f % 2 == 1 else -1.0)
-            for e in range(6):
-                if faces[e]:
-                    # world direction of the robot's face e, component along the voxel face's axis
-                    w = r_[axis, e // 2] * (1.0 if e % 2 == 1 else -1.0)
-                    if sign * w < -FACE_MATCH_COS:
-                        matched = f
-                        matches += 1
-                        break
-    if matches == 1:
-        best = matched
+    axes = 0
+    for c in range(3):
+        if exposed[flat, 2 * c] or exposed[flat, 2 * c + 1]:
+            axes += 1
+    if entered >= 1 and axes >= 2:
+        chosen, count = -1, 0
+        for e in range(6):
+            if not faces[e]:
+                continue
+            se = 1.0 if e % 2 == 1 else -1.0
+            score = -np.inf
+            for f in range(6):
+                if exposed[flat, f]:
+                    sf = 1.0 if f % 2 == 1 else -1.0
+                    score = max(score, -sf * se * r_[f // 2, e // 2])
+            if score > ROBOT_FACE_COS:
+                chosen, count = e, count + 1
+        if count == 1:
+            se = 1.0 if chosen % 2 == 1 else -1.0
+            n0, n1, n2 = -se * r_[0, chosen // 2], -se * r_[1, chosen // 2], -se * r_[2, chosen // 2]
+            n = (n0, n1, n2)
+            depth = np.inf
+            for f in range(6):
+                sf = 1.0 if f % 2 == 1 else -1.0
+                along = sf * n[f // 2]
+                if along > 1e-9:
+                    depth = min(depth, d[f] / along)
+            out_n[0], out_n[1], out_n[2] = n0, n1, n2
+            return depth
     if best < 0:
         best_d = np.inf
         for f in range(6):
