@@ -56,3 +56,74 @@ def shortcut(problem: PlanningProblem, configurations: np.ndarray, rng: np.rando
         dense = candidate
         segments = np.concatenate([segments[:i], bridge_segments, segments[j:]])
     return dense, float(np.sum(segments))
+
+
+def perturb(problem: PlanningProblem, configurations: np.ndarray, rng: np.random.Generator, *, step: float,
+            spacing: float, sigma: float, iterations: int = 200, proposals: int = 8, length_weight: float = 0.0,
+            check: Callable[[np.ndarray], bool] | None = None) -> tuple[np.ndarray, float]:
+    """Random local perturbation of a path's waypoints; returns the dense improved path and its cost.
+
+    Shortcutting only removes detours: it cannot move a path that passes a costly region off-centre to
+    the middle of a cheaper one (the cube through a hole near its edge).  This does: the path is
+    resampled to waypoints ``spacing`` apart (space metric units); then, ``iterations`` times, one
+    interior waypoint gets ``proposals`` candidate positions, each moved from it by a Gaussian of
+    ``sigma`` per tangent coordinate, and the cheapest candidate whose two adjacent motions are valid
+    and cheaper than the current ones (cost integral at ``step`` plus ``length_weight`` x length)
+    replaces it.  A stochastic hill climb (the idea of STOMP's noisy updates without its smoothing
+    matrix); the endpoints stay fixed, the cost never rises, and ``check(dense path) -> bool`` may veto
+    a candidate whole path (path-dependent checks such as puncture detection stay exact).
+    """
+    for name, value in (("step", step), ("spacing", spacing), ("sigma", sigma)):
+        if not value > 0:
+            raise DimensionError(f"{name} must be positive", field=name, value=value)
+    if iterations < 0 or proposals < 1:
+        raise DimensionError("iterations must be >= 0 and proposals >= 1", field="iterations/proposals",
+                             value=(iterations, proposals))
+    space = problem.space
+    dense = problem.densify(configurations, step)
+    lengths = np.atleast_1d(space.distance(dense[:-1], dense[1:])) if len(dense) > 1 else np.zeros(0)
+    arc = np.concatenate([[0.0], np.cumsum(lengths)])
+    count = max(2, int(np.ceil(arc[-1] / spacing)) + 1)
+    picks = np.unique(np.searchsorted(arc, np.linspace(0.0, arc[-1], count)).clip(0, len(dense) - 1))
+    waypoints = dense[np.unique(np.concatenate([[0], picks, [len(dense) - 1]]))]
+
+    def motion(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
+        states = space.discretize(a, b, step)
+        return states, float(np.sum(_segment_costs(problem, states, length_weight)))
+
+    pieces = [motion(waypoints[k], waypoints[k + 1]) for k in range(len(waypoints) - 1)]
+    for _ in range(iterations):
+        if len(waypoints) < 3:
+            break
+        i = int(rng.integers(1, len(waypoints) - 1))
+        current = pieces[i - 1][1] + pieces[i][1]
+        candidates = space.retract(np.repeat(waypoints[i][None], proposals, axis=0),
+                                   rng.normal(0.0, sigma, (proposals, space.tangent_dim)))
+        best, best_cost = None, current - 1e-12
+        for q in candidates:
+            if not space.is_valid(q[None])[0]:
+                continue
+            before, c0 = motion(waypoints[i - 1], q)
+            if not c0 < best_cost:
+                continue
+            after, c1 = motion(q, waypoints[i + 1])
+            if not c0 + c1 < best_cost:
+                continue
+            if not (problem.is_valid(before[1:]).all() and problem.is_valid(after[1:-1]).all()):
+                continue
+            best, best_cost = (q, (before, c0), (after, c1)), c0 + c1
+        if best is None:
+            continue
+        q, left, right = best
+        if check is not None:
+            trial = pieces[: i - 1] + [left, right] + pieces[i + 1:]
+            if not check(_join(trial)):
+                continue
+        waypoints[i] = q
+        pieces[i - 1], pieces[i] = left, right
+    return _join(pieces), float(sum(c for _, c in pieces))
+
+
+def _join(pieces: list[tuple[np.ndarray, float]]) -> np.ndarray:
+    """The dense path of consecutive motions (each starts where the previous one ends)."""
+    return np.vstack([pieces[0][0]] + [states[1:] for states, _ in pieces[1:]])

@@ -38,7 +38,8 @@ class PolicyExecutionRecord:
     objects: movable objects' poses ``(k, p)`` by name (:meth:`Simulator.object_poses`), empty when fixed.
     actions: one entry per action performed: ``index``, ``from_node``, ``action_id``, ``kind`` (forward /
     reverse), ``target`` ``(d,)``, ``start_time`` / ``end_time`` (s), ``drive`` (reached / stuck / timeout),
-    ``reached`` (the configuration reached), ``node`` (matched or inserted), ``inserted``, ``matching``,
+    ``reached`` (the configuration reached), ``node`` (matched or inserted), ``inserted``, ``relocalized``,
+    ``matching``,
     ``status`` (continue / goal / failure) and ``probability`` (``P(node -> goal)`` after the update).
     adaptations: the probability changes of every query ``{"action_index", "action", "outcome", "before",
     "after"}`` (eq. 5.2-5.3).
@@ -135,10 +136,13 @@ def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Cont
         actions.append({"index": index, "from_node": node, "action_id": action.id, "kind": action.kind,
                         "target": action.target.copy(), "start_time": start_time, "end_time": t, "drive": driven,
                         "reached": q.copy(), "node": step.node, "inserted": step.inserted,
+                        "relocalized": step.relocalized,
                         "matching": list(step.matching), "status": step.status, "probability": step.probability})
         adaptations += [{"action_index": index, **change} for change in step.changes]
         if step.inserted:
             events.append(f"t={t:.2f}s: unforeseen outcome of action {action.id}, inserted node {step.node}")
+        elif step.relocalized:
+            events.append(f"t={t:.2f}s: unforeseen outcome of action {action.id} matches node {step.node}")
         node = step.node
         if in_goal(q):
             outcome = "success"

@@ -53,6 +53,16 @@ reports failure.  When nothing matches, ``n_observed = ({q_current}, a_performed
 outcome of the action (``successes = 0``, then raised by the update) whose reverse action back to the node
 the action was performed from has the prior ``N_attempts = N_successful = 1``, so the next action is to
 return (thesis 5.3.5).
+
+**Relocalization** (``PolicyOptions.relocalize``, on by default; not in the thesis).  Before inserting, the
+observation is matched against every vertex with a route to the goal (in order of Dijkstra distance); the
+first whose belief clusters with it becomes a new outcome of the performed action (``successes = 0``,
+raised by the update like any match) and execution continues from there.  The thesis inserts a new node
+whose only action is to return; when the dynamic world differs from the planner's simulator, an action
+often lands the robot where *another* branch of the policy already knows what to do (measured on se2-maze,
+policies planned with the kinematic simulator and executed in pymunk: the block slid past a wall end onto
+a solution path's node, or next to the goal, and the thesis's policy reversed).  The performed action's
+planned outcomes lose probability by eq. 5.3 exactly as with an insertion.
 """
 
 from __future__ import annotations
@@ -87,6 +97,10 @@ class PolicyOptions:
     importance: float = option(500.0, "A_importance: weight of one executed action against one simulated particle "
                                       "in eq. 5.2-5.3 (thesis: 500 in se2-maze; 0 disables adaptation)",
                                minimum=0.0)
+    relocalize: bool = option(True, "when no outcome of the performed action matches, match the observation "
+                                    "against every vertex of the policy (nearest to the goal first) before "
+                                    "inserting a new one; a match becomes a new outcome of the action "
+                                    "(an extension of thesis 5.3.5, see the module docstring)")
 
 
 @dataclass
@@ -149,7 +163,8 @@ class PolicyQuery:
 
     status: ``continue`` (``action`` is the next action), ``goal`` (the reached node is a goal vertex where
     stopping is best) or ``failure`` (``P(node -> goal) < P_goal``).
-    node: the reached vertex (matched or inserted); ``inserted``: whether it was inserted.
+    node: the reached vertex (matched or inserted); ``inserted``: whether it was inserted; ``relocalized``:
+    whether it is a vertex that was not an outcome of the action (found by :attr:`PolicyOptions.relocalize`).
     matching: every outcome that matched.  probability: ``P(node -> goal)`` after the update.
     changes: the probability updates ``[{"action", "outcome", "before", "after"}, ...]``.
     """
@@ -161,6 +176,7 @@ class PolicyQuery:
     matching: list[int]
     probability: float
     changes: list[dict]
+    relocalized: bool = False
 
 
 class DistanceMatcher:
@@ -361,7 +377,10 @@ class PartialPolicy(Policy):
                 node.effective_probability = e.effective
 
     def _return_probability(self, node: int, to: int) -> float:
-        """Probability that ``node``'s reverse action brings the robot back to ``to`` (0 if it leads elsewhere)."""
+        """Probability that ``node``'s reverse action brings the robot back to ``to`` (0 if it leads elsewhere;
+        1 when ``node`` is ``to``: an outcome that stayed at the action's source needs no return)."""
+        if node == to:
+            return 1.0
         rid = self.reverse_of.get(node)
         if rid is None:
             return 0.0
@@ -448,11 +467,17 @@ class PartialPolicy(Policy):
                                  field="q_current", value=q.tolist())
         action = self._action(performed_action_id)
         matching = [v for v in action.outcomes if matcher(self.nodes[v].particles, q)]
-        inserted = not matching
+        inserted = relocalized = False
         if matching:
             reached = min(matching, key=lambda v: (self.distances[v], v))
         else:
-            reached = self.insert(q, action.id)
+            known = self._relocalize(q, matcher) if self.options.relocalize else None
+            if known is not None:
+                reached, relocalized = known, True
+                action.outcomes.append(known)
+                action.successes.setdefault(known, 0.0)
+            else:
+                reached, inserted = self.insert(q, action.id), True
         before = {v: action.probability(v) for v in action.outcomes}
         action.attempts += self.options.importance
         action.successes[reached] = action.successes.get(reached, 0.0) + self.options.importance
@@ -467,7 +492,21 @@ class PartialPolicy(Policy):
             status = "goal"
         else:
             status = "continue"
-        return PolicyQuery(nxt, reached, status, inserted, matching, probability, changes)
+        return PolicyQuery(nxt, reached, status, inserted, matching, probability, changes, relocalized)
+
+    def _relocalize(self, q: np.ndarray, matcher: Matcher) -> int | None:
+        """The vertex with a route to the goal, nearest to it first, whose belief ``q`` clusters with; or ``None``.
+
+        Only vertices whose expected configuration lies within the matcher's reach are tried: a belief
+        cannot cluster with a configuration farther from its mean than ``radius`` (the largest distance
+        from a mean to its particles plus the clustering's distance threshold, unknown here), so the
+        candidates are ordered by Dijkstra distance and each is asked (the matcher is the only judge).
+        """
+        order = [v for v in np.argsort(self.distances, kind="stable") if np.isfinite(self.distances[v])]
+        for v in order:
+            if matcher(self.nodes[v].particles, q):
+                return int(v)
+        return None
 
     def insert(self, q: np.ndarray, action_id: int) -> int:
         """Insert ``n_observed = ({q}, a)`` as a new outcome of action ``action_id`` (thesis 5.3.5).

@@ -25,7 +25,7 @@ from pliant.interfaces import Planner, PlanningProblem
 from pliant.options import option
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
-from pliant.shortcut import shortcut
+from pliant.shortcut import perturb, shortcut
 from pliant.termination import Termination
 from pliant.tree import Tree
 
@@ -63,6 +63,12 @@ class TRRTOptions:
                                   "(thesis 4.3.4; needs a scene)")
     shortcut_iterations: int = option(0, "cost-aware shortcutting of the solution (pliant.shortcut): attempts; "
                                       "0 returns T-RRT's own path", minimum=0)
+    perturb_iterations: int = option(0, "after shortcutting, random local perturbation of the solution's "
+                                     "waypoints (pliant.shortcut.perturb): attempts; 0 for none", minimum=0)
+    perturb_spacing: float | None = option(None, "waypoint spacing of the perturbation (space metric units; "
+                                           "default 2.5 check steps)", minimum=1e-9)
+    perturb_sigma: float | None = option(None, "standard deviation of a perturbation per tangent coordinate "
+                                         "(default the check step)", minimum=1e-9)
     progress: bool | None = option(None, "show a progress line (default: on a terminal)")
 
 
@@ -183,15 +189,22 @@ class TRRTPlanner(Planner):
                 stats: dict) -> tuple[np.ndarray, float]:
         """A solution as returned: the tree's path, shortcut when ``shortcut_iterations`` asks; and its cost."""
         o = self.options
-        if not o.shortcut_iterations:
+        if not (o.shortcut_iterations or o.perturb_iterations):
             return path, tree_cost
         t = time.perf_counter()
         check = None
         if self._punctures is not None:
             punctures = self._punctures
             check = lambda dense: punctures.check(dense)[0]  # noqa: E731 - the whole path from the start
-        path, cost = shortcut(problem, path, rng, step=self._check_step, iterations=o.shortcut_iterations,
-                              check=check)
+        cost = tree_cost
+        if o.shortcut_iterations:
+            path, cost = shortcut(problem, path, rng, step=self._check_step, iterations=o.shortcut_iterations,
+                                  check=check)
+        if o.perturb_iterations:
+            path, cost = perturb(problem, path, rng, step=self._check_step,
+                                 spacing=o.perturb_spacing or 2.5 * self._check_step,
+                                 sigma=o.perturb_sigma or self._check_step, iterations=o.perturb_iterations,
+                                 check=check)
         stats["shortcut_time"] += time.perf_counter() - t
         return path, cost
 

@@ -29,8 +29,27 @@ def static_rectangles(grid: VoxelGrid) -> list[tuple[float, float, float, float]
     return [(lo[0], lo[1], hi[0], hi[1]) for lo, hi in grid.boxes()]
 
 
+#: thickness of the walls that close the scene's bounds (m)
+BOUNDARY_THICKNESS = 1.0
+
+
+def boundary_rectangles(grid: VoxelGrid) -> list[tuple[float, float, float, float]]:
+    """Four rectangles just outside the grid's ``(x, y)`` bounds, overlapping at the corners.
+
+    The voxel cost and the kinematic simulator treat everything outside the grid as solid; without these
+    a body could leave the scene where free space reaches its edge (se2-maze's corridors span the full
+    width) and the dynamic world would differ from the planner's.
+    """
+    x0, y0 = grid.lower[0], grid.lower[1]
+    x1, y1 = x0 + grid.shape[0] * grid.resolution, y0 + grid.shape[1] * grid.resolution
+    t = BOUNDARY_THICKNESS
+    return [(x0 - t, y0 - t, x1 + t, y0), (x0 - t, y1, x1 + t, y1 + t),
+            (x0 - t, y0, x0, y1), (x1, y0, x1 + t, y1)]
+
+
 def static_walls(scene: Scene, default_friction: float) -> list[tuple[float, tuple[float, float, float, float]]]:
-    """The static objects' voxels as ``(friction, (x0, y0, x1, y1))`` rectangles.
+    """The static objects' voxels as ``(friction, (x0, y0, x1, y1))`` rectangles, and walls closing the
+    scene's bounds (:func:`boundary_rectangles`, with ``default_friction``).
 
     Movable objects are left out (they are bodies).  Objects with the same friction (their own, else
     ``default_friction``) are merged together, so a scene without per-object friction gives the same few
@@ -45,6 +64,7 @@ def static_walls(scene: Scene, default_friction: float) -> list[tuple[float, tup
         sub = VoxelGrid(grid.lower, grid.resolution, grid.deformability, grid.sensitivity,
                         np.where(mask, grid.object_id, FREE).astype(np.int32), grid.object_names)
         walls.extend((mu, r) for r in static_rectangles(sub))
+    walls.extend((float(default_friction), r) for r in boundary_rectangles(grid))
     return walls
 
 

@@ -178,6 +178,34 @@ def test_an_unforeseen_outcome_is_inserted_and_the_policy_first_reverses():
     assert not again.inserted and again.node == k and len(policy.nodes) == 8
 
 
+def test_an_outcome_that_matches_another_branch_relocalizes_there():
+    """Action 1 (planned outcomes: nodes 1 and 2) lands where both goal nodes 3 and 5 are (equally near the
+    goal: the lower index wins): with relocalization the policy continues from node 3 (a goal) and learns
+    that action 1 leads there; without it, thesis 5.3.5 inserts a new node and returns.  An observation
+    matching only a node far from the goal relocalizes there (node 6, route B's miss)."""
+    policy = PartialPolicy.from_tree(two_routes(), goal=GOAL, goal_tolerance=0.3)
+    step = policy.query_step(np.array([2.0, 0.05]), 1, MATCH)
+    assert step.relocalized and not step.inserted and step.node == 3 and len(policy.nodes) == 7
+    assert policy.outcomes(1) == [1, 2, 3] and step.status == "goal"
+    assert policy.actions[1].probability(3) == pytest.approx(500 / 510)
+    assert sum(policy.actions[1].probability(v) for v in policy.outcomes(1)) == pytest.approx(1.0)
+    assert policy.edge(0, 3, 1).probability == pytest.approx(500 / 510)
+    other = PartialPolicy.from_tree(two_routes(), goal=GOAL, goal_tolerance=0.3)
+    assert other.query_step(np.array([2.0, -0.95]), 1, MATCH).node == 6
+    thesis = PartialPolicy.from_tree(two_routes(), goal=GOAL, goal_tolerance=0.3, options={"relocalize": False})
+    step = thesis.query_step(np.array([2.0, -0.95]), 1, MATCH)
+    assert step.inserted and not step.relocalized and step.node == 7 and step.action.kind == "reverse"
+
+
+def test_an_action_that_left_the_robot_where_it_was_counts_as_a_retry():
+    """Landing back on the action's own source (relocalized there) is a miss that needs no return."""
+    policy = PartialPolicy.from_tree(chain(), goal=GOAL, goal_tolerance=0.3)
+    action = policy.first_action()
+    step = policy.query_step(np.array([0.02, 0.0]), action.id, MATCH)
+    assert step.relocalized and step.node == 0 and step.action is action      # try the same action again
+    assert policy.edge(0, 1, action.id).retry == pytest.approx(1.0)
+
+
 @pytest.mark.parametrize("importance", [1.0, 3.0])
 def test_termination_when_unforeseen_outcomes_keep_coming_raw_product(importance):
     """Thesis 5.3.5's proof with raw probabilities (N_attempt = 1): after the i-th failed reverse,

@@ -61,6 +61,28 @@ def test_the_best_cost_never_rises_and_the_callback_sees_it_fall():
     assert result.statistics["rewires"] > 0
 
 
+@pytest.mark.parametrize("variant", [{}, {"path_bias": 0.5}, {"k_nearest": True}])
+def test_the_variants_keep_the_best_cost_monotone_and_improve_it(variant):
+    problem, planner = _triple_wall(max_step=0.03, puncture_check=False, **variant)
+    result = planner.plan(problem, np.random.default_rng(3), Termination(max_iterations=1500))
+    assert result.status is Status.SOLVED
+    history = np.array(result.statistics["cost_history"])
+    assert len(history) >= 2 and np.all(np.diff(history[:, 1]) < 0)
+    path = result.path.configurations
+    assert result.cost == pytest.approx(problem.path_cost(path, planner.check_step), abs=1e-12)
+
+
+def test_path_bias_samples_lie_near_the_best_path():
+    problem, planner = _triple_wall(max_step=0.03, puncture_check=False, path_bias=1.0, path_bias_sigma=0.01)
+    planner.plan(problem, np.random.default_rng(3), Termination(max_iterations=800))
+    best = planner.tree.path_to(planner.best_node)
+    dense = np.vstack([problem.space.discretize(a, b, 0.005) for a, b in itertools.pairwise(best)])
+    samples = np.array([planner._sample_near_best(np.random.default_rng(k)) for k in range(200)])
+    gaps = np.array([np.min(problem.space.distance(dense, q)) for q in samples])
+    # a Gaussian of sigma 0.01 per coordinate (3-D): 99.9% within 0.01 * sqrt(16.27) = 0.04 of the path
+    assert np.all(gaps < 0.045) and np.median(gaps) > 0.005
+
+
 @pytest.mark.parametrize("length_weight", [0.0, 0.7])
 def test_every_node_cost_equals_the_cost_recomputed_along_its_branch(length_weight):
     problem, planner = _triple_wall(max_step=0.03, length_weight=length_weight)

@@ -138,8 +138,9 @@ def test_static_objects_with_friction_are_walls_of_that_friction():
     ctx.robot = registry.create("robot", "rigid", ctx)
     sim = registry.create("simulator", "pymunk", ctx, friction=0.7)
     walls = [s for s in sim.world.shapes if s.body is sim.world.static_body]
-    assert walls and all(s.friction == 0.0 for s in walls)
-    assert len(walls) == len(VoxelGrid.from_scene(ctx.scene, static_only=True).boxes())
+    boxes = len(VoxelGrid.from_scene(ctx.scene, static_only=True).boxes())
+    assert len(walls) == boxes + 4                       # and the four walls closing the bounds
+    assert all(s.friction == 0.0 for s in walls[:boxes]) and all(s.friction == 0.7 for s in walls[boxes:])
 
 
 @pytest.mark.parametrize("patch, field, reason", [

@@ -45,6 +45,20 @@ def test_commanded_into_a_wall_it_stops_at_contact_with_bounded_force(maze):
     assert grid.colliding(points).sum() <= 0.1 * points.shape[1]
 
 
+def test_the_scene_bounds_are_walls_where_free_space_reaches_them(maze):
+    """se2-maze's top corridor spans the full width: driven right along it, the block stops at x = 10 (the
+    bounds, a wall for the voxel cost and the kinematic simulator too) instead of leaving the scene."""
+    pm = registry.create("simulator", "pymunk", maze)
+    kin = registry.create("simulator", "kinematic", maze)
+    start, target = np.array([[8.5, 7.75, 0.0]]), np.array([11.0, 7.75, 0.0])
+    a = pm.simulate(start, target, np.random.default_rng(0), 8.0)
+    b = kin.simulate(start, target, np.random.default_rng(0), 8.0)
+    assert a.in_contact[0] and b.in_contact[0]
+    # the x-arm ends 1.5 right of the reference: both stop with it at the boundary
+    assert a.final[0, 0] + 1.5 == pytest.approx(10.0, abs=0.08)
+    assert abs(a.final[0, 0] - b.final[0, 0]) < 0.08
+
+
 def test_same_seed_same_trajectory(maze):
     pm = registry.create("simulator", "pymunk", maze, noise="bounded", noise_linear=0.125, noise_angular=0.0156)
     starts = np.array([[4.0, 4.0, 0.0], [5.0, 4.0, 0.0]])
