@@ -13,6 +13,8 @@ from pliant.errors import SimulationError
 from pliant.scene import Scene
 from pliant.voxelgrid import FREE, VoxelGrid
 
+_QUARTER_TURN_TOL = 1e-9
+
 
 def check_planar(scene: Scene) -> None:
     """Raise :class:`SimulationError` unless the scene and its robot are planar (a 2-D backend)."""
@@ -69,7 +71,26 @@ def static_walls(scene: Scene, default_friction: float) -> list[tuple[float, tup
 
 
 def robot_shapes(scene: Scene, pymunk, body, friction: float):
-    """pymunk shapes of the robot's parts (boxes and circles, in the robot frame), attached to ``body``."""
+    """pymunk shapes of the robot (in the robot frame), attached to ``body``.
+
+    A robot made of axis-aligned boxes (in its own frame) is one rectilinear polygon, split into convex
+    pieces along diagonals between its own vertices (:func:`rectilinear_outline`, then pymunk's convex
+    decomposition).  Its parts as separate boxes would be wrong: where two boxes meet along a face (the
+    L-block's arms), each box's corner on that face is a *ghost corner* pymunk collides like a real one —
+    the L-block jammed against a wall's end in se2-maze, its arm's ghost corner caught on the wall's top
+    (contact normal (0, -1)) while the face it lies on should slide past.  Other robots (rotated boxes,
+    circles) are their parts' shapes.
+    """
+    outline = rectilinear_outline(scene)
+    if outline is not None:
+        shapes = []
+        from pymunk.autogeometry import convex_decomposition
+
+        for piece in convex_decomposition(outline + [outline[0]], 0.0):
+            shape = pymunk.Poly(body, [tuple(v) for v in piece[:-1]])
+            shape.friction = friction
+            shapes.append(shape)
+        return shapes
     shapes = []
     for k, rp in enumerate(scene.robot.parts):
         part = rp.part
@@ -97,3 +118,68 @@ def robot_shapes(scene: Scene, pymunk, body, friction: float):
         shape.friction = friction
         shapes.append(shape)
     return shapes
+
+
+def rectilinear_outline(scene: Scene) -> list[tuple[float, float]] | None:
+    """The outline of the union of the robot's box parts, counter-clockwise without collinear vertices, when
+    every part is a box aligned with the robot frame (rotations by multiples of 90 degrees about z) and the
+    union is one polygon without holes; else ``None``.
+
+    Exact: the parts' edges cut the plane into cells (coordinate compression), a cell is inside when its
+    centre is inside a part, and the boundary is the cells' sides between inside and outside.
+    """
+    boxes = []
+    for rp in scene.robot.parts:
+        part = rp.part
+        if part.shape.kind != "box" or part.cutouts:
+            return None
+        q = part.pose.orientation
+        angle = 2 * np.arctan2(q[2], q[3])
+        turns = angle / (np.pi / 2)
+        if abs(q[0]) > 1e-9 or abs(q[1]) > 1e-9 or abs(turns - round(turns)) > _QUARTER_TURN_TOL:
+            return None
+        hx, hy = part.shape.size[0] / 2, part.shape.size[1] / 2
+        if round(turns) % 2:
+            hx, hy = hy, hx
+        cx, cy = part.pose.position[0], part.pose.position[1]
+        boxes.append((cx - hx, cy - hy, cx + hx, cy + hy))
+    if not boxes:
+        return None
+    xs = np.unique(np.round([b[0] for b in boxes] + [b[2] for b in boxes], 12))
+    ys = np.unique(np.round([b[1] for b in boxes] + [b[3] for b in boxes], 12))
+    mx, my = (xs[:-1] + xs[1:]) / 2, (ys[:-1] + ys[1:]) / 2
+    inside = np.zeros((len(mx), len(my)), dtype=bool)
+    for x0, y0, x1, y1 in boxes:
+        inside |= ((mx > x0) & (mx < x1))[:, None] & ((my > y0) & (my < y1))[None, :]
+    padded = np.pad(inside, 1)
+    edges = {}
+    for i, j in zip(*np.nonzero(inside)):
+        a, b = i + 1, j + 1                      # indices into padded
+        # counter-clockwise sides of cell (i, j) whose neighbour is outside: start vertex -> end vertex
+        if not padded[a, b - 1]:
+            edges[(i, j)] = (i + 1, j)
+        if not padded[a + 1, b]:
+            edges[(i + 1, j)] = (i + 1, j + 1)
+        if not padded[a, b + 1]:
+            edges[(i + 1, j + 1)] = (i, j + 1)
+        if not padded[a - 1, b]:
+            edges[(i, j + 1)] = (i, j)
+    if not edges:
+        return None
+    start = next(iter(edges))
+    loop, v = [start], edges[start]
+    while v != start:
+        if v not in edges or len(loop) > len(edges):
+            return None                           # touching corners: not a simple polygon
+        loop.append(v)
+        v = edges[v]
+    if len(loop) != len(edges):
+        return None                               # holes or several pieces
+    points = [(float(xs[i]), float(ys[j])) for i, j in loop]
+    keep = []
+    for k, p in enumerate(points):
+        prev, nxt = points[k - 1], points[(k + 1) % len(points)]
+        cross = (p[0] - prev[0]) * (nxt[1] - p[1]) - (p[1] - prev[1]) * (nxt[0] - p[0])
+        if abs(cross) > 1e-15:
+            keep.append(p)
+    return keep
