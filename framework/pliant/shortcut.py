@@ -85,13 +85,17 @@ def perturb(problem: PlanningProblem, configurations: np.ndarray, rng: np.random
     arc = np.concatenate([[0.0], np.cumsum(lengths)])
     count = max(2, int(np.ceil(arc[-1] / spacing)) + 1)
     picks = np.unique(np.searchsorted(arc, np.linspace(0.0, arc[-1], count)).clip(0, len(dense) - 1))
-    waypoints = dense[np.unique(np.concatenate([[0], picks, [len(dense) - 1]]))]
+    index = np.unique(np.concatenate([[0], picks, [len(dense) - 1]]))
+    waypoints = dense[index].copy()
 
     def motion(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
         states = space.discretize(a, b, step)
         return states, float(np.sum(_segment_costs(problem, states, length_weight)))
 
-    pieces = [motion(waypoints[k], waypoints[k + 1]) for k in range(len(waypoints) - 1)]
+    # the pieces start as the input's own stretches between waypoints (a straight motion between two
+    # waypoints could cut a corner of the input into an infeasible state); only moved waypoints get new ones
+    segments = _segment_costs(problem, dense, length_weight)
+    pieces = [(dense[a:b + 1], float(np.sum(segments[a:b]))) for a, b in zip(index[:-1], index[1:])]
     for _ in range(iterations):
         if len(waypoints) < 3:
             break

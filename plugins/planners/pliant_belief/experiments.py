@@ -11,7 +11,8 @@ planning statistics) is printed and written with the runs to ``summary.json``.
 
 Experiments (pipelines in ``scenes/pipelines``):
 
-- ``maze``: se2-maze (``maze-policy``), executions unblocked and blocked (thesis: 97% / 73%).
+- ``maze``: se2-maze (``maze-policy``), executions unblocked and blocked (thesis: 97% / 73%), in pymunk
+  with the pipeline's friction (0.1) and frictionless, as the planner's kinematic model (app. B) is.
 - ``table-5.1``: se3-peg-in-hole (``peg-policy``), gamma = 1/8, clustering PC, AC and WCR at
   D_WCR in {0.125, 0.25, 0.5, 0.75, 0.99}.
 - ``table-5.2``: se3-peg-in-hole, Simple RRT, Contact RRT, 24 and 48 particles, gamma in
@@ -52,7 +53,9 @@ def _gamma(g: float) -> tuple[str, ...]:
 
 def experiments() -> dict[str, list[Variant]]:
     """The experiments by name (see the module docstring)."""
-    maze_worlds = {"unblocked": (), "blocked": ('execution.variant="blocked"',)}
+    maze_worlds = {"unblocked": (), "blocked": ('execution.variant="blocked"',),
+                   "unblocked, friction 0": ("execution.simulator.friction=0.0",),
+                   "blocked, friction 0": ('execution.variant="blocked"', "execution.simulator.friction=0.0")}
     table_51 = [Variant("PC", "peg-policy", ('planner.clustering="pc"',)),
                 Variant("AC", "peg-policy", ('planner.clustering="ac"',))]
     table_51 += [Variant(f"WCR {t}", "peg-policy", ('planner.clustering="wcr"', f"planner.wcr_threshold={t}"))
