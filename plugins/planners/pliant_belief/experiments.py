@@ -12,7 +12,10 @@ planning statistics) is printed and written with the runs to ``summary.json``.
 Experiments (pipelines in ``scenes/pipelines``):
 
 - ``maze``: se2-maze (``maze-policy``), executions unblocked and blocked (thesis: 97% / 73%), in pymunk
-  with the pipeline's friction (0.1) and frictionless, as the planner's kinematic model (app. B) is.
+  with the pipeline's friction (0.1); the planner as the thesis, and with solution branches retired back
+  to the root (``planner.retire = "root"``: more diverse routes).
+- ``maze-frictionless``: the same policies' executions in a frictionless pymunk, as the planner's
+  kinematic model (app. B) is.
 - ``table-5.1``: se3-peg-in-hole (``peg-policy``), gamma = 1/8, clustering PC, AC and WCR at
   D_WCR in {0.125, 0.25, 0.5, 0.75, 0.99}.
 - ``table-5.2``: se3-peg-in-hole, Simple RRT, Contact RRT, 24 and 48 particles, gamma in
@@ -53,9 +56,9 @@ def _gamma(g: float) -> tuple[str, ...]:
 
 def experiments() -> dict[str, list[Variant]]:
     """The experiments by name (see the module docstring)."""
-    maze_worlds = {"unblocked": (), "blocked": ('execution.variant="blocked"',),
-                   "unblocked, friction 0": ("execution.simulator.friction=0.0",),
-                   "blocked, friction 0": ('execution.variant="blocked"', "execution.simulator.friction=0.0")}
+    maze_worlds = {"unblocked": (), "blocked": ('execution.variant="blocked"',)}
+    frictionless = {"unblocked, friction 0": ("execution.simulator.friction=0.0",),
+                    "blocked, friction 0": ('execution.variant="blocked"', "execution.simulator.friction=0.0")}
     table_51 = [Variant("PC", "peg-policy", ('planner.clustering="pc"',)),
                 Variant("AC", "peg-policy", ('planner.clustering="ac"',))]
     table_51 += [Variant(f"WCR {t}", "peg-policy", ('planner.clustering="wcr"', f"planner.wcr_threshold={t}"))
@@ -67,7 +70,10 @@ def experiments() -> dict[str, list[Variant]]:
                              ('planner.mode="contact"', 'simulator.noise="none"', *_gamma(g)[3:])),
                      Variant(f"24 particles, gamma {g:g}", "peg-policy", ("planner.particles=24", *_gamma(g))),
                      Variant(f"48 particles, gamma {g:g}", "peg-policy", ("planner.particles=48", *_gamma(g)))]
-    return {"maze": [Variant("belief, WCR 0.75", "maze-policy", (), maze_worlds)],
+    return {"maze": [Variant("belief, WCR 0.75", "maze-policy", (), maze_worlds),
+                     Variant("belief, WCR 0.75, retire to root", "maze-policy", ('planner.retire="root"',),
+                             maze_worlds)],
+            "maze-frictionless": [Variant("belief, WCR 0.75", "maze-policy", (), frictionless)],
             "table-5.1": table_51, "table-5.2": table_52}
 
 

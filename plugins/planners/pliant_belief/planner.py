@@ -69,6 +69,10 @@ class BeliefPlannerOptions:
     settle: float = option(2.0, "seconds added to every action's simulation", minimum=0.0)
     min_progress: float | None = option(None, "an action whose outcome moved less than this adds nothing "
                                         "(default: the scene resolution)", minimum=0.0)
+    retire: str = option("split", "after a solution, leave its branch out of nearest-neighbour lookups back to "
+                         "the nearest split (thesis 5.3.1) or back to the root (every solution then leaves "
+                         "from a node off the earlier solutions: more diverse routes, fewer solutions)",
+                         choices=("split", "root"))
     connect: bool = option(True, "RRT-Connect (repeated EXTENDs) until the first solution, then Extend")
     max_time: float | None = option(60.0, "planning time limit (s); the planner is anytime", minimum=0.0)
     max_iterations: int | None = option(None, "iteration budget", minimum=1)
@@ -261,7 +265,7 @@ class BeliefPlanner(Planner):
             if i == 0:
                 break
             retired.append(i)
-            if tree.nodes[i].split:
+            if tree.nodes[i].split and self.options.retire == "split":
                 break
         tree.excluded.update(retired)
         return True

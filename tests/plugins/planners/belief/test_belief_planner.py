@@ -113,3 +113,19 @@ def test_a_pipeline_plans_a_policy_and_executes_it():
     # executed in the simulator it was planned with, the policy reaches the goal
     assert record.execution.success, record.execution.events
     assert record.problem.in_goal(record.execution.configurations[-1:])[0]
+
+
+@pytest.mark.parametrize("retire", ["split", "root"])
+def test_a_solution_branch_leaves_nearest_neighbour_lookups_back_to_its_base(retire):
+    """Thesis 5.3.1: back to the nearest split (or the root); ``retire = "root"`` always back to the root."""
+    problem, planner = maze(particles=8, max_iterations=120, p_goal=0.51, retire=retire)
+    result = planner.plan(problem, np.random.default_rng(5))
+    tree = planner.tree
+    assert result.status is Status.SOLVED
+    for solution in tree.solutions:
+        base = len(solution) - 1
+        while base > 1 and not (retire == "split" and tree.nodes[solution[base]].split):
+            base -= 1
+        assert set(solution[base:]) <= tree.excluded and 0 not in tree.excluded
+    if retire == "root":
+        assert all(set(s[1:]) <= tree.excluded for s in tree.solutions)

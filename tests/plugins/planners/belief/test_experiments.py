@@ -1,0 +1,55 @@
+"""The experiment command's bookkeeping: validation, the summary table's arithmetic, resuming from the file."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from pliant.errors import ConfigError
+from pliant_belief.experiments import experiments, run_experiment, summarise
+
+
+def _record(variant, seed, planned, worlds):
+    return {"variant": variant, "seed": seed, "planned": planned, "plan_seconds": 1.0,
+            "statistics": {"time_to_first": 2.0 + seed, "particles_simulated": 100, "particles_stored": 50,
+                           "solutions": 3},
+            "executions": {w: [{"outcome": o, "actions": 10, "seconds": 5.0} for o in outcomes]
+                           for w, outcomes in worlds.items()}}
+
+
+def test_the_summary_is_the_mean_over_planned_policies_of_their_success_rates():
+    maze = experiments()["maze"][:1]
+    records = [_record("belief, WCR 0.75", 0, True, {"unblocked": ["success"] * 4, "blocked": ["failure"] * 4}),
+               _record("belief, WCR 0.75", 1, True, {"unblocked": ["success", "failure", "failure", "failure"],
+                                                     "blocked": ["success"] * 4}),
+               _record("belief, WCR 0.75", 2, False, {})]
+    rows = {r["world"]: r for r in summarise(records, maze)}
+    assert rows["unblocked"]["p_plan"] == pytest.approx(2 / 3)
+    assert rows["unblocked"]["p_exec"] == pytest.approx((1.0 + 0.25) / 2)
+    assert rows["unblocked"]["p_exec_std"] == pytest.approx(np.std([1.0, 0.25]))
+    assert rows["blocked"]["p_exec"] == pytest.approx(0.5)
+    assert rows["unblocked"]["time_to_first"] == pytest.approx(2.5)        # over planned policies only
+
+
+def test_a_second_run_resumes_from_the_tasks_on_file(tmp_path):
+    (tmp_path / "maze").mkdir()
+    label = experiments()["maze"][0].label
+    done = [_record(label, s, True, {"unblocked": ["success"], "blocked": ["failure"]}) for s in range(2)]
+    (tmp_path / "maze" / "runs.jsonl").write_text("".join(json.dumps(r) + "\n" for r in done))
+    lines = []
+    rows = run_experiment("maze", plans=2, executions=1, plan_time=1.0, exec_time=1.0, jobs=1, fresh=False,
+                          output=tmp_path, only=[label], echo=lines.append)
+    assert lines[0] == "maze: 2 tasks on file, 0 to go, 1 at a time"          # nothing planned again
+    assert {r["world"]: r["p_exec"] for r in rows} == {"unblocked": 1.0, "blocked": 0.0}
+    summary = json.loads((tmp_path / "maze" / "summary.json").read_text())
+    assert summary["experiment"] == "maze" and len(summary["rows"]) == 2
+
+
+@pytest.mark.parametrize("name, options, field", [
+    ("nope", {}, "NAME"), ("maze", {"plans": 0}, "plans"), ("maze", {"jobs": True}, "jobs"),
+    ("maze", {"plan_time": -1.0}, "plan_time")])
+def test_bad_input_names_the_field(tmp_path, name, options, field):
+    kwargs = {"plans": 1, "executions": 1, "plan_time": 1.0, "exec_time": 1.0, "jobs": 1, **options}
+    with pytest.raises(ConfigError, match=field):
+        run_experiment(name, fresh=False, output=tmp_path, echo=lambda *_: None, **kwargs)
