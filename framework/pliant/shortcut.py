@@ -9,6 +9,7 @@ validity and the optional ``check`` (e.g. puncture detection of the whole path, 
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 
 import numpy as np
@@ -95,7 +96,7 @@ def perturb(problem: PlanningProblem, configurations: np.ndarray, rng: np.random
     # the pieces start as the input's own stretches between waypoints (a straight motion between two
     # waypoints could cut a corner of the input into an infeasible state); only moved waypoints get new ones
     segments = _segment_costs(problem, dense, length_weight)
-    pieces = [(dense[a:b + 1], float(np.sum(segments[a:b]))) for a, b in zip(index[:-1], index[1:])]
+    pieces = [(dense[a:b + 1], float(np.sum(segments[a:b]))) for a, b in itertools.pairwise(index)]
     for _ in range(iterations):
         if len(waypoints) < 3:
             break
