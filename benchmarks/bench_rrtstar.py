@@ -26,7 +26,13 @@ once to the largest budget per seed; the best cost at a smaller budget is read f
 (pliant) or by continuing ``solve()`` budget by budget (OMPL keeps its tree between calls).
 
 pliant's RRT* runs twice: as the textbook algorithm (uniform samples, as OMPL's) and with its
-``path_bias`` option (after the first solution, 30% of the samples near the best path).
+``path_bias`` option (after the first solution, 30% of the samples near the best path); its puncture
+check is off (OMPL has none; cube-wall's wall is rigid, so nothing is watched there anyway).
+
+``--scene triple-wall --length-weight 20`` compares on the R^3 puck through three soft walls, where both
+solve: the objective is the cost integral plus 20 per metre of path (the straight line costs 9.6 + 9.1,
+detours through the openings trade cost for length); T-RRT is left out there (its cost history has no
+length term).
 
     pliant bench rrtstar [-- --budgets 10,30,60 --seeds 3]     (or: python benchmarks/bench_rrtstar.py)
 """
@@ -53,8 +59,9 @@ from pliant.interfaces import Context, PlanningProblem  # noqa: E402
 from pliant.termination import Termination  # noqa: E402
 
 SCENE = "cube-wall"
-MAX_STEP = 0.1
 GOAL_BIAS = 0.05
+#: per scene: the extension length (space metric units); cube-wall is SE(3), triple-wall R^3
+SCENES = {"cube-wall": 0.1, "triple-wall": 0.03}
 
 
 def make_problem() -> PlanningProblem:
@@ -64,10 +71,20 @@ def make_problem() -> PlanningProblem:
     return PlanningProblem.from_context(ctx)
 
 
+def goal_tolerance(problem: PlanningProblem) -> float:
+    """The scene's goal tolerance, else one voxel (what pliant's planners use then)."""
+    return float(problem.goal_tolerance) if problem.goal_tolerance else float(problem.scene.resolution)
+
+
+#: cost per metre of path length added to the objective (``--length-weight``)
+LENGTH_WEIGHT = 0.0
+
+
 def check_path(problem: PlanningProblem, path: np.ndarray, step: float) -> tuple[float, bool]:
     """The path's objective recomputed by pliant, and whether every state along it (at ``step``) is valid."""
     dense = np.vstack([problem.space.discretize(a, b, step) for a, b in itertools.pairwise(path)])
-    return problem.path_cost(path, step), bool(problem.is_valid(dense).all())
+    objective = problem.path_cost(path, step) + LENGTH_WEIGHT * problem.space.path_length(path)
+    return objective, bool(problem.is_valid(dense).all())
 
 
 def best_at(history: list, budgets: list[float]) -> list[float]:
@@ -91,7 +108,12 @@ def parse_planner(spec: str) -> tuple[str, dict]:
 
 def run_pliant(problem: PlanningProblem, spec: str, seed: int, budgets: list[float], step: float) -> dict:
     planner_name, extra = parse_planner(spec)
-    options = {"max_step": MAX_STEP, "goal_bias": GOAL_BIAS, "stop_on_first": False, "progress": False, **extra}
+    options = {"max_step": SCENES[SCENE], "goal_bias": GOAL_BIAS, "stop_on_first": False, "progress": False,
+               **extra}
+    if planner_name == "rrtstar":
+        options.setdefault("puncture_check", False)      # OMPL cannot check punctures: the same problem for both
+        if LENGTH_WEIGHT:
+            options["length_weight"] = LENGTH_WEIGHT
     if planner_name == "trrt":
         options["check_step"] = step
     planner = pliant.registry.create("planner", planner_name, **options)
@@ -111,18 +133,22 @@ def run_ompl(problem: PlanningProblem, seed: int, budgets: list[float], step: fl
 
     ou.setLogLevel(ou.LOG_WARN)
     ou.RNG.setSeed(seed + 1)                      # OMPL's seed must be positive
-    space = ob.SE3StateSpace()
+    se3 = problem.space.kind == "se3"
+    space = ob.SE3StateSpace() if se3 else ob.RealVectorStateSpace(3)
     bounds = ob.RealVectorBounds(3)
     for i in range(3):
         bounds.setLow(i, float(problem.space.lower[i]))
         bounds.setHigh(i, float(problem.space.upper[i]))
     space.setBounds(bounds)
-    space.setSubspaceWeight(0, problem.space.translation_weight)
-    space.setSubspaceWeight(1, 2.0 * problem.space.rotation_weight)   # acos|<q1,q2>| is half the angle
+    if se3:
+        space.setSubspaceWeight(0, problem.space.translation_weight)
+        space.setSubspaceWeight(1, 2.0 * problem.space.rotation_weight)   # acos|<q1,q2>| is half the angle
     si = ob.SpaceInformation(space)
     cost = problem.cost.cost
 
     def q_of(s) -> np.ndarray:
+        if not se3:
+            return np.array([s[0], s[1], s[2]])
         r = s.rotation()
         return np.array([s.getX(), s.getY(), s.getZ(), r.x, r.y, r.z, r.w])
 
@@ -138,23 +164,28 @@ def run_ompl(problem: PlanningProblem, seed: int, budgets: list[float], step: fl
             return ob.Cost(c if math.isfinite(c) else math.inf)
 
         def motionCost(self, s1, s2):
-            c = problem.path_cost(np.stack([q_of(s1), q_of(s2)]), step)
+            a, b = q_of(s1), q_of(s2)
+            c = problem.path_cost(np.stack([a, b]), step) + LENGTH_WEIGHT * float(problem.space.distance(a, b))
             return ob.Cost(c if math.isfinite(c) else math.inf)
 
     def state(q):
         s = space.allocState()
+        if not se3:
+            for i in range(3):
+                s[i] = float(q[i])
+            return s
         s.setXYZ(*map(float, q[:3]))
         r = s.rotation()
         r.x, r.y, r.z, r.w = map(float, q[3:])
         return s
 
     pdef = ob.ProblemDefinition(si)
-    pdef.setStartAndGoalStates(state(problem.start), state(problem.goal), float(problem.goal_tolerance))
+    pdef.setStartAndGoalStates(state(problem.start), state(problem.goal), goal_tolerance(problem))
     objective = VoxelCostIntegral(si)
     pdef.setOptimizationObjective(objective)
     planner = og.RRTstar(si)
     planner.setProblemDefinition(pdef)
-    planner.setRange(MAX_STEP)
+    planner.setRange(SCENES[SCENE])
     planner.setGoalBias(GOAL_BIAS)
     planner.setKNearest(False)
     planner.setRewireFactor(1.1)
@@ -181,7 +212,8 @@ def run_ompl(problem: PlanningProblem, seed: int, budgets: list[float], step: fl
 
 def run_ompl_isolated(seed: int, budgets: list[float]) -> dict:
     """:func:`run_ompl` in a fresh process: OMPL's random seed can only be set before its first sample."""
-    command = [sys.executable, __file__, "--ompl-worker", str(seed), "--budgets", ",".join(map(str, budgets))]
+    command = [sys.executable, __file__, "--ompl-worker", str(seed), "--budgets", ",".join(map(str, budgets)),
+               "--scene", SCENE, "--length-weight", str(LENGTH_WEIGHT), "--planners", "ompl-rrtstar"]
     done = subprocess.run(command, capture_output=True, text=True, check=False)
     lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
     if done.returncode != 0 or not lines:
@@ -203,8 +235,17 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=3, help="runs per planner")
     parser.add_argument("--planners", default="ompl-rrtstar,rrtstar,rrtstar:path_bias=0.3,trrt",
                         help="comma-separated; pliant planners take options as name:option=value;option=value")
+    parser.add_argument("--scene", default="cube-wall", choices=sorted(SCENES),
+                        help="cube-wall (SE(3), max_step 0.1) or triple-wall (R^3, max_step 0.03)")
     parser.add_argument("--ompl-worker", type=int, default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--length-weight", type=float, default=0.0,
+                        help="cost per metre of path length added to the objective of RRT* and OMPL's RRT* "
+                             "(T-RRT's history has no length term: leave it out of such runs)")
     args = parser.parse_args()
+    if args.length_weight and "trrt" in args.planners.split(","):
+        parser.error("--length-weight: T-RRT's cost history has no length term; drop trrt from --planners")
+    global SCENE, LENGTH_WEIGHT
+    SCENE, LENGTH_WEIGHT = args.scene, args.length_weight
     budgets = sorted(float(b) for b in args.budgets.split(","))
     problem = make_problem()
     step = problem.scene.resolution
@@ -226,7 +267,9 @@ def main() -> None:
                      f"{np.mean([r['iterations'] for r in rs]):.0f}"))
     print_table(f"{SCENE}: best path cost, mean (std) over {args.seeds} seeds, single core",
                 ("planner", *(f"{b:g} s" for b in budgets), "iterations"), rows)
-    write_json("rrtstar", {"scene": SCENE, "budgets": budgets, "seeds": args.seeds, "max_step": MAX_STEP,
+    write_json("rrtstar" if SCENE == "cube-wall" else f"rrtstar-{SCENE}",
+               {"scene": SCENE, "budgets": budgets, "seeds": args.seeds, "max_step": SCENES[SCENE],
+                "length_weight": LENGTH_WEIGHT,
                            "goal_bias": GOAL_BIAS, "check_step": step, "runs": runs})
 
 
