@@ -70,9 +70,9 @@ class BeliefPlannerOptions:
     min_progress: float | None = option(None, "an action whose outcome moved less than this adds nothing "
                                         "(default: the scene resolution)", minimum=0.0)
     retire: str = option("split", "after a solution, leave its branch out of nearest-neighbour lookups back to "
-                         "the nearest split (thesis 5.3.1) or back to the root (every solution then leaves "
-                         "from a node off the earlier solutions: more diverse routes, fewer solutions)",
-                         choices=("split", "root"))
+                         "the nearest split (thesis 5.3.1), or leave out the root's whole subtree the solution "
+                         "starts with (root: later solutions start with another first action; more diverse "
+                         "routes, fewer solutions)", choices=("split", "root"))
     connect: bool = option(True, "RRT-Connect (repeated EXTENDs) until the first solution, then Extend")
     max_time: float | None = option(60.0, "planning time limit (s); the planner is anytime", minimum=0.0)
     max_iterations: int | None = option(None, "iteration budget", minimum=1)
@@ -267,8 +267,23 @@ class BeliefPlanner(Planner):
             retired.append(i)
             if tree.nodes[i].split and self.options.retire == "split":
                 break
+        if self.options.retire == "root" and len(branch) > 1:
+            retired = _subtree(tree, branch[1])
         tree.excluded.update(retired)
         return True
+
+
+def _subtree(tree: BeliefTree, root: int) -> list[int]:
+    """``root`` and every node below it."""
+    children: dict[int, list[int]] = {}
+    for i, node in enumerate(tree.nodes):
+        children.setdefault(node.parent, []).append(i)
+    out, stack = [], [root]
+    while stack:
+        i = stack.pop()
+        out.append(i)
+        stack.extend(children.get(i, []))
+    return out
 
 
 def solution_probability(tree: BeliefTree, solution: list[int]) -> float:

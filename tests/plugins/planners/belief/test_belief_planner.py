@@ -117,7 +117,8 @@ def test_a_pipeline_plans_a_policy_and_executes_it():
 
 @pytest.mark.parametrize("retire", ["split", "root"])
 def test_a_solution_branch_leaves_nearest_neighbour_lookups_back_to_its_base(retire):
-    """Thesis 5.3.1: back to the nearest split (or the root); ``retire = "root"`` always back to the root."""
+    """Thesis 5.3.1: back to the nearest split; ``retire = "root"``: the root's whole subtree the solution
+    starts with, so no later solution shares an action with it beyond the start."""
     problem, planner = maze(particles=8, max_iterations=120, p_goal=0.51, retire=retire)
     result = planner.plan(problem, np.random.default_rng(5))
     tree = planner.tree
@@ -129,3 +130,7 @@ def test_a_solution_branch_leaves_nearest_neighbour_lookups_back_to_its_base(ret
         assert set(solution[base:]) <= tree.excluded and 0 not in tree.excluded
     if retire == "root":
         assert all(set(s[1:]) <= tree.excluded for s in tree.solutions)
+        firsts = [s[1] for s in tree.solutions]
+        assert len(firsts) >= 2 and len(set(firsts)) == len(firsts)    # each leaves the start differently
+        below = {i for i, n in enumerate(tree.nodes) if n.parent in tree.excluded}
+        assert below <= tree.excluded                     # nothing under a retired node is a candidate
