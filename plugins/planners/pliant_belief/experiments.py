@@ -6,7 +6,7 @@ experiment (e.g. the maze with and without the block added during execution, the
 in parallel over ``--jobs`` processes (one core each), every finished task is appended to
 ``out/experiments/NAME/runs.jsonl`` at once (each planned policy to ``policies/``, to replay it), and a
 second invocation resumes: tasks already on file are
-skipped (``--fresh`` forgets them).  The table (P_plan, P_exec as mean [std] over plans, actions,
+skipped (``--fresh`` forgets those of the variants being run).  The table (P_plan, P_exec as mean [std] over plans, actions,
 planning statistics) is printed and written with the runs to ``summary.json``.
 
 Experiments (pipelines in ``scenes/pipelines``):
@@ -169,9 +169,11 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     directory = output / name
     directory.mkdir(parents=True, exist_ok=True)
     log = directory / "runs.jsonl"
-    if fresh and log.exists():
-        log.unlink()
     records = [json.loads(line) for line in log.read_text().splitlines() if line.strip()] if log.exists() else []
+    if fresh:                                    # forget the selected variants' tasks, keep the others'
+        selected = {v.label for v in variants}
+        records = [r for r in records if r["variant"] not in selected]
+        log.write_text("".join(json.dumps(r) + "\n" for r in records))
     done = {(r["variant"], r["seed"]) for r in records}
     todo = [(v, s) for v in variants for s in range(plans) if (v.label, s) not in done]
     echo(f"{name}: {len(records)} tasks on file, {len(todo)} to go, {jobs} at a time")

@@ -53,3 +53,26 @@ def test_bad_input_names_the_field(tmp_path, name, options, field):
     kwargs = {"plans": 1, "executions": 1, "plan_time": 1.0, "exec_time": 1.0, "jobs": 1, **options}
     with pytest.raises(ConfigError, match=field):
         run_experiment(name, fresh=False, output=tmp_path, echo=lambda *_: None, **kwargs)
+
+
+def _fake_task(variant, seed, plan_time, executions, exec_time, policy_file=None):
+    return _record(variant.label, seed, True, {w: ["success"] * executions for w in variant.worlds})
+
+
+def test_fresh_forgets_only_the_variants_being_run(tmp_path, monkeypatch):
+    import pliant_belief.experiments as module
+
+    monkeypatch.setattr(module, "run_task", _fake_task)          # no planning here: the bookkeeping only
+    (tmp_path / "maze").mkdir()
+    first, second = (v.label for v in experiments()["maze"][:2])
+    kept = _record(second, 0, True, {"unblocked": ["success"], "blocked": ["success"]})
+    forgotten = _record(first, 0, False, {})
+    (tmp_path / "maze" / "runs.jsonl").write_text(json.dumps(kept) + "\n" + json.dumps(forgotten) + "\n")
+    lines = []
+    run_experiment("maze", plans=1, executions=1, plan_time=1.0, exec_time=1.0, jobs=1, fresh=True,
+                   output=tmp_path, only=[second], echo=lines.append)
+    assert lines[0].startswith("maze: 1 tasks on file, 1 to go")       # the selected variant starts over
+    left = [json.loads(x) for x in (tmp_path / "maze" / "runs.jsonl").read_text().splitlines()]
+    assert [r["variant"] for r in left] == [first, second]             # the other variant's task is kept
+    assert left[1]["executions"] == {"unblocked": [{"outcome": "success", "actions": 10, "seconds": 5.0}],
+                                     "blocked": [{"outcome": "success", "actions": 10, "seconds": 5.0}]}
