@@ -10,7 +10,8 @@ unforeseen outcome, and returns the next action.  Execution stops on
 - ``success``: the configuration reached is within the goal tolerance of the policy's goal (without a goal
   in the policy: the query reports a goal vertex);
 - ``failure``: the policy reports ``P(node -> goal) < P_goal`` (or no route to the goal), or it stops at a
-  goal vertex whose belief did not bring the robot within the goal tolerance;
+  goal vertex outside the goal tolerance and the final approach (one drive to the goal configuration,
+  ``final_approach``; not in the thesis) does not bring it within;
 - ``timeout``: the total time limit; ``action limit``: the number of actions.
 
 Everything is recorded (:class:`PolicyExecutionRecord`): each action, the outcome node matched or inserted,
@@ -71,14 +72,17 @@ class PolicyExecutionRecord:
 
 def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Controller, rng: np.random.Generator,
                    *, matcher: Matcher | None = None, period: float = 0.1, time_limit: float = 300.0,
-                   action_limit: int = 100, action_time_limit: float = 30.0, start: np.ndarray | None = None
-                   ) -> PolicyExecutionRecord:
+                   action_limit: int = 100, action_time_limit: float = 30.0, start: np.ndarray | None = None,
+                   final_approach: bool = True) -> PolicyExecutionRecord:
     """Execute ``policy`` in ``simulator`` with ``controller``, querying and adapting it after every action.
 
     ``matcher(particles, q) -> bool`` (else ``policy.matcher``) matches observations to nodes (thesis
     Algorithm 4).  ``period``: control period (s); ``time_limit``: total budget (s); ``action_limit``: most
     actions; ``action_time_limit``: most seconds one action may drive.  ``start`` ``(d,)`` (default: the start
     node's expected configuration) is where the simulator is reset.  The policy itself is adapted in place.
+    ``final_approach``: when the policy stops at a goal vertex but the robot is outside the goal tolerance
+    (a goal vertex needs only ``P_goal`` of its particles in the goal), drive to the goal configuration
+    once (an action of kind ``goal``) and judge success there; ``False`` ends such an execution as failed.
     """
     if not (period > 0 and time_limit > 0 and action_time_limit > 0):
         raise DimensionError("period, time_limit and action_time_limit must be positive seconds",
@@ -151,6 +155,26 @@ def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Cont
             events.append(f"t={t:.2f}s: P(node {node} -> goal) = {step.probability:.3g} < P_goal")
         elif step.status == "goal":
             outcome = "success" if policy.goal is None else "failure"
+            if outcome == "failure" and final_approach and t < time_limit - 1e-12 and len(actions) < action_limit:
+                # the goal vertex's belief is only partly inside the goal: servo to the goal itself, once
+                s, ts, cs, driven = drive(simulator, controller, policy.goal, rng, period=period,
+                                          time_limit=min(action_time_limit, time_limit - t), start_time=t,
+                                          poses=objects)
+                start_time = t
+                states += s
+                times += ts
+                contacts += cs
+                if ts:
+                    t = ts[-1]
+                q = simulator.configuration()
+                actions.append({"index": len(actions), "from_node": node, "action_id": -1, "kind": "goal",
+                                "target": policy.goal.copy(), "start_time": start_time, "end_time": t,
+                                "drive": driven, "reached": q.copy(), "node": node, "inserted": False,
+                                "relocalized": False, "matching": [], "status": "goal",
+                                "probability": step.probability})
+                events.append(f"t={t:.2f}s: goal node {node} reached outside the goal tolerance; final approach "
+                              f"to the goal: {driven}")
+                outcome = "success" if in_goal(q) else "failure"
             if outcome == "failure":
                 events.append(f"t={t:.2f}s: stopped at goal node {node} outside the goal tolerance")
         else:

@@ -12,8 +12,8 @@ planning statistics) is printed and written with the runs to ``summary.json``.
 Experiments (pipelines in ``scenes/pipelines``):
 
 - ``maze``: se2-maze (``maze-policy``), executions unblocked and blocked (thesis: 97% / 73%), in pymunk
-  with the pipeline's friction (0.1); the planner as the thesis, and with solution branches retired back
-  to the root (``planner.retire = "root"``: more diverse routes).
+  with the pipeline's friction (0.1); the pipeline's planner (solutions retire the root's subtree they
+  start with, ``planner.retire = "root"``: more diverse routes) and the thesis's (back to the nearest split).
 - ``maze-frictionless``: the same policies' executions in a frictionless pymunk, as the planner's
   kinematic model (app. B) is.
 - ``table-5.1``: se3-peg-in-hole (``peg-policy``), gamma = 1/8, clustering PC, AC and WCR at
@@ -71,7 +71,7 @@ def experiments() -> dict[str, list[Variant]]:
                      Variant(f"24 particles, gamma {g:g}", "peg-policy", ("planner.particles=24", *_gamma(g))),
                      Variant(f"48 particles, gamma {g:g}", "peg-policy", ("planner.particles=48", *_gamma(g)))]
     return {"maze": [Variant("belief, WCR 0.75", "maze-policy", (), maze_worlds),
-                     Variant("belief, WCR 0.75, retire to root", "maze-policy", ('planner.retire="root"',),
+                     Variant("belief, WCR 0.75, thesis retire", "maze-policy", ('planner.retire="split"',),
                              maze_worlds)],
             "maze-frictionless": [Variant("belief, WCR 0.75", "maze-policy", (), frictionless)],
             "table-5.1": table_51, "table-5.2": table_52}

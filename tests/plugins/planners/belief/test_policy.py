@@ -370,3 +370,29 @@ def test_execution_in_the_blocked_maze_inserts_the_unforeseen_outcome_and_termin
     assert record.contacts.any()
     assert record.actions[-1]["probability"] < policy.options.p_goal
     assert any("inserted" in e for e in record.events) and any("P_goal" in e for e in record.events)
+
+
+@pytest.mark.parametrize("final_approach", [True, False])
+def test_a_goal_vertex_reached_outside_the_tolerance_gets_one_final_approach(final_approach):
+    """The policy's last vertex counts as a goal (its goal fraction), but it lies 0.5 from the goal (tolerance
+    0.4375): with the final approach the robot then drives to the goal itself and succeeds; without it the
+    execution ends there as a failure."""
+    ctx = maze_context("se2-maze")
+    controller = registry.create("controller", "contact", ctx)
+    tree = maze_tree(ctx)
+    near_goal = np.array([1.25, 0.75, 0.0])
+    last = tree.nodes[-1]
+    last.particles = near_goal + (last.particles - last.particles.mean(axis=0))
+    last.action = near_goal.copy()
+    last.expected = near_goal.copy()
+    policy = PartialPolicy.from_tree(tree, goal=ctx.scene.goal, goal_tolerance=ctx.scene.goal_tolerance)
+    record = execute_policy(policy, ctx.simulator, controller, np.random.default_rng(0),
+                            matcher=DistanceMatcher(ctx.robot.space, 0.3), time_limit=120.0, action_limit=10,
+                            final_approach=final_approach)
+    assert record.actions[2]["node"] == 3 and record.actions[2]["status"] == "goal"
+    if final_approach:
+        assert record.success and record.actions[-1]["kind"] == "goal" and len(record.actions) == 4
+        assert ctx.robot.space.distance(record.configurations[-1], ctx.scene.goal) <= ctx.scene.goal_tolerance
+    else:
+        assert record.outcome == "failure" and len(record.actions) == 3
+        assert any("outside the goal tolerance" in e for e in record.events)
