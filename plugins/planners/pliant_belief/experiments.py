@@ -5,9 +5,9 @@ variant's overrides, a seed) and executes it ``--executions`` times in each exec
 experiment (e.g. the maze with and without the block added during execution, thesis 5.4.3).  Tasks run
 in parallel over ``--jobs`` processes (one core each), every finished task is appended to
 ``out/experiments/NAME/runs.jsonl`` at once (each planned policy to ``policies/``, to replay it), and a
-second invocation resumes: tasks already on file are
-skipped (``--fresh`` forgets those of the variants being run).  The table (P_plan, P_exec as mean [std] over plans, actions,
-planning statistics) is printed and written with the runs to ``summary.json``.
+second invocation resumes: tasks already on file are skipped (``--fresh`` forgets those of the variants
+being run).  The table (P_plan, P_exec as mean [std] over plans, actions, planning statistics) is printed
+and written with the runs to ``summary.json``.
 
 Experiments (pipelines in ``scenes/pipelines``):
 
