@@ -235,9 +235,9 @@ def effort_correction(a, b, count, group, weight, tol, out):
 def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal, deep_depth, faces, r_, out_n):
     """Normal (written to ``out_n``) and depth of a point inside occupied voxel ``flat``.
 
-    ``faces`` (6,) says which body-frame axis directions leave the robot at this point (the robot's own
-    face normals, :meth:`pliant.interfaces.RobotModel.surface_faces`); ``r_`` (3, 3) rotates them to the
-    world.  See :mod:`.contact` for the rule: a point in an edge voxel of the obstacle (exposed faces on
+    ``faces``: bit ``e`` set when body-frame axis direction ``e`` (-x, +x, -y, +y, -z, +z) leaves the robot
+    at this point (the robot's own face normals, :meth:`pliant.interfaces.RobotModel.surface_faces`); ``r_``
+    (3, 3) rotates them to the world.  See :mod:`.contact` for the rule: a point in an edge voxel of the obstacle (exposed faces on
     two or more axes) that lies on exactly one robot face facing them is pushed out along that face's
     normal; any other point through the face it entered last.
     """
@@ -251,35 +251,36 @@ def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal,
             t = d[f] / -ndotd[f]
             if t < best_t:
                 best_t, best = t, f
-    axes = 0
-    for c in range(3):
-        if exposed[flat, 2 * c] or exposed[flat, 2 * c + 1]:
-            axes += 1
-    if entered >= 1 and axes >= 2:
-        chosen, count = -1, 0
-        for e in range(6):
-            if not faces[e]:
-                continue
-            se = 1.0 if e % 2 == 1 else -1.0
-            score = -np.inf
-            for f in range(6):
-                if exposed[flat, f]:
+    if faces != 0 and entered >= 1:
+        axes = 0
+        for c in range(3):
+            if exposed[flat, 2 * c] or exposed[flat, 2 * c + 1]:
+                axes += 1
+        if axes >= 2:
+            chosen, count = -1, 0
+            for e in range(6):
+                if not (faces >> e) & 1:
+                    continue
+                se = 1.0 if e % 2 == 1 else -1.0
+                score = -np.inf
+                for f in range(6):
+                    if exposed[flat, f]:
+                        sf = 1.0 if f % 2 == 1 else -1.0
+                        score = max(score, -sf * se * r_[f // 2, e // 2])
+                if score > ROBOT_FACE_COS:
+                    chosen, count = e, count + 1
+            if count == 1:
+                se = 1.0 if chosen % 2 == 1 else -1.0
+                n0, n1, n2 = -se * r_[0, chosen // 2], -se * r_[1, chosen // 2], -se * r_[2, chosen // 2]
+                n = (n0, n1, n2)
+                depth = np.inf
+                for f in range(6):
                     sf = 1.0 if f % 2 == 1 else -1.0
-                    score = max(score, -sf * se * r_[f // 2, e // 2])
-            if score > ROBOT_FACE_COS:
-                chosen, count = e, count + 1
-        if count == 1:
-            se = 1.0 if chosen % 2 == 1 else -1.0
-            n0, n1, n2 = -se * r_[0, chosen // 2], -se * r_[1, chosen // 2], -se * r_[2, chosen // 2]
-            n = (n0, n1, n2)
-            depth = np.inf
-            for f in range(6):
-                sf = 1.0 if f % 2 == 1 else -1.0
-                along = sf * n[f // 2]
-                if along > 1e-9:
-                    depth = min(depth, d[f] / along)
-            out_n[0], out_n[1], out_n[2] = n0, n1, n2
-            return depth
+                    along = sf * n[f // 2]
+                    if along > 1e-9:
+                        depth = min(depth, d[f] / along)
+                out_n[0], out_n[1], out_n[2] = n0, n1, n2
+                return depth
     if best < 0:
         best_d = np.inf
         for f in range(6):

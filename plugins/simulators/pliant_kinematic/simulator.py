@@ -107,6 +107,9 @@ class KinematicSimulator(Simulator):
         if self.surface_faces is not None and self.surface_faces.shape != (len(self.surface), 6):
             raise DimensionError("surface_faces() must be (k, 6), one row per surface point",
                                  field="robot.surface_faces", value=list(self.surface_faces.shape))
+        # the fused kernel takes each point's faces as bits (bit e: direction e leaves the body)
+        self._face_bits = np.zeros(len(self.surface), dtype=np.int64) if self.surface_faces is None else \
+            (self.surface_faces.astype(np.int64) << np.arange(6)).sum(axis=1)
         o = self.options
         self.angular = angular_mask(self.space)
         self.limits = actuator_limits(self.space, o.velocity_limit, o.angular_velocity_limit, o.joint_velocity_limits)
@@ -318,8 +321,7 @@ class KinematicSimulator(Simulator):
         touched = np.empty(n, dtype=np.bool_)
         c = self.contact
         solver = SOLVE_EFFORT if self.options.solver == "effort" else SOLVE_LEAST_SQUARES
-        faces = self.surface_faces if self.surface_faces is not None else np.zeros((len(self.surface_local), 6),
-                                                                                  dtype=np.bool_)
+        faces = self._face_bits
         fused_microstep(self.kernel_kind, np.ascontiguousarray(q), np.ascontiguousarray(step), self.surface_local,
                         faces,
                         c.lower, c.res, c._shape, c.occupied_flat, c.exposed, c.deep_normal, c.deep_depth,
