@@ -237,9 +237,9 @@ def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal,
 
     ``faces``: bit ``e`` set when body-frame axis direction ``e`` (-x, +x, -y, +y, -z, +z) leaves the robot
     at this point (the robot's own face normals, :meth:`pliant.interfaces.RobotModel.surface_faces`); ``r_``
-    (3, 3) rotates them to the world.  See :mod:`.contact` for the rule: a point in an edge voxel of the obstacle (exposed faces on
-    two or more axes) that lies on exactly one robot face facing them is pushed out along that face's
-    normal; any other point through the face it entered last.
+    (3, 3) rotates them to the world.  See :mod:`.contact` for the rule: a point in an edge voxel of the
+    obstacle (exposed faces on two or more axes) that lies on exactly one robot face facing them is pushed
+    out along that face's normal; any other point through the face it entered last.
     """
     lo0, lo1, lo2 = lower[0] + ix * res, lower[1] + iy * res, lower[2] + iz * res
     d = (p[0] - lo0, lo0 + res - p[0], p[1] - lo1, lo1 + res - p[1], p[2] - lo2, lo2 + res - p[2])
