@@ -104,17 +104,12 @@ class Policy:
 
     def save(self, path: str | FilePath) -> None:
         """Write the policy as JSON (parent directories are created)."""
-        path = FilePath(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_dict(), indent=1))
+        _write_json(path, self.to_dict())
 
     @classmethod
     def load(cls, path: str | FilePath) -> Policy:
         """Read a policy written by :meth:`save` (of ``cls``'s kind, or any kind when called on the base)."""
-        try:
-            data = json.loads(FilePath(path).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"cannot read policy file: {exc}", source=str(path), field="<file>") from None
+        data = _read_json(path, "policy")
         try:
             return cls.from_dict(data)
         except ConfigError as exc:
@@ -182,18 +177,12 @@ class PlanResult:
 
     def save(self, path: str | FilePath) -> None:
         """Write the result as JSON (parent directories are created)."""
-        path = FilePath(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_dict(), indent=1))
+        _write_json(path, self.to_dict())
 
     @classmethod
     def load(cls, path: str | FilePath) -> PlanResult:
         """Read a result written by :meth:`save`."""
-        try:
-            data = json.loads(FilePath(path).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"cannot read result file: {exc}", source=str(path), field="<file>") from None
-        return cls.from_dict(data)
+        return cls.from_dict(_read_json(path, "result"))
 
 
 def _jsonable(value: Any) -> Any:
@@ -211,3 +200,18 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, enum.Enum):
         return value.value
     return value
+
+
+def _write_json(path: str | FilePath, data: dict) -> None:
+    """Write ``data`` as indented JSON, creating parent directories."""
+    path = FilePath(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=1))
+
+
+def _read_json(path: str | FilePath, what: str) -> dict:
+    """The JSON in ``path``; :class:`ConfigError` naming the file when it cannot be read or parsed."""
+    try:
+        return json.loads(FilePath(path).read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ConfigError(f"cannot read {what} file: {exc}", source=str(path), field="<file>") from None

@@ -106,6 +106,15 @@ def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Cont
     t = 0.0
     node = policy.start_node
 
+    def perform(target: np.ndarray, t: float) -> tuple[np.ndarray, float, str]:
+        """Drive toward ``target`` from time ``t``, recording the steps; (configuration reached, time, outcome)."""
+        s, ts, cs, driven = drive(simulator, controller, target, rng, period=period,
+                                  time_limit=min(action_time_limit, time_limit - t), start_time=t, poses=objects)
+        states.extend(s)
+        times.extend(ts)
+        contacts.extend(cs)
+        return simulator.configuration(), (ts[-1] if ts else t), driven
+
     def in_goal(q: np.ndarray) -> bool:
         return policy.goal is not None and float(space.distance(q, policy.goal)) <= policy.goal_tolerance
 
@@ -126,15 +135,8 @@ def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Cont
             outcome = "timeout"
             events.append(f"t={t:.2f}s: time limit")
             break
-        s, ts, cs, driven = drive(simulator, controller, action.target, rng, period=period,
-                                  time_limit=min(action_time_limit, time_limit - t), start_time=t, poses=objects)
         start_time = t
-        states += s
-        times += ts
-        contacts += cs
-        if ts:
-            t = ts[-1]
-        q = simulator.configuration()
+        q, t, driven = perform(action.target, t)
         step = policy.query_step(q, action.id, matcher)
         index = len(actions)
         actions.append({"index": index, "from_node": node, "action_id": action.id, "kind": action.kind,
@@ -157,16 +159,8 @@ def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Cont
             outcome = "success" if policy.goal is None else "failure"
             if outcome == "failure" and final_approach and t < time_limit - 1e-12 and len(actions) < action_limit:
                 # the goal vertex's belief is only partly inside the goal: servo to the goal itself, once
-                s, ts, cs, driven = drive(simulator, controller, policy.goal, rng, period=period,
-                                          time_limit=min(action_time_limit, time_limit - t), start_time=t,
-                                          poses=objects)
                 start_time = t
-                states += s
-                times += ts
-                contacts += cs
-                if ts:
-                    t = ts[-1]
-                q = simulator.configuration()
+                q, t, driven = perform(policy.goal, t)
                 actions.append({"index": len(actions), "from_node": node, "action_id": -1, "kind": "goal",
                                 "target": policy.goal.copy(), "start_time": start_time, "end_time": t,
                                 "drive": driven, "reached": q.copy(), "node": node, "inserted": False,

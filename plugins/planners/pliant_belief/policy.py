@@ -497,10 +497,8 @@ class PartialPolicy(Policy):
     def _relocalize(self, q: np.ndarray, matcher: Matcher) -> int | None:
         """The vertex with a route to the goal, nearest to it first, whose belief ``q`` clusters with; or ``None``.
 
-        Only vertices whose expected configuration lies within the matcher's reach are tried: a belief
-        cannot cluster with a configuration farther from its mean than ``radius`` (the largest distance
-        from a mean to its particles plus the clustering's distance threshold, unknown here), so the
-        candidates are ordered by Dijkstra distance and each is asked (the matcher is the only judge).
+        Every such vertex is asked in order of Dijkstra distance (the matcher is the only judge: its
+        thresholds are not known here).  It runs only for observations no planned outcome matched.
         """
         order = [v for v in np.argsort(self.distances, kind="stable") if np.isfinite(self.distances[v])]
         for v in order:

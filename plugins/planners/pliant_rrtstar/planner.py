@@ -137,6 +137,7 @@ class RRTStarPlanner(Planner):
         self.goal_nodes: list[int] = []
         self.goal_pool: list[np.ndarray] = []
         self.best_node = -1
+        self._best_path = None
         history: list[list[float]] = []
         best, best_node, first, radius = math.inf, -1, None, o.max_step
         termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations,
@@ -195,16 +196,22 @@ class RRTStarPlanner(Planner):
     def _sample_near_best(self, rng: np.random.Generator) -> np.ndarray:
         """A uniform point along the best path (by arc length) moved by a Gaussian in the tangent space."""
         space = self.problem.space
-        path = self.tree.path_to(self.best_node)
+        # the best path changes only when the best node or its cost does (a rewire lowers the cost)
+        key = (self.best_node, float(self.tree.path_costs[self.best_node]))
+        if self._best_path is None or self._best_path[0] != key:
+            path = self.tree.path_to(self.best_node)
+            ends = np.cumsum(np.atleast_1d(space.distance(path[:-1], path[1:]))) if len(path) > 1 else np.zeros(0)
+            self._best_path = (key, path, ends)
+        _, path, ends = self._best_path
         sigma = self.options.path_bias_sigma or self.options.max_step
         if len(path) == 1:
             base = path[0]
         else:
-            lengths = np.atleast_1d(space.distance(path[:-1], path[1:]))
-            at = rng.random() * float(lengths.sum())
-            k = min(int(np.searchsorted(np.cumsum(lengths), at)), len(lengths) - 1)
-            start = float(np.sum(lengths[:k]))
-            base = space.interpolate(path[k], path[k + 1], (at - start) / lengths[k] if lengths[k] > 0 else 0.0)
+            at = rng.random() * float(ends[-1])
+            k = min(int(np.searchsorted(ends, at)), len(ends) - 1)
+            start = float(ends[k - 1]) if k > 0 else 0.0
+            length = float(ends[k]) - start
+            base = space.interpolate(path[k], path[k + 1], (at - start) / length if length > 0 else 0.0)
         moved = space.retract(np.asarray(base)[None], rng.normal(0.0, sigma, (1, space.tangent_dim)))
         return space.enforce_bounds(moved)[0]
 

@@ -79,6 +79,7 @@ class RigidBody(RobotModel):
         self._space = self._make_space(scene)
         self._spacing = res
         self._surface = None
+        self._open = None
 
     def _make_space(self, scene: Scene) -> Space:
         o = self.options
@@ -118,24 +119,25 @@ class RigidBody(RobotModel):
         q, _ = check_batch(q, self._space)
         return self.rotations(q), self.positions(q), self._points
 
+    def _open_faces(self) -> np.ndarray:
+        """``(m, 6)``: for every body point, which lattice neighbours (-x, +x, -y, +y, -z, +z) are not in the body."""
+        if self._open is None:
+            keys = np.round(self._points / self._spacing).astype(np.int64)
+            present = set(map(tuple, keys))
+            steps = [(-1, 0, 0), (1, 0, 0), (0, -1, 0), (0, 1, 0), (0, 0, -1), (0, 0, 1)]
+            self._open = np.array([[(k[0] + a, k[1] + b, k[2] + c) not in present for a, b, c in steps]
+                                   for k in map(tuple, keys)], dtype=bool).reshape(-1, 6)
+        return self._open
+
     def surface_indices(self):
         """Points with at least one of their six lattice neighbours outside the body."""
         if self._surface is None:
-            keys = np.round(self._points / self._spacing).astype(np.int64)
-            present = set(map(tuple, keys))
-            steps = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
-            self._surface = np.array([i for i, k in enumerate(map(tuple, keys))
-                                      if any((k[0] + a, k[1] + b, k[2] + c) not in present for a, b, c in steps)],
-                                     dtype=np.int64)
+            self._surface = np.nonzero(self._open_faces().any(axis=1))[0].astype(np.int64)
         return self._surface
 
     def surface_faces(self):
         """For each surface point, the lattice directions (body frame) with no body point next to it."""
-        keys = np.round(self._points / self._spacing).astype(np.int64)
-        present = set(map(tuple, keys))
-        steps = [(-1, 0, 0), (1, 0, 0), (0, -1, 0), (0, 1, 0), (0, 0, -1), (0, 0, 1)]
-        return np.array([[(k[0] + a, k[1] + b, k[2] + c) not in present for a, b, c in steps]
-                         for k in map(tuple, keys[self.surface_indices()])], dtype=bool).reshape(-1, 6)
+        return self._open_faces()[self.surface_indices()]
 
     def _local(self, indices):
         return self._points if indices is None else self._points[indices]
