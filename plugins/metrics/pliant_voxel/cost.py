@@ -16,7 +16,7 @@ from pliant.interfaces import CostModel, check_batch
 from pliant.options import option
 from pliant.voxelgrid import FREE, VoxelGrid
 
-from pliant_voxel.formula import cost_tables
+from pliant_voxel.formula import compress_table, cost_tables
 from pliant_voxel.kernels import point_costs, rigid_state_costs, state_costs, trilinear_with_gradient
 
 
@@ -52,6 +52,8 @@ class VoxelDeformationCost(CostModel):
         self._lower = np.ascontiguousarray(self.grid.lower, dtype=np.float64)
         self._inv_res = 1.0 / self.grid.resolution
         self._shape = np.asarray(self.grid.shape, dtype=np.int64)
+        self._materials, self._lut = compress_table(self.table)     # the rigid kernel's cache-friendly form
+        self._layout_of = (None,)
         self._object_of_voxel = np.append(self.grid.object_id.reshape(-1), FREE).astype(np.int64)
 
     # --- evaluation ---------------------------------------------------------------------------
@@ -66,12 +68,21 @@ class VoxelDeformationCost(CostModel):
         placement = self.robot.rigid_placement(q)
         if placement is not None:
             rot, pos, local = placement
-            rigid_state_costs(np.ascontiguousarray(rot), np.ascontiguousarray(pos), local, self._lower,
-                              self._inv_res, self._shape, self.classes, self.table, out)
+            columns, centre, half = self._local_layout(local)
+            rigid_state_costs(np.ascontiguousarray(rot), np.ascontiguousarray(pos), columns, centre, half, self._lower,
+                              self._inv_res, self._shape, self.classes, self._materials, self._lut, out)
         else:
             state_costs(self.robot.body_points(q), self._lower, self._inv_res, self._shape, self.classes,
                         self.table, out)
         return out
+
+    def _local_layout(self, local: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The rigid body's local points ``(m, 3)`` as rows per axis ``(3, m)``, and their bounding box's
+        centre and half extents (m); cached for the robot's point array."""
+        if self._layout_of[0] is not local:
+            lo, hi = (local.min(axis=0), local.max(axis=0)) if len(local) else (np.zeros(3), np.zeros(3))
+            self._layout_of = (local, np.ascontiguousarray(local.T), (lo + hi) / 2, (hi - lo) / 2)
+        return self._layout_of[1:]
 
     def _points_and_costs(self, q) -> tuple[np.ndarray, np.ndarray]:
         """Body points ``(n, m, 3)`` of configurations ``(n, d)`` and each point's cost ``(n, m)``."""

@@ -40,3 +40,18 @@ def cost_tables(robot_materials: np.ndarray, deformability: np.ndarray, sensitiv
         table[c, :n][occ] = deformation_cost(d, s, d_env, s_env)
     table[:, n] = np.nan
     return classes.reshape(-1).astype(np.int64), table
+
+
+def compress_table(table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A cost table ``(c, N + 1)`` as the material id of every voxel and a small lookup table.
+
+    Returns ``materials`` ``(N + 1,)`` (the smallest unsigned integer type that holds the ids) and ``lut``
+    ``(c, k)`` with ``lut[:, materials[v]] == table[:, v]`` for every voxel ``v`` (NaN columns included:
+    they are told apart by their bits, so a forbidden object and the outside may share an id).  Scenes have a
+    few materials, so ``materials`` takes one byte per voxel where ``table`` takes eight per class.
+    """
+    columns = np.ascontiguousarray(np.asarray(table, dtype=np.float64).T)
+    keys = columns.view(np.dtype((np.void, columns.dtype.itemsize * columns.shape[1]))).reshape(-1)
+    _, first, ids = np.unique(keys, return_index=True, return_inverse=True)
+    dtype = np.uint8 if len(first) <= 2**8 else np.uint16 if len(first) <= 2**16 else np.uint32
+    return ids.reshape(-1).astype(dtype), np.ascontiguousarray(columns[first].T)

@@ -48,29 +48,70 @@ def state_costs(points, lower, inv_res, shape, classes, table, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def rigid_state_costs(rotations, positions, local, lower, inv_res, shape, classes, table, out):
-    """:func:`state_costs` for a rigid body, transforming ``local`` points ``(m, 3)`` on the fly.
+def rigid_state_costs(rotations, positions, local, centre, half, lower, inv_res, shape, classes, materials, lut,
+                      out):
+    """:func:`state_costs` for a rigid body, transforming the local points on the fly.
 
-    ``rotations`` ``(n, 3, 3)`` and ``positions`` ``(n, 3)`` place the body; world point =
-    ``R @ p + t``.  Fusing the transform avoids an ``(n, m, 3)`` temporary.
+    ``local`` ``(3, m)``: the body points' coordinates (m), one row per axis.  ``rotations``
+    ``(n, 3, 3)`` and ``positions`` ``(n, 3)`` place the body; world point = ``R @ p + t``.  Fusing the
+    transform avoids an ``(n, m, 3)`` temporary.  The cost table comes compressed
+    (:func:`pliant_voxel.formula.compress_table`): ``materials`` ``(N + 1,)`` the material id of every
+    flat voxel (the last: outside the grid) and ``lut[c, k]`` the cost of class ``c`` on material ``k`` —
+    a byte or two per voxel instead of eight per class, so the lookups stay in cache.  ``centre`` and
+    ``half`` (m): the local points' bounding box.  A configuration whose rotated box lies inside the grid
+    takes the branch-free path (:func:`_inside_costs`); the others check every point.
     """
-    n, m = positions.shape[0], local.shape[0]
+    n, m = positions.shape[0], local.shape[1]
     nx, ny, nz = shape[0], shape[1], shape[2]
-    outside = table.shape[1] - 1
+    outside = materials.shape[0] - 1
+    scaled = np.empty((3, 3))
+    flat = np.empty(m, dtype=np.int64)
+    grid = (nx, ny, nz)
     for a in range(n):
         r = rotations[a]
-        tx, ty, tz = positions[a, 0] - lower[0], positions[a, 1] - lower[1], positions[a, 2] - lower[2]
+        inside = True
+        for k in range(3):
+            mid = (r[k, 0] * centre[0] + r[k, 1] * centre[1] + r[k, 2] * centre[2] + positions[a, k] - lower[k]) * inv_res
+            extent = (abs(r[k, 0]) * half[0] + abs(r[k, 1]) * half[1] + abs(r[k, 2]) * half[2]) * inv_res
+            inside = inside and mid - extent >= 1e-6 and mid + extent <= grid[k] - 1e-6
+        if inside:
+            for i in range(3):
+                for j in range(3):
+                    scaled[i, j] = r[i, j] * inv_res
+            out[a] = _inside_costs(scaled, (positions[a, 0] - lower[0]) * inv_res,
+                                   (positions[a, 1] - lower[1]) * inv_res, (positions[a, 2] - lower[2]) * inv_res,
+                                   local, ny, nz, classes, materials, lut, flat)
+            continue
+        mx, my, mz = positions[a, 0] - lower[0], positions[a, 1] - lower[1], positions[a, 2] - lower[2]
         total = 0.0
         for i in range(m):
-            px, py, pz = local[i, 0], local[i, 1], local[i, 2]
-            ix = int(np.floor((r[0, 0] * px + r[0, 1] * py + r[0, 2] * pz + tx) * inv_res))
-            iy = int(np.floor((r[1, 0] * px + r[1, 1] * py + r[1, 2] * pz + ty) * inv_res))
-            iz = int(np.floor((r[2, 0] * px + r[2, 1] * py + r[2, 2] * pz + tz) * inv_res))
+            px, py, pz = local[0, i], local[1, i], local[2, i]
+            ix = int(np.floor((r[0, 0] * px + r[0, 1] * py + r[0, 2] * pz + mx) * inv_res))
+            iy = int(np.floor((r[1, 0] * px + r[1, 1] * py + r[1, 2] * pz + my) * inv_res))
+            iz = int(np.floor((r[2, 0] * px + r[2, 1] * py + r[2, 2] * pz + mz) * inv_res))
             if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
-                total += table[classes[i], (ix * ny + iy) * nz + iz]
+                total += lut[classes[i], materials[(ix * ny + iy) * nz + iz]]
             else:
-                total += table[classes[i], outside]
+                total += lut[classes[i], materials[outside]]
         out[a] = total
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _inside_costs(r, tx, ty, tz, local, ny, nz, classes, materials, lut, flat):
+    """Summed cost of the ``local`` ``(3, m)`` points placed by ``r`` (rotation over the resolution) and ``t``
+    (voxels), all of them inside the grid.  Two passes: the flat voxel indices first (no bounds checks,
+    truncation toward zero is the floor as every coordinate is positive: a loop the compiler vectorises),
+    then the lookups; ``flat`` ``(m,)`` is scratch."""
+    lx, ly, lz = local[0], local[1], local[2]
+    for i in range(lx.shape[0]):
+        ix = np.int64(r[0, 0] * lx[i] + r[0, 1] * ly[i] + r[0, 2] * lz[i] + tx)
+        iy = np.int64(r[1, 0] * lx[i] + r[1, 1] * ly[i] + r[1, 2] * lz[i] + ty)
+        iz = np.int64(r[2, 0] * lx[i] + r[2, 1] * ly[i] + r[2, 2] * lz[i] + tz)
+        flat[i] = (ix * ny + iy) * nz + iz
+    total = 0.0
+    for i in range(lx.shape[0]):
+        total += lut[classes[i], materials[flat[i]]]
+    return total
 
 
 @numba.njit(cache=True, nogil=True)

@@ -292,7 +292,7 @@ class KinematicSimulator(Simulator):
         """
         touched = False
         for _ in range(self.options.max_corrections):
-            c = self.robot.self_contacts(q)
+            c = self._self_contacts(q)
             if len(c) == 0:
                 return q, True, touched
             touched = True
@@ -309,7 +309,25 @@ class KinematicSimulator(Simulator):
             q = self.space.retract(q, np.linalg.solve(lhs, jac.T @ dp.reshape(-1)))
             if self.space.kind == "rn":
                 q = self.space.enforce_bounds(q)
-        return q, len(self.robot.self_contacts(q)) == 0, touched
+        return q, len(self._self_contacts(q)) == 0, touched
+
+    def _self_contacts(self, q):
+        """The robot's self-contacts at ``q`` ``(d,)`` that the collision library described with finite numbers.
+
+        coal's GJK/EPA sometimes reports a colliding pair with NaN witness points, normal and Jacobians
+        (seen on Baxter's right arm, elbow bent near its limit, e1 = 2.61 rad); one such row made the damped
+        least squares return NaN joints, which ended the whole planning run.  Such contacts carry no usable
+        geometry, so they are left out; the others are resolved as usual.
+        """
+        c = self.robot.self_contacts(q)
+        if len(c) == 0:
+            return c
+        finite = (np.isfinite(c.point_a).all(axis=1) & np.isfinite(c.point_b).all(axis=1)
+                  & np.isfinite(c.normal).all(axis=1) & np.isfinite(c.depth)
+                  & np.isfinite(c.jacobian_a).all(axis=(1, 2)) & np.isfinite(c.jacobian_b).all(axis=(1, 2)))
+        if finite.all():
+            return c
+        return type(c)(**{name: np.asarray(value)[finite] for name, value in vars(c).items()})
 
     def _microstep_fused(self, q, step):
         """:meth:`_microstep` for rigid bodies, compiled end to end (same mathematics, see rigid_kernel)."""

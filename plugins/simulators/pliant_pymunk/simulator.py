@@ -1,9 +1,14 @@
 """The simulator ``pymunk``: 2-D rigid-body dynamics for planar scenes (thesis 5.4's dynamic execution).
 
-The robot is a dynamic body with mass and friction, driven compliantly: a kinematic *control body*
-moves at the commanded velocity (plus actuation noise from :mod:`pliant.noise`) and pulls the robot
-through a pivot joint and a gear joint whose forces and torques are capped (``max_force``,
-``max_torque``), so the robot complies against obstacles instead of passing through them.  Static
+The robot is a dynamic body with mass and friction, driven compliantly by a force-limited velocity
+servo: before every physics substep, the force at the robot frame's origin and the torque that would bring
+the frame to the commanded velocity (plus actuation noise from :mod:`pliant.noise`) within that substep are
+computed from the body's mass and inertia, the force capped in norm at ``max_force`` and the torque at
+``max_torque``, and applied; contacts and friction then act on the body, so the robot complies against
+obstacles instead of passing through them.  (Not pymunk's pivot and gear joints to a kinematic control
+body with capped forces: their solver accumulates impulses against a persistent contact and spends the
+whole force limit pushing into it, so a robot pressed on a surface could not slide along it or turn,
+not even frictionless; the servo's force follows the velocity error.)  Static
 geometry is the voxel layer of the static objects as boxes (:mod:`.world`); movable objects (a scene
 ``mass``) are dynamic bodies held back by table friction (:mod:`.objects`), put back at their scene
 pose at rest by every ``reset``.  ``simulate`` uses the same P control law and velocity limits as the
@@ -65,7 +70,7 @@ class PymunkSimulator(SteppedSimulator):
         self.reset(scene.start)
 
     def _add_robot(self, q) -> None:
-        """A fresh robot body, control body and joints at ``q`` (no solver state carried over)."""
+        """A fresh robot body at ``q``, at rest (no solver state carried over)."""
         pymunk, o = self.pymunk, self.options
         if self._robot_objects:
             self.world.remove(*self._robot_objects)
@@ -75,17 +80,13 @@ class PymunkSimulator(SteppedSimulator):
         shapes = robot_shapes(self.context.scene, pymunk, self.body, o.friction)
         for shape in shapes:
             shape.density = o.density
-        self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-        self.control.position = self.body.position
-        self.control.angle = self.body.angle
-        pivot = pymunk.PivotJoint(self.control, self.body, (0, 0), (0, 0))
-        pivot.max_bias = 0.0            # pull with the velocity error only: position drift is the noise's
-        pivot.max_force = o.max_force
-        gear = pymunk.GearJoint(self.control, self.body, 0.0, 1.0)
-        gear.max_bias = 0.0
-        gear.max_force = o.max_torque
-        self._robot_objects = (self.body, *shapes, self.control, pivot, gear)
-        self.world.add(*self._robot_objects)
+        self._robot_objects = (self.body, *shapes)
+        self._servo = (0.0, 0.0, 0.0)       # the commanded frame velocity (vx, vy, omega) of the current step
+        self.servo_effort = (0.0, 0.0)      # |force| (N) and |torque| (N m) the servo applied in the last substep
+        self.world.add(*self._robot_objects)            # (pymunk sets the mass properties from the shapes here)
+        r2 = self.body.center_of_gravity.length_squared     # the origin's squared distance from the centre of mass
+        inertia = self.body.moment + self.body.mass * r2    # about the origin
+        self._servo_gain = (1.0 - math.sqrt(self.body.mass * r2 / inertia), inertia)
 
     def _add_objects(self) -> None:
         """Fresh bodies for the movable objects at their scene poses, at rest."""
@@ -114,18 +115,42 @@ class PymunkSimulator(SteppedSimulator):
 
     def step(self, velocity, dt, rng):
         v = self.actuate(velocity, rng)
-        # the control body leads the robot: it starts each step where the robot is
-        self.control.position = self.body.position
-        self.control.angle = self.body.angle
-        self.control.velocity = (float(v[0]), float(v[1]))
-        self.control.angular_velocity = float(v[2])
+        self._servo = (float(v[0]), float(v[1]), float(v[2]))
         touched = False
         h = dt / self.substeps
         for _ in range(self.substeps):
+            self._apply_servo(h)
             self.world.step(h)
             touched = touched or self._touching()
         self._contact = touched
         return self.configuration()
+
+    def _apply_servo(self, h: float) -> None:
+        """Apply the capped force at the frame's origin and the capped torque that drive the frame toward the
+        commanded velocity.
+
+        The two are independent, as the kinematic simulator's effort limits are (force on the frame's
+        translation, torque on its rotation): ``F = g m dv / h`` with ``dv`` the origin's velocity error,
+        capped at ``|F| <= max_force``, and ``tau = g I_o dw / h`` (``I_o`` the moment of inertia about the
+        origin), capped at ``max_torque``.  The gain ``g = 1 - c`` with ``c = sqrt(m r^2 / I_o)`` (``r`` the
+        origin's distance from the centre of mass) is the largest for which the decoupled servo cannot
+        overshoot the coupled body: the whole error in one substep for a body driven at its centre of mass.
+        """
+        body, o = self.body, self.options
+        vx, vy, w = self._servo
+        gain, inertia = self._servo_gain
+        origin = body.local_to_world((0.0, 0.0))
+        v0 = body.velocity_at_local_point((0.0, 0.0))
+        fx = gain * body.mass * (vx - v0.x) / h
+        fy = gain * body.mass * (vy - v0.y) / h
+        norm = math.hypot(fx, fy)
+        if norm > o.max_force:
+            fx, fy = fx * o.max_force / norm, fy * o.max_force / norm
+        tau = gain * inertia * (w - body.angular_velocity) / h
+        tau = max(-o.max_torque, min(o.max_torque, tau))
+        body.apply_force_at_world_point((fx, fy), origin)
+        body.torque += tau
+        self.servo_effort = (math.hypot(fx, fy), abs(tau))
 
     def _touching(self) -> bool:
         hits = []

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from pliant_voxel.formula import cost_tables, deformation_cost
+from pliant_voxel.formula import compress_table, cost_tables, deformation_cost
 
 
 def test_hard_robot_on_soft_environment_costs_the_environment_sensitivity():
@@ -56,3 +56,22 @@ def test_tables_free_space_is_zero_and_outside_is_nan():
 
 def test_subnormal_deformability_keeps_the_cost_between_the_sensitivities():
     assert deformation_cost(5e-324, 0.75, 0.0, 0.0) == pytest.approx(0.75)
+
+
+@given(st.integers(1, 3), st.integers(1, 40), st.integers(0, 2**32 - 1))
+def test_compress_table_reproduces_every_column(classes, columns, seed):
+    """``lut[:, materials]`` is the table again, NaN where it was NaN, with as many ids as distinct columns."""
+    rng = np.random.default_rng(seed)
+    distinct = rng.choice([0.0, 0.25, 1.0, np.nan], size=(classes, 4))
+    table = distinct[:, rng.integers(0, 4, size=columns)]
+    materials, lut = compress_table(table)
+    assert materials.dtype == np.uint8 and materials.shape == (columns,)
+    np.testing.assert_array_equal(lut[:, materials], table)          # NaN == NaN for assert_array_equal
+    assert lut.shape[1] == len({tuple(np.nan_to_num(c, nan=-1.0)) for c in table.T})
+
+
+def test_compress_table_widens_the_ids_beyond_256_materials():
+    table = np.arange(300.0)[None]
+    materials, lut = compress_table(table)
+    assert materials.dtype == np.uint16
+    np.testing.assert_array_equal(lut[:, materials], table)

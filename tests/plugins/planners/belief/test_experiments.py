@@ -76,3 +76,23 @@ def test_fresh_forgets_only_the_variants_being_run(tmp_path, monkeypatch):
     assert [r["variant"] for r in left] == [first, second]             # the other variant's task is kept
     assert left[1]["executions"] == {"unblocked": [{"outcome": "success", "actions": 10, "seconds": 5.0}],
                                      "blocked": [{"outcome": "success", "actions": 10, "seconds": 5.0}]}
+
+
+def test_baxter_reach_compares_the_belief_planner_with_contact_rrt_and_its_pipeline_builds():
+    import pliant
+
+    variants = {v.label: v for v in experiments()["baxter-reach"]}
+    assert list(variants) == ["belief", "contact RRT"]
+    assert {v.pipeline for v in variants.values()} == {"baxter-policy"}
+    assert variants["belief"].overrides == ()
+    contact = variants["contact RRT"].overrides
+    assert 'planner.mode="contact"' in contact and 'simulator.noise="none"' in contact
+    assert not any(o.startswith("execution.") for o in contact)       # executed with the pipeline's noise
+    pipeline = pliant.Pipeline.from_file("baxter-policy", overrides=list(contact))
+    context = pipeline.build()
+    assert context.extras["planner"].options.mode == "contact"
+    assert context.simulator.noise.model == "none"
+    simulator = pipeline.execution_simulator(context)
+    assert type(simulator).__name__ == "PybulletSimulator"
+    assert simulator.noise.model == "proportional" and simulator.per_actuator
+    np.testing.assert_allclose(simulator.limits, [0.5, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0])

@@ -207,6 +207,31 @@ def test_self_collision_momentum_model_keeps_an_arm_out_of_itself():
     assert not ctx.robot.self_collision(modelled.trajectories[0]).any()
 
 
+def test_self_contacts_with_non_finite_geometry_are_left_out():
+    """coal sometimes reports a colliding link pair of Baxter's arm with NaN witness points and normal; one
+    such row turned the damped least squares into NaN joints.  The simulator drops it and resolves the
+    others: the folded iiwa still ends out of collision, with finite joints."""
+    ctx = Context(scene=load_scene("iiwa-shelf"))
+    ctx.robot = registry.create("robot", "pinocchio", ctx)
+    real = ctx.robot.self_contacts
+
+    def with_a_broken_row(q):
+        c = real(q)
+        if c is None or len(c) == 0:
+            return c
+        fields = {name: np.concatenate([value, np.full_like(value[:1], np.nan)]) for name, value in vars(c).items()}
+        return type(c)(**fields)
+
+    ctx.robot.self_contacts = with_a_broken_row
+    sim = registry.create("simulator", "kinematic", ctx)
+    folded = np.array([2.9, 2.0, 0.0, -2.0, 0.0, 2.0, 0.0])
+    assert len(sim._self_contacts(folded)) == len(real(folded)) > 0
+    out = sim.simulate(np.array([[2.9, 0.0, 0.0, -0.5, 0.0, 0.5, 0.0]]), folded, np.random.default_rng(0), 5.0,
+                       record=True)
+    assert np.isfinite(out.trajectories).all()
+    assert not ctx.robot.self_collision(out.trajectories[0]).any()
+
+
 def test_self_contacts_of_a_rigid_body_are_none(scene_context):
     assert scene_context("se2-maze").robot.self_contacts(np.array([7.75, 7.75, 0.0])) is None
 

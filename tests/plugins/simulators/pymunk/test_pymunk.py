@@ -36,13 +36,41 @@ def test_commanded_into_a_wall_it_stops_at_contact_with_bounded_force(maze):
     rng = np.random.default_rng(0)
     for _ in range(30):
         q = pm.step(np.array([0.0, 1.0, 0.0]), 0.1, rng)
-        pivot = next(c for c in pm.world.constraints if type(c).__name__ == "PivotJoint")
-        assert pivot.impulse / (0.1 / pm.substeps) <= 500.0 * (1 + 1e-6)
+        assert pm.servo_effort[0] <= 500.0 * (1 + 1e-9)
     assert pm.in_contact()
+    # at rest against the wall, the wall holds exactly the servo's saturated force
+    pushes = []
+    pm.body.each_arbiter(lambda arbiter: pushes.append(arbiter.total_impulse))
+    wall_force = sum(pushes, start=pushes[0] * 0) / (0.1 / pm.substeps)
+    assert pm.servo_effort[0] == pytest.approx(500.0)
+    assert abs(wall_force.y) == pytest.approx(500.0, rel=0.05)
     points = maze.robot.body_points(q)
     # the L's top arm ends 1.5 above the reference: it rests against the top wall (y = 9.5) without entering it
     assert q[1] + 1.5 == pytest.approx(9.5 - 0.125 / 2, abs=0.1)
     assert grid.colliding(points).sum() <= 0.1 * points.shape[1]
+
+
+def test_pressed_on_a_ledge_and_commanded_along_it_the_block_slides_as_in_the_kinematic_model(maze):
+    """se2-maze's goal pocket: the L rests on the ledge of the bottom corridor's dead end (its x-arm's left
+    end on the wall below y = 1 left of x = 0.5) and is driven by the contact controller toward the goal,
+    mostly down into the ledge.  The servo's force follows the velocity error, so the block slides right
+    until it drops into the pocket, as in the frictionless planning model (pymunk's capped pivot joint spent
+    its whole force pushing down and the block never moved, frictionless too)."""
+    from pliant.execution import drive
+
+    pipeline = Pipeline.from_file("maze-policy", overrides=["planner.progress=false"])   # friction 0.1, noise
+    context = pipeline.build()
+    start, target = np.array([0.645, 1.25, 0.0]), np.array([0.75, 0.75, 0.0])
+    for seed in range(3):
+        finals = []
+        for simulator in (pipeline.execution_simulator(context), context.simulator):
+            simulator.reset(start)
+            states, _, _, outcome = drive(simulator, context.controller, target, np.random.default_rng(seed),
+                                          time_limit=30.0)
+            assert outcome == "reached"
+            finals.append(states[-1])
+        assert finals[0][1] < 0.85 and finals[1][1] < 0.85       # both dropped below the ledge (y = 1.25 on it)
+        assert np.abs(finals[0][:2] - finals[1][:2]).max() < 0.1
 
 
 def test_the_scene_bounds_are_walls_where_free_space_reaches_them(maze):
