@@ -10,7 +10,11 @@ distance (SE(2) metric of the space) to pymunk's, the median absolute final rota
 largest rotation *away from the command* (how much farther from the target heading than the start the
 body ends up), which a rotation speed limit makes impossible without contact forces.
 
-    python benchmarks/bench_kinematic_agreement.py [--pairs 50]
+    python benchmarks/bench_kinematic_agreement.py [--pairs 50] [--friction MU] [--effort-length L]
+
+``--friction`` sets pymunk's Coulomb coefficient (default: pymunk's 0.5; the maze pipelines execute at 0.1)
+and ``--effort-length`` the kinematic effort solver's lever arm (default: the body's radius of gyration;
+the maze pipelines use 1.0 m, pymunk's torque over force limit).
 """
 
 from __future__ import annotations
@@ -58,13 +62,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--pairs", type=int, default=50)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--friction", type=float, default=None, help="pymunk's friction (default its own, 0.5)")
+    parser.add_argument("--effort-length", type=float, default=None, help="the effort solver's lever arm (m)")
     args = parser.parse_args()
     ctx = Context(scene=pliant.load_scene("se2-maze"))
     ctx.robot = pliant.registry.create("robot", "rigid", ctx)
     space = ctx.robot.space
     starts, targets = sample_pairs(ctx, args.pairs, np.random.default_rng(args.seed))
 
-    pymunk = pliant.registry.create("simulator", "pymunk", ctx, **CONTROL)
+    dynamic = {} if args.friction is None else {"friction": args.friction}
+    pymunk = pliant.registry.create("simulator", "pymunk", ctx, **CONTROL, **dynamic)
     t = time.perf_counter()
     reference = np.array([pymunk.simulate(s[None], g, np.random.default_rng(0), DURATION).final[0]
                           for s, g in zip(starts, targets)])
@@ -72,7 +79,8 @@ def main() -> None:
 
     rows, results = [], {}
     for solver in SOLVERS:
-        sim = pliant.registry.create("simulator", "kinematic", ctx, solver=solver, **CONTROL)
+        lever = {} if args.effort_length is None or solver != "effort" else {"effort_length": args.effort_length}
+        sim = pliant.registry.create("simulator", "kinematic", ctx, solver=solver, **CONTROL, **lever)
         sim.simulate(starts[:2], targets[:2], np.random.default_rng(0), 0.2)          # compile the kernels
         t = time.perf_counter()
         out = sim.simulate(starts, targets, np.random.default_rng(0), DURATION)
@@ -90,11 +98,12 @@ def main() -> None:
     drift = heading_drift(starts, reference, targets)
     rows.append(("(pymunk itself)", "-", "-", "-", "-", f"{drift.max():.3f}", "-", f"{pymunk_time:.2f}"))
     print_table(f"se2-maze, {args.pairs} random (start, target) pairs, {DURATION:g} s without noise: "
-                "final-configuration distance kinematic vs pymunk",
+                f"final-configuration distance kinematic vs pymunk (friction {pymunk.options.friction:g})",
                 ("kinematic solver", "median", "mean", "p90", "median |dtheta|", "max heading drift (rad)",
                  "in contact", "seconds"), rows)
     write_json("kinematic_agreement", {"pairs": args.pairs, "seed": args.seed, "duration": DURATION,
-                                       "control": CONTROL, "starts": starts.tolist(), "targets": targets.tolist(),
+                                       "control": CONTROL, "friction": pymunk.options.friction,
+                                       "effort_length": args.effort_length, "starts": starts.tolist(), "targets": targets.tolist(),
                                        "pymunk_final": reference.tolist(), "pymunk_seconds": pymunk_time,
                                        "kinematic": results})
 

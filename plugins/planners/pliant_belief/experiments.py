@@ -17,7 +17,8 @@ Experiments (pipelines in ``scenes/pipelines``):
 - ``maze-frictionless``: the same policies' executions in a frictionless pymunk, as the planner's
   kinematic model (app. B) is.
 - ``table-5.1``: se3-peg-in-hole (``peg-policy``), gamma = 1/8, clustering PC, AC and WCR at
-  D_WCR in {0.125, 0.25, 0.5, 0.75, 0.99}.
+  D_WCR in {0.125, 0.25, 0.5, 0.75, 0.99} (the pipeline samples target orientations within 0.5 rad of
+  upright, ``planner.rotation_spread``), and WCR 0.75 with the thesis's uniform rotations.
 - ``table-5.2``: se3-peg-in-hole, Simple RRT, Contact RRT, 24 and 48 particles, gamma in
   {0, 1/16, 1/8, 1/4}.
 - ``baxter-reach``: thesis 5.4.2, Baxter's right arm reaching into a hole (``baxter-policy``, noise
@@ -67,6 +68,8 @@ def experiments() -> dict[str, list[Variant]]:
                 Variant("AC", "peg-policy", ('planner.clustering="ac"',))]
     table_51 += [Variant(f"WCR {t}", "peg-policy", ('planner.clustering="wcr"', f"planner.wcr_threshold={t}"))
                  for t in (0.125, 0.25, 0.5, 0.75, 0.99)]
+    table_51 += [Variant("WCR 0.75, uniform rotations", "peg-policy",
+                         ('planner.clustering="wcr"', "planner.wcr_threshold=0.75", "planner.rotation_spread=null"))]
     table_52 = []
     for g in (0.0, 1 / 16, 1 / 8, 1 / 4):
         table_52 += [Variant(f"simple, gamma {g:g}", "peg-policy", ('planner.mode="simple"', *_gamma(g))),

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import ConfigError
+from pliant.geometry import quat_from_axis_angle, quat_multiply
 from pliant.interfaces import Planner, PlanningProblem
 from pliant.options import option
 from pliant.progress import ProgressLine
@@ -53,6 +54,9 @@ class BeliefPlannerOptions:
     importance: float = option(500.0, "A_importance of eq. 5.2-5.3: weight of an executed outcome against one "
                                "simulated particle when the policy adapts", minimum=0.0)
     goal_bias: float = option(0.1, "probability of targeting the goal", minimum=0.0, maximum=1.0)
+    rotation_spread: float | None = option(None, "sample target orientations within this angle (rad) of the "
+                                           "goal's (SE(2), SE(3) robots; not in the thesis, which samples the "
+                                           "whole rotation group: the default)", minimum=0.0)
     alpha_p: float = option(0.75, "alpha_P of eq. 5.1: weight of the path probability", minimum=0.0, maximum=1.0)
     alpha_v: float = option(0.75, "alpha_V of eq. 5.1: weight of the belief's variance", minimum=0.0, maximum=1.0)
     max_step: float = option(2.0, "largest distance of one action's target from the node's expected "
@@ -129,7 +133,7 @@ class BeliefPlanner(Planner):
             iteration = 0
             while not termination.should_stop(iteration, solved=bool(tree.solutions)):
                 iteration += 1
-                target = goal if rng.random() < o.goal_bias else space.sample(rng, 1)[0]
+                target = goal if rng.random() < o.goal_bias else self._sample(space, goal, rng)
                 near = self._nearest(tree, target)
                 if near < 0:
                     break
@@ -200,6 +204,21 @@ class BeliefPlanner(Planner):
                                      distance_threshold=o.distance_threshold, rng=rng)
 
         return cluster
+
+    def _sample(self, space, goal: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """A uniform sample of the space; with ``rotation_spread``, its orientation replaced by the goal's
+        turned by an angle uniform in ``[0, spread]`` (about a uniformly random axis in SE(3))."""
+        q = space.sample(rng, 1)[0]
+        spread = self.options.rotation_spread
+        if spread is None or space.kind not in ("se2", "se3"):
+            return q
+        if space.kind == "se2":
+            q[2] = (goal[2] + rng.uniform(-spread, spread) + np.pi) % (2 * np.pi) - np.pi
+            return q
+        axis = rng.normal(size=3)
+        turn = quat_from_axis_angle(axis / np.linalg.norm(axis), np.array(rng.uniform(0.0, spread)))
+        q[3:7] = quat_multiply(goal[3:7], turn)
+        return q
 
     def _nearest(self, tree: BeliefTree, target: np.ndarray) -> int:
         """The node of least PROXIMITY (eq. 5.1) among those not excluded; -1 if none."""

@@ -29,6 +29,9 @@ from pliant_pymunk.objects import add_object, planar_objects
 from pliant_pymunk.world import check_planar, robot_shapes, static_walls
 
 
+BLOCK_SPEED = 0.1       # m/s: velocity error into a contact at which the servo pushes with its whole force
+
+
 @dataclass(frozen=True)
 class PymunkOptions(SteppedOptions):
     """Options of :class:`PymunkSimulator` (the shared ones: :class:`pliant.stepping.SteppedOptions`)."""
@@ -80,13 +83,20 @@ class PymunkSimulator(SteppedSimulator):
         shapes = robot_shapes(self.context.scene, pymunk, self.body, o.friction)
         for shape in shapes:
             shape.density = o.density
-        self._robot_objects = (self.body, *shapes)
-        self._servo = (0.0, 0.0, 0.0)       # the commanded frame velocity (vx, vy, omega) of the current step
-        self.servo_effort = (0.0, 0.0)      # |force| (N) and |torque| (N m) the servo applied in the last substep
+        # rotation: a gear joint to a kinematic control body turning at the commanded rate, torque capped (a
+        # scalar constraint, solved together with the contacts)
+        self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self.control.angle = self.body.angle
+        self.gear = pymunk.GearJoint(self.control, self.body, 0.0, 1.0)
+        self.gear.max_bias = 0.0            # hold the rate only: heading drift is the noise's
+        self.gear.max_force = o.max_torque
+        self._robot_objects = (self.body, *shapes, self.control, self.gear)
+        self._servo = (0.0, 0.0)            # the commanded velocity (vx, vy) of the frame's origin in this step
+        self.servo_force = 0.0              # |force| (N) the translation servo applied in the last substep
+        self._normals: list[tuple[float, float]] = []    # the contacts' normals in the last substep
         self.world.add(*self._robot_objects)            # (pymunk sets the mass properties from the shapes here)
         r2 = self.body.center_of_gravity.length_squared     # the origin's squared distance from the centre of mass
-        inertia = self.body.moment + self.body.mass * r2    # about the origin
-        self._servo_gain = (1.0 - math.sqrt(self.body.mass * r2 / inertia), inertia)
+        self._servo_gain = 1.0 - math.sqrt(self.body.mass * r2 / (self.body.moment + self.body.mass * r2))
 
     def _add_objects(self) -> None:
         """Fresh bodies for the movable objects at their scene poses, at rest."""
@@ -115,7 +125,9 @@ class PymunkSimulator(SteppedSimulator):
 
     def step(self, velocity, dt, rng):
         v = self.actuate(velocity, rng)
-        self._servo = (float(v[0]), float(v[1]), float(v[2]))
+        self._servo = (float(v[0]), float(v[1]))
+        self.control.angle = self.body.angle
+        self.control.angular_velocity = float(v[2])
         touched = False
         h = dt / self.substeps
         for _ in range(self.substeps):
@@ -126,33 +138,40 @@ class PymunkSimulator(SteppedSimulator):
         return self.configuration()
 
     def _apply_servo(self, h: float) -> None:
-        """Apply the capped force at the frame's origin and the capped torque that drive the frame toward the
-        commanded velocity.
+        """Apply the capped force at the frame's origin that drives the origin toward the commanded velocity.
 
-        The two are independent, as the kinematic simulator's effort limits are (force on the frame's
-        translation, torque on its rotation): ``F = g m dv / h`` with ``dv`` the origin's velocity error,
-        capped at ``|F| <= max_force``, and ``tau = g I_o dw / h`` (``I_o`` the moment of inertia about the
-        origin), capped at ``max_torque``.  The gain ``g = 1 - c`` with ``c = sqrt(m r^2 / I_o)`` (``r`` the
-        origin's distance from the centre of mass) is the largest for which the decoupled servo cannot
-        overshoot the coupled body: the whole error in one substep for a body driven at its centre of mass.
+        A stiff velocity servo, as the constraint it replaces: in free directions ``F = g m dv / h`` (``dv``
+        the origin's velocity error; ``g = 1 - c``, ``c = sqrt(m r^2 / I_o)``, ``r`` the origin's distance
+        from the centre of mass, ``I_o`` the moment of inertia about the origin: the largest gain for which
+        the force, which also turns the body when ``r > 0``, cannot overshoot, the whole error in one substep
+        for a body driven at its centre of mass); along the normal of a contact the command pushes into (from
+        the last substep), the gain that saturates at ``block_speed`` of error, so a blocked robot pushes
+        with its full force however light it is.  The norm is capped at ``max_force``.
         """
         body, o = self.body, self.options
-        vx, vy, w = self._servo
-        gain, inertia = self._servo_gain
-        origin = body.local_to_world((0.0, 0.0))
+        vx, vy = self._servo
         v0 = body.velocity_at_local_point((0.0, 0.0))
-        fx = gain * body.mass * (vx - v0.x) / h
-        fy = gain * body.mass * (vy - v0.y) / h
+        ex, ey = vx - v0.x, vy - v0.y
+        free = self._servo_gain * body.mass / h
+        fx, fy = free * ex, free * ey
+        blocked = max(((ex * nx + ey * ny, nx, ny) for nx, ny in self._normals), default=(0.0, 0.0, 0.0))
+        if blocked[0] > 0.0:                  # the command pushes into a contact: stiff along its normal
+            extra = max(o.max_force / BLOCK_SPEED - free, 0.0) * blocked[0]
+            fx, fy = fx + extra * blocked[1], fy + extra * blocked[2]
         norm = math.hypot(fx, fy)
         if norm > o.max_force:
             fx, fy = fx * o.max_force / norm, fy * o.max_force / norm
-        tau = gain * inertia * (w - body.angular_velocity) / h
-        tau = max(-o.max_torque, min(o.max_torque, tau))
-        body.apply_force_at_world_point((fx, fy), origin)
-        body.torque += tau
-        self.servo_effort = (math.hypot(fx, fy), abs(tau))
+        body.apply_force_at_world_point((fx, fy), body.local_to_world((0.0, 0.0)))
+        self.servo_force = math.hypot(fx, fy)
 
     def _touching(self) -> bool:
-        hits = []
-        self.body.each_arbiter(lambda arbiter: hits.append(arbiter))
-        return bool(hits)
+        """Whether the robot touches anything; keeps the contact normals (unit, from the robot outward)."""
+        normals = []
+
+        def collect(arbiter):
+            n = arbiter.normal if arbiter.shapes[0].body is self.body else -arbiter.normal
+            normals.append((float(n.x), float(n.y)))
+
+        self.body.each_arbiter(collect)
+        self._normals = normals
+        return bool(normals)

@@ -134,3 +134,33 @@ def test_a_solution_branch_leaves_nearest_neighbour_lookups_back_to_its_base(ret
         assert len(firsts) >= 2 and len(set(firsts)) == len(firsts)    # each leaves the start differently
         below = {i for i, n in enumerate(tree.nodes) if n.parent in tree.excluded}
         assert below <= tree.excluded                     # nothing under a retired node is a candidate
+
+
+@pytest.mark.parametrize("spread", [0.0, 0.3, 1.0])
+def test_rotation_spread_keeps_sampled_orientations_near_the_goals(spread):
+    """SE(3): every sampled target's orientation is within ``spread`` of the goal's, positions still cover
+    the bounds; without the option, samples cover the rotation group (some beyond any small spread)."""
+    from pliant import load_scene, registry
+    from pliant.geometry import quat_angle
+    from pliant.interfaces import Context
+
+    ctx = Context(scene=load_scene("se3-peg-in-hole"))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    space, goal = ctx.robot.space, np.asarray(ctx.scene.goal, dtype=np.float64)
+    planner = registry.create("planner", "belief", ctx, rotation_spread=spread)
+    rng = np.random.default_rng(7)
+    samples = np.array([planner._sample(space, goal, rng) for _ in range(400)])
+    assert (quat_angle(samples[:, 3:], goal[3:]) <= spread + 1e-9).all()
+    np.testing.assert_allclose(np.linalg.norm(samples[:, 3:], axis=1), 1.0)
+    assert samples[:, :3].min(axis=0).max() < 1.0 and samples[:, :3].max(axis=0).min() > 9.0
+    uniform = registry.create("planner", "belief", ctx)
+    free = np.array([uniform._sample(space, goal, rng) for _ in range(400)])
+    assert (quat_angle(free[:, 3:], goal[3:]) > 1.0).mean() > 0.5
+
+
+def test_rotation_spread_in_se2_bounds_the_heading():
+    problem, planner = maze(rotation_spread=0.25)
+    goal = problem.goal
+    headings = np.array([planner._sample(problem.space, goal, np.random.default_rng(k))[2] for k in range(200)])
+    assert np.abs((headings - goal[2] + np.pi) % (2 * np.pi) - np.pi).max() <= 0.25 + 1e-12
+    assert np.ptp(headings) > 0.3

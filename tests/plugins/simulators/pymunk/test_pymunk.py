@@ -36,13 +36,13 @@ def test_commanded_into_a_wall_it_stops_at_contact_with_bounded_force(maze):
     rng = np.random.default_rng(0)
     for _ in range(30):
         q = pm.step(np.array([0.0, 1.0, 0.0]), 0.1, rng)
-        assert pm.servo_effort[0] <= 500.0 * (1 + 1e-9)
+        assert pm.servo_force <= 500.0 * (1 + 1e-9)
     assert pm.in_contact()
     # at rest against the wall, the wall holds exactly the servo's saturated force
     pushes = []
     pm.body.each_arbiter(lambda arbiter: pushes.append(arbiter.total_impulse))
     wall_force = sum(pushes, start=pushes[0] * 0) / (0.1 / pm.substeps)
-    assert pm.servo_effort[0] == pytest.approx(500.0)
+    assert pm.servo_force == pytest.approx(500.0)
     assert abs(wall_force.y) == pytest.approx(500.0, rel=0.05)
     points = maze.robot.body_points(q)
     # the L's top arm ends 1.5 above the reference: it rests against the top wall (y = 9.5) without entering it
