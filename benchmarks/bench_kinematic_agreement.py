@@ -103,7 +103,8 @@ def main() -> None:
                  "in contact", "seconds"), rows)
     write_json("kinematic_agreement", {"pairs": args.pairs, "seed": args.seed, "duration": DURATION,
                                        "control": CONTROL, "friction": pymunk.options.friction,
-                                       "effort_length": args.effort_length, "starts": starts.tolist(), "targets": targets.tolist(),
+                                       "effort_length": args.effort_length, "starts": starts.tolist(),
+                                       "targets": targets.tolist(),
                                        "pymunk_final": reference.tolist(), "pymunk_seconds": pymunk_time,
                                        "kinematic": results})
 

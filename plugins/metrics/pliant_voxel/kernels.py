@@ -71,7 +71,8 @@ def rigid_state_costs(rotations, positions, local, centre, half, lower, inv_res,
         r = rotations[a]
         inside = True
         for k in range(3):
-            mid = (r[k, 0] * centre[0] + r[k, 1] * centre[1] + r[k, 2] * centre[2] + positions[a, k] - lower[k]) * inv_res
+            mid = (r[k, 0] * centre[0] + r[k, 1] * centre[1] + r[k, 2] * centre[2]
+                   + positions[a, k] - lower[k]) * inv_res
             extent = (abs(r[k, 0]) * half[0] + abs(r[k, 1]) * half[1] + abs(r[k, 2]) * half[2]) * inv_res
             inside = inside and mid - extent >= 1e-6 and mid + extent <= grid[k] - 1e-6
         if inside:

@@ -1,14 +1,13 @@
 """The simulator ``pymunk``: 2-D rigid-body dynamics for planar scenes (thesis 5.4's dynamic execution).
 
-The robot is a dynamic body with mass and friction, driven compliantly by a force-limited velocity
-servo: before every physics substep, the force at the robot frame's origin and the torque that would bring
-the frame to the commanded velocity (plus actuation noise from :mod:`pliant.noise`) within that substep are
-computed from the body's mass and inertia, the force capped in norm at ``max_force`` and the torque at
-``max_torque``, and applied; contacts and friction then act on the body, so the robot complies against
-obstacles instead of passing through them.  (Not pymunk's pivot and gear joints to a kinematic control
-body with capped forces: their solver accumulates impulses against a persistent contact and spends the
-whole force limit pushing into it, so a robot pressed on a surface could not slide along it or turn,
-not even frictionless; the servo's force follows the velocity error.)  Static
+The robot is a dynamic body with mass and friction, driven compliantly at the commanded velocity (plus
+actuation noise from :mod:`pliant.noise`): it turns through a gear joint to a kinematic control body whose
+torque is capped at ``max_torque``, and translates under a force-limited velocity servo on its frame's
+origin (:meth:`PymunkSimulator._apply_servo`, force capped in norm at ``max_force``), so the robot complies
+against obstacles instead of passing through them.  (Not a pivot joint with a capped force: pymunk's solver
+accumulates its impulse against a persistent contact and spends the whole force limit pushing into it, so
+a robot pressed on a surface could not slide along it, not even frictionless; the servo's force follows the
+velocity error.)  Static
 geometry is the voxel layer of the static objects as boxes (:mod:`.world`); movable objects (a scene
 ``mass``) are dynamic bodies held back by table friction (:mod:`.objects`), put back at their scene
 pose at rest by every ``reset``.  ``simulate`` uses the same P control law and velocity limits as the
@@ -27,7 +26,6 @@ from pliant.stepping import SteppedOptions, SteppedSimulator
 
 from pliant_pymunk.objects import add_object, planar_objects
 from pliant_pymunk.world import check_planar, robot_shapes, static_walls
-
 
 BLOCK_SPEED = 0.1       # m/s: velocity error into a contact at which the servo pushes with its whole force
 
