@@ -71,7 +71,7 @@ class PymunkSimulator(SteppedSimulator):
         self.reset(scene.start)
 
     def _add_robot(self, q) -> None:
-        """A fresh robot body at ``q``, at rest (no solver state carried over)."""
+        """A fresh robot body, control body and gear joint at ``q``, at rest (no solver state carried over)."""
         pymunk, o = self.pymunk, self.options
         if self._robot_objects:
             self.world.remove(*self._robot_objects)
@@ -143,7 +143,7 @@ class PymunkSimulator(SteppedSimulator):
         from the centre of mass, ``I_o`` the moment of inertia about the origin: the largest gain for which
         the force, which also turns the body when ``r > 0``, cannot overshoot, the whole error in one substep
         for a body driven at its centre of mass); along the normal of a contact the command pushes into (from
-        the last substep), the gain that saturates at ``block_speed`` of error, so a blocked robot pushes
+        the last substep), the gain that saturates at ``BLOCK_SPEED`` (0.1 m/s) of error, so a blocked robot pushes
         with its full force however light it is.  The norm is capped at ``max_force``.
         """
         body, o = self.body, self.options
