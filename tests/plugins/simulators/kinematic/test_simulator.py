@@ -322,13 +322,17 @@ def test_surface_faces_of_the_l_block_are_its_face_normals():
 
 
 def test_the_corner_case_ends_near_the_dynamic_simulator():
+    """Both slide the L down the passage from the corner; the frictionless kinematic model is compared with
+    pymunk frictionless and at the maze pipelines' friction 0.1 (at pymunk's default 0.5 the pressed block
+    slides 0.14 m less in the 8 s: friction the kinematic model does not have)."""
     start, target = MAZE_CORNERS[0]
     pytest.importorskip("pymunk")
-    dynamic = registry.create("simulator", "pymunk", maze(), **MAZE_CONTROL)
     kinematic = registry.create("simulator", "kinematic", maze(), **MAZE_CONTROL)
     a = kinematic.simulate(start[None], target, np.random.default_rng(0), 8.0).final[0]
-    b = dynamic.simulate(start[None], target, np.random.default_rng(0), 8.0).final[0]
-    assert maze().robot.space.distance(a, b) < 0.1          # it slid down the passage as pymunk does
+    for friction in (0.0, 0.1):
+        dynamic = registry.create("simulator", "pymunk", maze(), friction=friction, **MAZE_CONTROL)
+        b = dynamic.simulate(start[None], target, np.random.default_rng(0), 8.0).final[0]
+        assert maze().robot.space.distance(a, b) < 0.05     # it slid down the passage as pymunk does
 
 
 def test_effort_correction_pushes_a_short_lever_out_without_turning():
