@@ -461,9 +461,11 @@ class PinocchioRobot(RobotModel):
         joints (the link and everything after it, as thesis app. B prescribes).
         """
         full = self.full_configurations(np.atleast_2d(q))[0]
-        pin.computeCollisions(self.model, self.data, self.geometry, self.geometry_data, full, False)
+        d = len(self.joint_ids)
         rows = []
-        for k, result in enumerate(self.geometry_data.collisionResults):
+        # the common case, no pair in contact, skips the per-pair loop (pinocchio returns whether any collides)
+        colliding = pin.computeCollisions(self.model, self.data, self.geometry, self.geometry_data, full, False)
+        for k, result in enumerate(self.geometry_data.collisionResults if colliding else ()):
             if not result.isCollision():
                 continue
             pair = self.geometry.collisionPairs[k]
@@ -472,7 +474,6 @@ class PinocchioRobot(RobotModel):
             jb = self.geometry.geometryObjects[pair.second].parentJoint
             rows.append((ja, jb, np.array(contact.getNearestPoint1()), np.array(contact.getNearestPoint2()),
                          np.array(contact.normal), max(0.0, -float(contact.penetration_depth))))
-        d = len(self.joint_ids)
         if not rows:
             empty = np.zeros((0, 3))
             return SelfContacts(empty, empty, empty, np.zeros(0), np.zeros(0), np.zeros(0), np.zeros((0, 3, d)),
