@@ -111,8 +111,7 @@ def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exe
         return record
     saved = result.policy.to_dict()
     if policy_file is not None:
-        policy_file.parent.mkdir(parents=True, exist_ok=True)
-        policy_file.write_text(json.dumps(saved))
+        result.policy.save(policy_file)
         record["policy_file"] = str(policy_file)
     for world, world_overrides in variant.worlds.items():
         runs = []

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import ConfigError
-from pliant.geometry import quat_from_axis_angle, quat_multiply
+from pliant.geometry import quat_from_axis_angle, quat_multiply, wrap_angle
 from pliant.interfaces import Planner, PlanningProblem
 from pliant.options import option
 from pliant.progress import ProgressLine
@@ -213,7 +213,7 @@ class BeliefPlanner(Planner):
         if spread is None or space.kind not in ("se2", "se3"):
             return q
         if space.kind == "se2":
-            q[2] = (goal[2] + rng.uniform(-spread, spread) + np.pi) % (2 * np.pi) - np.pi
+            q[2] = wrap_angle(goal[2] + rng.uniform(-spread, spread))
             return q
         axis = rng.normal(size=3)
         turn = quat_from_axis_angle(axis / np.linalg.norm(axis), np.array(rng.uniform(0.0, spread)))
@@ -278,16 +278,15 @@ class BeliefPlanner(Planner):
             return False
         branch = tree.branch(index)
         tree.solutions.append(branch)
-        # thesis 5.3.1: walk toward the root to the base of the solution branch (the root or a split result)
-        retired = []
-        for i in reversed(branch):
-            if i == 0:
-                break
-            retired.append(i)
-            if tree.nodes[i].split and self.options.retire == "split":
-                break
-        if self.options.retire == "root" and len(branch) > 1:
-            retired = _subtree(tree, branch[1])
+        if self.options.retire == "root":
+            retired = _subtree(tree, branch[1]) if len(branch) > 1 else []
+        else:
+            # thesis 5.3.1: walk toward the root to the base of the solution branch (the root or a split result)
+            retired = []
+            for i in reversed(branch[1:]):
+                retired.append(i)
+                if tree.nodes[i].split:
+                    break
         tree.excluded.update(retired)
         return True
 
