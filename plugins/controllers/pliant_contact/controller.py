@@ -13,8 +13,12 @@ motion over a sliding window falls below ``stuck_distance``, the robot is stuck 
   target with the context's simulator for one period and interpolate from the target toward the
   simulated configuration by ``i eps_adjust``.
 
-When the robot moves again the original target is commanded (i resets to 0).  When
-``i eps_adjust >= eps_adjust_max`` the controller gives up (``gave_up``): "completely stuck".
+When the robot moves again the original target is commanded; ``i`` resets to 0 only once the robot has
+come closer to the original target than it ever was during this drive, by at least ``stuck_distance``
+(app. C resets ``i`` whenever the robot moves; an adjustment that frees the robot sideways would then reset
+it each time and a robot pressed against a face forever would never give up — seen on Baxter in pybullet,
+every drive into a wall ran to its time limit).  When ``i eps_adjust >= eps_adjust_max`` the controller
+gives up (``gave_up``): "completely stuck".
 The command is ``gain * difference(target', q)`` (tangent units per second); the simulator applies
 its velocity limits.
 """
@@ -64,6 +68,8 @@ class ContactMotionController(Controller):
         self.stuck_iterations = 0
         self.gave_up = False
         self.adjusted_target: np.ndarray | None = None
+        self.closest: float = np.inf            # closest distance to the commanded target in this drive
+        self._target: np.ndarray | None = None
 
     def reached(self, q, target) -> bool:
         return bool(self.space.distance(q, target) <= self.options.tolerance)
@@ -78,7 +84,13 @@ class ContactMotionController(Controller):
     def command(self, q, target, dt):
         q = np.asarray(q, dtype=np.float64)
         target = np.asarray(target, dtype=np.float64)
+        if self._target is None or not np.array_equal(target, self._target):
+            self._target, self.closest, self.stuck_iterations = target.copy(), np.inf, 0
         self.history.append(q.copy())
+        distance = float(self.space.distance(q, target))
+        progressed = distance <= self.closest - self.options.stuck_distance
+        if progressed:
+            self.closest = distance
         goal = target
         if self.is_stuck():
             self.stuck_iterations += 1
@@ -87,7 +99,7 @@ class ContactMotionController(Controller):
                 self.gave_up = True
                 return np.zeros(self.space.tangent_dim)
             goal = self._adjust(q, target, fraction, dt)
-        else:
+        elif progressed:
             self.stuck_iterations = 0
         self.adjusted_target = goal
         return self.options.gain * self.space.difference(goal, q)

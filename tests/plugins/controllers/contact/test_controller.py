@@ -50,6 +50,29 @@ def test_gives_up_after_eps_adjust_max(scene_context):
     assert not ctrl.gave_up and ctrl.stuck_iterations == 0
 
 
+def test_moving_without_progress_keeps_counting_toward_giving_up(scene_context):
+    # pressed against the wall y = 2 below a target straight behind it: each adjustment lets the robot slide
+    # sideways and back (it moves, so the window is not stuck) without coming closer to the target
+    ctx = scene_context("se2-maze")
+    ctrl = registry.create("controller", "contact", ctx, window=2, stuck_distance=0.01, eps_adjust=0.1)
+    target = np.array([4.0, 5.0, 0.0])
+    wall = np.array([4.0, 2.0, 0.0])
+    for _ in range(3):
+        ctrl.command(wall, target, 0.1)
+    assert ctrl.stuck_iterations == 1
+    for _ in range(6):
+        for dx in (0.0, 0.0, 0.0, 0.3, 0.0):         # stuck, then an excursion along the wall and back
+            ctrl.command(wall + [dx, 0.0, 0.0], target, 0.1)
+    assert ctrl.gave_up
+    # coming closer to the target than ever before resets the count
+    ctrl = registry.create("controller", "contact", ctx, window=2, stuck_distance=0.01, eps_adjust=0.1)
+    for _ in range(3):
+        ctrl.command(wall, target, 0.1)
+    assert ctrl.stuck_iterations == 1
+    ctrl.command(np.array([4.0, 2.5, 0.0]), target, 0.1)
+    assert ctrl.stuck_iterations == 0 and not ctrl.gave_up
+
+
 def test_execution_slides_the_peg_into_the_hole(peg):
     ctrl = registry.create("controller", "contact", peg, gain=2.0)
     path = Path(np.array([pose(7, 7, 5), pose(5.6, 5.6, 3.5), pose(5, 5, 3.3), pose(5, 5, 0.625)]))

@@ -6,12 +6,14 @@ import math
 import xml.etree.ElementTree as ET
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from pliant import Scene, load_scene, registry
 from pliant.errors import ConfigError, DimensionError, PliantError, SceneError
 from pliant.interfaces import Context
 from pliant.testing import check_robot
 from pliant.testing.conformance import check_component
+from pliant_pinocchio.kinematics import PRISMATIC, JointChain
 
 IIWA_LINK_7 = "lbr_iiwa_link_7"
 #: a point on the iiwa's flange face, in the link 7 frame (m): the top of link_7.stl
@@ -78,6 +80,10 @@ def test_whole_body_jacobians_only_move_what_each_joint_carries():
     idx = np.arange(0, pr2.point_count(), 3)
     jac = pr2.point_jacobians(q, idx)
     assert np.allclose(jac, _finite_differences(pr2, q, idx), atol=1e-6)
+    # the batched chain with a prismatic group joint (the torso) and unaligned finger joints
+    assert pr2._chain is not None and pr2._chain.kind[1] == PRISMATIC
+    assert np.allclose(jac, pr2._point_jacobians_reference(q, idx), rtol=0, atol=1e-10)
+    assert np.allclose(pr2.body_points(q), pr2._body_points_reference(q), rtol=0, atol=1e-10)
     on_left = np.array([pr2.model.names[int(j)].startswith("l_") for j in pr2.point_joint[idx]])
     right_columns = [k for k, name in enumerate(pr2.joint_names) if name.startswith("r_")]
     assert on_left.any() and np.all(jac[0][on_left][..., right_columns] == 0.0)
@@ -117,6 +123,123 @@ def test_iiwa_jacobian_matches_pybullet(iiwa):
             assert np.allclose(iiwa.frame_position(q, IIWA_LINK_7, FLANGE)[0], flange_world, atol=1e-9)
     finally:
         pb.disconnect(client)
+
+
+# --- batched kinematics (pliant_pinocchio.kinematics) against pinocchio ---------------------------
+
+
+def _pinocchio_points(robot, q, indices):
+    """World points ``(n, k, 3)`` from pinocchio's forward kinematics, one configuration at a time."""
+    out = []
+    for x in robot.full_configurations(q):
+        pin.forwardKinematics(robot.model, robot.data, x)
+        rot = np.array([robot.data.oMi[int(j)].rotation for j in robot.point_joint[indices]])
+        pos = np.array([robot.data.oMi[int(j)].translation for j in robot.point_joint[indices]])
+        out.append(np.einsum("kij,kj->ki", rot, robot.local_points[indices]) + pos)
+    return np.array(out)
+
+
+def _pinocchio_jacobians(robot, q, indices):
+    """``(n, k, 3, d)`` from pinocchio's joint Jacobians (LOCAL_WORLD_ALIGNED, at each joint's origin)."""
+    out = []
+    for x, world in zip(robot.full_configurations(q), _pinocchio_points(robot, q, indices)):
+        pin.computeJointJacobians(robot.model, robot.data, x)
+        rows = []
+        for j, p in zip(robot.point_joint[indices], world):
+            jac = pin.getJointJacobian(robot.model, robot.data, int(j), pin.LOCAL_WORLD_ALIGNED)[:, robot.idx_v]
+            lever = p - robot.data.oMi[int(j)].translation
+            rows.append(jac[:3] + np.cross(jac[3:].T, lever).T)           # v_o + w x (p - o), per column
+        out.append(rows)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("name", ["iiwa", "pr2", "baxter"])
+def test_batched_body_points_and_jacobians_equal_pinocchio(name, request):
+    robot = request.getfixturevalue(name)
+    assert robot._chain is not None                         # the batched path, not the fallback loop
+    rng = np.random.default_rng(11)
+    q = np.vstack([robot.space.sample(rng, 4), robot.space.lower, robot.space.upper])
+    every = np.arange(robot.point_count())
+    assert np.allclose(robot.body_points(q), _pinocchio_points(robot, q, every), rtol=0, atol=1e-10)
+    assert np.allclose(robot.body_points(q), robot._body_points_reference(q), rtol=0, atol=1e-10)
+    assert np.allclose(robot.point_jacobians(q), robot._point_jacobians_reference(q), rtol=0, atol=1e-10)
+    # unsorted, repeated and negative point indices, and a single configuration (d,)
+    idx = np.concatenate([rng.integers(0, robot.point_count(), 40), [-1, 0, 0]])
+    wrapped = idx % robot.point_count()
+    assert np.allclose(robot.body_points(q, idx), _pinocchio_points(robot, q, wrapped), rtol=0, atol=1e-10)
+    jac = robot.point_jacobians(q, idx)
+    assert jac.shape == (len(q), len(idx), 3, robot.space.dim)
+    assert np.allclose(jac, _pinocchio_jacobians(robot, q, wrapped), rtol=0, atol=1e-10)
+    assert np.allclose(jac, robot._point_jacobians_reference(q, idx), rtol=0, atol=1e-10)
+    assert np.allclose(robot.body_points(q[1], idx), robot.body_points(q, idx)[1:2], rtol=0, atol=0)
+    assert robot.body_points(q, []).shape == (len(q), 0, 3)
+    assert robot.point_jacobians(q, np.zeros(0, dtype=int)).shape == (len(q), 0, 3, robot.space.dim)
+
+
+_ODD_LINKS = """<robot name="odd">
+  <link name="base"/>
+  <link name="upper"><collision><origin xyz="0 0 0.15"/><geometry><box size="0.06 0.05 0.3"/></geometry>
+  </collision></link>
+  <link name="lower"><collision><origin xyz="0.1 0 0" rpy="0 1.57 0"/><geometry><cylinder radius="0.03"
+  length="0.2"/></geometry></collision></link>
+"""
+
+
+def _odd_robot(tmp_path, joints: str, dim: int):
+    path = tmp_path / "odd.urdf"
+    path.write_text(_ODD_LINKS + joints + "</robot>")
+    scene = _scene(path.name, dim=dim, source=str(tmp_path / "scene.toml"))
+    return registry.create("robot", "pinocchio", Context(scene=scene), resolution=0.04)
+
+
+def test_floating_and_planar_joints_off_the_group_are_fixed_in_the_batched_chain(tmp_path):
+    # free-flyer and planar joints (not in any group: nv > 1) at their posture, then unaligned revolute and
+    # prismatic group joints
+    robot = _odd_robot(tmp_path, """
+  <link name="floating_link"/><link name="planar_link"/>
+  <joint name="float" type="floating"><parent link="base"/><child link="floating_link"/>
+    <origin xyz="0.1 0.2 0.3" rpy="0.1 0.2 0.3"/></joint>
+  <joint name="slide" type="planar"><parent link="floating_link"/><child link="planar_link"/>
+    <origin xyz="0 0 0.1" rpy="0.3 0 0"/><axis xyz="0 0 1"/></joint>
+  <joint name="shoulder" type="revolute"><parent link="planar_link"/><child link="upper"/>
+    <origin xyz="0 0 0.05" rpy="0 0.2 0"/><axis xyz="0.6 0 0.8"/><limit lower="-2" upper="2" effort="1" velocity="1"/>
+  </joint>
+  <joint name="reach" type="prismatic"><parent link="upper"/><child link="lower"/><origin xyz="0 0 0.3"/>
+    <axis xyz="0 0.6 0.8"/><limit lower="-0.1" upper="0.2" effort="1" velocity="1"/></joint>
+""", dim=2)
+    kinds = [robot.model.joints[j].shortname() for j in range(1, robot.model.njoints)]
+    assert kinds == ["JointModelFreeFlyer", "JointModelPlanar", "JointModelRevoluteUnaligned",
+                     "JointModelPrismaticUnaligned"]
+    assert robot._chain is not None and robot._chain.joints.tolist() == [0, 1, 2, 3, 4]
+    q = robot.space.sample(np.random.default_rng(1), 5)
+    every = np.arange(robot.point_count())
+    assert np.allclose(robot.body_points(q), _pinocchio_points(robot, q, every), rtol=0, atol=1e-10)
+    assert np.allclose(robot.point_jacobians(q), _pinocchio_jacobians(robot, q, every), rtol=0, atol=1e-10)
+    assert np.allclose(robot.point_jacobians(q), _finite_differences(robot, q), atol=1e-6)
+
+
+def test_an_unsupported_group_joint_falls_back_to_the_pinocchio_loop(tmp_path):
+    # URDF has no helical joint: swap the first revolute joint of a bound robot for pinocchio's helical one
+    robot = _odd_robot(tmp_path, """
+  <joint name="twist" type="revolute"><parent link="base"/><child link="upper"/><origin xyz="0 0 0.05"/>
+    <axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+  <joint name="bend" type="revolute"><parent link="upper"/><child link="lower"/><origin xyz="0 0 0.3"/>
+    <axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+""", dim=2)
+    assert robot._chain is not None
+    helical = pin.Model()
+    first = helical.addJoint(0, pin.JointModelHZ(0.05), robot.model.jointPlacements[1], "twist")
+    helical.addJoint(first, pin.JointModelRY(), robot.model.jointPlacements[2], "bend")
+    robot.model, robot.data = helical, helical.createData()
+    robot._chain = JointChain.build(helical, robot.joint_ids, robot._used, robot.base_configuration)
+    assert robot._chain is None                               # S = (0, 0, pitch, 0, 0, 1): neither kind
+    q = robot.space.sample(np.random.default_rng(2), 4)
+    every = np.arange(robot.point_count())
+    points = robot.body_points(q)
+    assert np.allclose(points, _pinocchio_points(robot, q, every), rtol=0, atol=1e-10)
+    on_twist = robot.point_joint == 1
+    assert np.ptp(points[:, on_twist, 2], axis=0).max() > 0.01  # the helix lifts the upper link
+    assert np.allclose(robot.point_jacobians(q), _finite_differences(robot, q), atol=1e-6)
 
 
 # --- forward kinematics and limits ---------------------------------------------------------------
