@@ -333,6 +333,25 @@ def test_self_collision(iiwa, pr2, baxter):
     assert baxter.self_collision(np.vstack([np.zeros(7), into_pedestal])).tolist() == [False, True]
 
 
+@pytest.mark.parametrize("name", ["pr2", "baxter"])
+def test_broad_phase_self_contacts_equal_every_pairs_narrow_phase(name, request):
+    # self_contacts narrows the pairs by coal's sweep and prune; brute force: every pair's narrow phase
+    robot = request.getfixturevalue(name)
+    rng = np.random.default_rng(3)
+    data = pin.GeometryData(robot.geometry)
+    colliding = 0
+    for q in rng.uniform(robot.lower, robot.upper, (60, robot.space.dim)):
+        pin.computeCollisions(robot.model, robot.model.createData(), robot.geometry, data,
+                              robot.full_configurations(q[None])[0], False)
+        hits = [k for k, result in enumerate(data.collisionResults) if result.isCollision()]
+        depths = sorted(max(0.0, -data.collisionResults[k].getContact(0).penetration_depth) for k in hits)
+        contacts = robot.self_contacts(q)
+        assert len(contacts) == len(hits) and np.allclose(sorted(contacts.depth), depths)
+        assert robot.self_collision(q[None])[0] == bool(hits)
+        colliding += bool(hits)
+    assert 5 < colliding < 55                                   # both cases were exercised
+
+
 def test_environment_distance(iiwa):
     scene = iiwa.context.scene
     q = np.vstack([np.zeros(7), scene.start, scene.goal, [0.0, 1.2, 0.0, -0.4, 0.0, 0.0, 0.0],
