@@ -13,6 +13,11 @@ motion over a sliding window falls below ``stuck_distance``, the robot is stuck 
   target with the context's simulator for one period and interpolate from the target toward the
   simulated configuration by ``i eps_adjust``.
 
+* ``mode = "track"`` (model-predictive, thesis 5.4.4): every control step the commanded target is the
+  pipeline's simulator's configuration ``horizon`` s (default one period) after ``q`` toward the target, so a
+  dynamic robot follows the compliant motion the planner simulated instead of pressing into a face; stuck
+  detection and giving up are unchanged, and no further adjustment is made.
+
 When the robot moves again the original target is commanded; ``i`` resets to 0 only once the robot has
 come closer to the original target than it ever was during this drive, by at least ``stuck_distance``
 (app. C resets ``i`` whenever the robot moves; an adjustment that frees the robot sideways would then reset
@@ -45,8 +50,11 @@ class ContactControllerOptions:
                                    minimum=0.0)
     eps_adjust: float = option(0.01, "fraction of the way to the plane added per stuck iteration", minimum=0.0)
     eps_adjust_max: float = option(1.0, "give up when i * eps_adjust reaches this", minimum=0.0)
-    mode: str = option("plane", "target adjustment: plane (fit, eq. 8.6) or predict (kinematic simulator)",
-                       choices=("plane", "predict"))
+    horizon: float | None = option(None, "predict mode: seconds simulated ahead from the stuck configuration toward "
+                                   "the target; default one control period (thesis app. C)", minimum=1e-6)
+    mode: str = option("plane", "target adjustment: plane (fit, eq. 8.6), predict (kinematic simulator, app. C) "
+                       "or track (follow the kinematic simulator's prediction every step, see the module doc)",
+                       choices=("plane", "predict", "track"))
 
 
 class ContactMotionController(Controller):
@@ -58,9 +66,9 @@ class ContactMotionController(Controller):
     def bind(self, context) -> None:
         super().bind(context)
         self.space = self.require("robot").space
-        if self.options.mode == "predict" and context.simulator is None:
-            raise PlanningError("mode 'predict' needs a simulator in the pipeline", field="controller.mode",
-                                value="predict")
+        if self.options.mode in ("predict", "track") and context.simulator is None:
+            raise PlanningError(f"mode '{self.options.mode}' needs a simulator in the pipeline",
+                                field="controller.mode", value=self.options.mode)
         self.reset()
 
     def reset(self) -> None:
@@ -91,24 +99,30 @@ class ContactMotionController(Controller):
         progressed = distance <= self.closest - self.options.stuck_distance
         if progressed:
             self.closest = distance
-        goal = target
+        goal = self._predict(q, target, dt) if self.options.mode == "track" else target
         if self.is_stuck():
             self.stuck_iterations += 1
             fraction = self.stuck_iterations * self.options.eps_adjust
             if fraction >= self.options.eps_adjust_max:
                 self.gave_up = True
                 return np.zeros(self.space.tangent_dim)
-            goal = self._adjust(q, target, fraction, dt)
+            if self.options.mode != "track":
+                goal = self._adjust(q, target, fraction, dt)
         elif progressed:
             self.stuck_iterations = 0
         self.adjusted_target = goal
         return self.options.gain * self.space.difference(goal, q)
 
+    def _predict(self, q, target, dt):
+        """The pipeline's simulator's configuration ``horizon`` s (default one period) after ``q``, driven toward
+        ``target`` (a fixed seed per stuck iteration keeps the prediction's noise reproducible)."""
+        horizon = dt if self.options.horizon is None else self.options.horizon
+        rng = np.random.default_rng(self.stuck_iterations)
+        return self.context.simulator.simulate(q[None], target, rng, horizon).final[0]
+
     def _adjust(self, q, target, fraction, dt):
         if self.options.mode == "predict":
-            sim = self.context.simulator
-            predicted = sim.simulate(q[None], target, np.random.default_rng(self.stuck_iterations), dt).final[0]
-            return self.space.interpolate(target, predicted, min(fraction, 1.0))
+            return self.space.interpolate(target, self._predict(q, target, dt), min(fraction, 1.0))
         states = np.array(self.history)
         offsets = self.space.difference(states, states[0])        # tangent coordinates of the window
         centre = offsets.mean(axis=0)

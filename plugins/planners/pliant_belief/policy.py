@@ -220,6 +220,9 @@ class PartialPolicy(Policy):
         self.goal = None if goal is None else np.asarray(goal, dtype=np.float64)
         self.goal_tolerance = float(goal_tolerance)
         self.clustering = clustering
+        #: the clustering match's thresholds (wcr_threshold, distance_threshold), saved with the policy so that a
+        #: policy loaded from a file matches observations as the planner that made it did
+        self.match_thresholds: dict[str, float | None] = {}
         self.next_id = next_id if next_id is not None else max(actions, default=0) + 1
         self.matcher: Matcher | None = None
         self.start_node = 0
@@ -547,7 +550,8 @@ class PartialPolicy(Policy):
                 "reverse_of": [[int(k), int(v)] for k, v in self.reverse_of.items()],
                 "solutions": [list(s) for s in self.solutions],
                 "goal": None if self.goal is None else self.goal.tolist(), "goal_tolerance": self.goal_tolerance,
-                "clustering": self.clustering, "next_id": self.next_id}
+                "clustering": self.clustering, "match_thresholds": dict(self.match_thresholds),
+                "next_id": self.next_id}
 
     @classmethod
     def from_dict(cls, data: dict) -> PartialPolicy:
@@ -567,6 +571,11 @@ class PartialPolicy(Policy):
                          goal=None if goal is None else np.asarray(goal, dtype=np.float64),
                          goal_tolerance=float(data.get("goal_tolerance", 0.0)), clustering=data.get("clustering"),
                          next_id=int(data["next_id"]))
+            thresholds = data.get("match_thresholds") or {}
+            unknown = sorted(set(thresholds) - {"wcr_threshold", "distance_threshold"})
+            if unknown:
+                raise ConfigError("unknown match thresholds", field="policy.match_thresholds", value=unknown)
+            policy.match_thresholds = {k: None if v is None else float(v) for k, v in thresholds.items()}
         except KeyError as exc:
             raise ConfigError("missing field in a partial policy", field=f"policy.{exc.args[0]}") from None
         except (TypeError, ValueError) as exc:
@@ -584,11 +593,20 @@ class PartialPolicy(Policy):
             if rid not in self.actions or not 0 <= k < n:
                 raise ConfigError("a reverse action is missing", field="policy.reverse_of", value=[k, rid])
 
-    def use_clustering(self, context, *, wcr_threshold: float = 0.75, distance_threshold: float | None = None,
+    def use_clustering(self, context, *, wcr_threshold: float | None = None, distance_threshold: float | None = None,
                        rng: np.random.Generator | None = None) -> None:
         """Set :attr:`matcher` to the clustering match of Algorithm 4 (:func:`pliant_belief.clustering.matches`)
-        with the policy's clustering method, over a pipeline ``context`` (scene, robot, simulator)."""
+        with the policy's clustering method, over a pipeline ``context`` (scene, robot, simulator).
+
+        Thresholds not given come from :attr:`match_thresholds` (what the planner used, saved with the policy),
+        else the clustering defaults (WCR 0.75, distance 8 voxels); the ones used are recorded there."""
         from pliant_belief.clustering import ClusteringContext, matches
+
+        if wcr_threshold is None:
+            wcr_threshold = self.match_thresholds.get("wcr_threshold") or 0.75
+        if distance_threshold is None:
+            distance_threshold = self.match_thresholds.get("distance_threshold")
+        self.match_thresholds = {"wcr_threshold": wcr_threshold, "distance_threshold": distance_threshold}
 
         method = self.clustering or "distance"
         clustering_context = context if isinstance(context, ClusteringContext) else \

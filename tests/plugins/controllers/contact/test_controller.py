@@ -115,3 +115,24 @@ def test_peg_slide_pipeline_end_to_end(tmp_path):
     assert record.execution is not None and record.execution.success
     assert (tmp_path / "execution.json").is_file() and (tmp_path / "path.png").is_file()
     assert "| execution | reached |" in (tmp_path / "report.md").read_text()
+
+
+def test_track_mode_commands_the_simulators_prediction(peg):
+    # model-predictive tracking: every step the command aims at where the kinematic simulator says the robot
+    # gets in one period (here pressed onto the block, it slides instead of pushing into it)
+    ctrl = registry.create("controller", "contact", peg, gain=2.0, mode="track")
+    q, target = pose(7, 7, 1.2), pose(6, 7, 0.0)          # target inside the block below
+    predicted = peg.simulator.simulate(q[None], target, np.random.default_rng(0), 0.1).final[0]
+    command = ctrl.command(q, target, 0.1)
+    space = peg.robot.space
+    assert np.allclose(command, 2.0 * space.difference(predicted, q))
+    assert not np.allclose(command, 2.0 * space.difference(target, q))
+    with pytest.raises(PlanningError, match="track"):
+        registry.create("controller", "contact", Context(scene=peg.scene, robot=peg.robot), mode="track")
+
+
+def test_track_mode_slides_the_peg_into_the_hole(peg):
+    ctrl = registry.create("controller", "contact", peg, gain=2.0, mode="track", horizon=0.1)
+    path = Path(np.array([pose(7, 7, 5), pose(5.6, 5.6, 3.5), pose(5, 5, 3.3), pose(5, 5, 0.625)]))
+    record = execute(peg.simulator, ctrl, path, np.random.default_rng(0), period=0.1, time_limit=60)
+    assert record.success and record.contacts.any()

@@ -255,9 +255,13 @@ def test_save_and_load_give_the_same_next_actions(tmp_path):
     policy = PartialPolicy.from_tree(two_routes(), goal=GOAL, goal_tolerance=0.3, clustering="wcr")
     policy.query(np.array([1.0, 1.0]), 1, MATCH)
     policy.query(np.array([9.0, 9.0]), policy.reverse_of[2], MATCH)      # adapted and with an inserted node
+    policy.match_thresholds = {"wcr_threshold": 0.5, "distance_threshold": 1.25}       # as the planner set them
     policy.save(tmp_path / "policy.json")
     loaded = PartialPolicy.load(tmp_path / "policy.json")
     assert loaded.clustering == "wcr" and len(loaded.nodes) == len(policy.nodes) == 8
+    # a loaded policy matches observations with the planner's thresholds, not the clustering defaults
+    loaded.use_clustering(maze_context("se2-maze"))
+    assert loaded.match_thresholds == {"wcr_threshold": 0.5, "distance_threshold": 1.25}
     for v in range(len(policy.nodes)):
         a, b = policy.next_action(v), loaded.next_action(v)
         assert (a is None and b is None) or (a.id == b.id and np.array_equal(a.target, b.target))
@@ -294,6 +298,9 @@ def test_bad_input_names_the_field():
     with pytest.raises(ConfigError, match="p_goal"):
         PartialPolicy.from_tree(two_routes(), options={"p_goal": 1.5})
     data = policy.to_dict()
+    data["match_thresholds"] = {"distance": 1.0}
+    with pytest.raises(ConfigError, match="match_thresholds"):
+        PartialPolicy.from_dict(json.loads(json.dumps(data)))
     del data["actions"]
     with pytest.raises(ConfigError, match="actions"):
         PartialPolicy.from_dict(json.loads(json.dumps(data)))
