@@ -50,8 +50,8 @@ class ContactControllerOptions:
                                    minimum=0.0)
     eps_adjust: float = option(0.01, "fraction of the way to the plane added per stuck iteration", minimum=0.0)
     eps_adjust_max: float = option(1.0, "give up when i * eps_adjust reaches this", minimum=0.0)
-    horizon: float | None = option(None, "predict mode: seconds simulated ahead from the stuck configuration toward "
-                                   "the target; default one control period (thesis app. C)", minimum=1e-6)
+    horizon: float | None = option(None, "predict and track modes: seconds simulated ahead toward the target; "
+                                   "default one control period (thesis app. C)", minimum=1e-6)
     mode: str = option("plane", "target adjustment: plane (fit, eq. 8.6), predict (kinematic simulator, app. C) "
                        "or track (follow the kinematic simulator's prediction every step, see the module doc)",
                        choices=("plane", "predict", "track"))
@@ -78,6 +78,9 @@ class ContactMotionController(Controller):
         self.adjusted_target: np.ndarray | None = None
         self.closest: float = np.inf            # closest distance to the commanded target in this drive
         self._target: np.ndarray | None = None
+        # the predictions' actuation noise: one reproducible stream per drive (a generator re-seeded every call
+        # would repeat the same draws, a fixed bias of up to the noise bound on every joint, every step)
+        self._prediction_rng = np.random.default_rng(0)
 
     def reached(self, q, target) -> bool:
         return bool(self.space.distance(q, target) <= self.options.tolerance)
@@ -115,10 +118,9 @@ class ContactMotionController(Controller):
 
     def _predict(self, q, target, dt):
         """The pipeline's simulator's configuration ``horizon`` s (default one period) after ``q``, driven toward
-        ``target`` (a fixed seed per stuck iteration keeps the prediction's noise reproducible)."""
+        ``target`` (its noise from one reproducible stream per drive)."""
         horizon = dt if self.options.horizon is None else self.options.horizon
-        rng = np.random.default_rng(self.stuck_iterations)
-        return self.context.simulator.simulate(q[None], target, rng, horizon).final[0]
+        return self.context.simulator.simulate(q[None], target, self._prediction_rng, horizon).final[0]
 
     def _adjust(self, q, target, fraction, dt):
         if self.options.mode == "predict":

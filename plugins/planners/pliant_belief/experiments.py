@@ -96,7 +96,6 @@ def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exe
     import pliant
     from pliant.interfaces import PlanningProblem
 
-    from pliant_belief.policy import PartialPolicy
 
     base = [*variant.overrides, f"planner.max_time={plan_time}", "planner.progress=false", f"seed={seed}"]
     pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=base)
@@ -109,24 +108,62 @@ def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exe
               "plan_seconds": time.perf_counter() - t0, "statistics": stats, "executions": {}}
     if result.policy is None:
         return record
-    saved = result.policy.to_dict()
     if policy_file is not None:
         result.policy.save(policy_file)
         record["policy_file"] = str(policy_file)
+    record["executions"] = _execute(variant, seed, base, context, result.policy, executions, exec_time)
+    return record
+
+
+def _execute(variant: Variant, seed: int, base: list[str], context, planned, executions: int,
+             exec_time: float) -> dict:
+    """Execute the policy ``planned`` ``executions`` times in every world of ``variant`` (execution ``k`` with
+    seed ``10,000 seed + k``); the runs by world."""
+    import pliant
+
+    from pliant_belief.policy import PartialPolicy
+
+    saved = planned.to_dict()
+    out = {}
     for world, world_overrides in variant.worlds.items():
         runs = []
         world_pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=[*base, *world_overrides])
         simulator = world_pipeline.execution_simulator(context)
         for k in range(executions):
             policy = PartialPolicy.from_dict(saved)      # every execution starts from the planned policy
-            policy.matcher = result.policy.matcher
+            policy.matcher = planned.matcher
             execution = policy.execute(simulator, context.controller, np.random.default_rng(10_000 * seed + k),
                                        context=context, time_limit=exec_time,
                                        action_limit=int(world_pipeline.execution["action_limit"]))
             runs.append({"outcome": execution.outcome, "actions": len(execution.actions),
                          "seconds": float(execution.times[-1])})
-        record["executions"][world or "default"] = runs
-    return record
+        out[world or "default"] = runs
+    return out
+
+
+def replay_task(variant: Variant, record: dict, executions: int, exec_time: float) -> dict:
+    """Execute the saved policy of a planned task again (no planning): ``record`` with new executions.
+
+    The policy matches observations with the thresholds saved with it, else the pipeline planner's (files
+    written before the thresholds were saved), so a replay after a change to the controller or the execution
+    simulator measures the same policies again.
+    """
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    import pliant
+
+    from pliant_belief.policy import PartialPolicy
+
+    seed = int(record["seed"])
+    base = [*variant.overrides, "planner.progress=false", f"seed={seed}"]
+    context = pliant.Pipeline.from_file(variant.pipeline, overrides=base).build()
+    policy = PartialPolicy.load(Path(record["policy_file"]))
+    o = context.extras["planner"].options
+    if not policy.match_thresholds and o.mode != "simple":
+        policy.use_clustering(context, wcr_threshold=o.wcr_threshold, distance_threshold=o.distance_threshold)
+    else:
+        policy.use_clustering(context)
+    return {**record, "executions": _execute(variant, seed, base, context, policy, executions, exec_time),
+            "replayed": True}
 
 
 def summarise(records: list[dict], variants: list[Variant]) -> list[dict]:
@@ -162,8 +199,13 @@ def _slug(label: str) -> str:
 
 
 def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, exec_time: float, jobs: int,
-                   fresh: bool, output: Path, only: list[str] | None = None, echo=print) -> list[dict]:
-    """Run (or resume) experiment ``name``; returns the summary rows."""
+                   fresh: bool, output: Path, only: list[str] | None = None, echo=print,
+                   replay: bool = False) -> list[dict]:
+    """Run (or resume) experiment ``name``; returns the summary rows.
+
+    ``replay``: plan nothing; execute the saved policies of the selected variants' planned tasks on file again
+    (``executions`` times per world) and replace their executions, rewriting the file after each task.
+    """
     table = experiments()
     if name not in table:
         raise ConfigError(f"unknown experiment (experiments: {', '.join(table)})", field="NAME", value=name)
@@ -173,6 +215,9 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     for key, value in (("plan_time", plan_time), ("exec_time", exec_time)):
         if not (isinstance(value, (int, float)) and value > 0):
             raise ConfigError("must be a positive number of seconds", field=key, value=value)
+    if replay and fresh:
+        raise ConfigError("replay executes the policies on file; fresh would forget them", field="replay/fresh",
+                          value=[replay, fresh])
     variants = [v for v in table[name] if not only or v.label in only]
     directory = output / name
     directory.mkdir(parents=True, exist_ok=True)
@@ -182,6 +227,9 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
         selected = {v.label for v in variants}
         records = [r for r in records if r["variant"] not in selected]
         log.write_text("".join(json.dumps(r) + "\n" for r in records))
+    if replay:
+        _replay(records, variants, executions, exec_time, jobs, log, echo)
+        return _summary(name, records, variants, plan_time, executions, directory)
     done = {(r["variant"], r["seed"]) for r in records}
     todo = [(v, s) for v in variants for s in range(plans) if (v.label, s) not in done]
     echo(f"{name}: {len(records)} tasks on file, {len(todo)} to go, {jobs} at a time")
@@ -200,6 +248,38 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
                      f"{'planned' if record['planned'] else 'no policy'}, executions {outcome}")
     except KeyboardInterrupt:
         echo("interrupted: finished tasks are kept; run again to resume")
+    return _summary(name, records, variants, plan_time, executions, directory)
+
+
+def _replay(records: list[dict], variants: list[Variant], executions: int, exec_time: float, jobs: int, log: Path,
+            echo) -> None:
+    """Re-execute the saved policies of ``records`` (in place), rewriting ``log`` after each task."""
+    by_label = {v.label: v for v in variants}
+    todo = [k for k, r in enumerate(records) if r["variant"] in by_label and r["planned"] and r.get("policy_file")]
+    for k in todo:                               # a relative path written from another working directory
+        path = Path(records[k]["policy_file"])
+        if not path.is_file() and (log.parent / "policies" / path.name).is_file():
+            records[k] = {**records[k], "policy_file": str(log.parent / "policies" / path.name)}
+    echo(f"replaying {len(todo)} saved policies, {jobs} at a time")
+    try:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            futures = {pool.submit(replay_task, by_label[records[k]["variant"]], records[k], executions, exec_time): k
+                       for k in todo}
+            for n, future in enumerate(as_completed(futures), start=1):
+                k = futures[future]
+                records[k] = future.result()
+                partial = log.with_suffix(".tmp")
+                partial.write_text("".join(json.dumps(r) + "\n" for r in records))
+                partial.replace(log)
+                outcome = {w: f"{sum(e['outcome'] == 'success' for e in runs)}/{len(runs)}"
+                           for w, runs in records[k]["executions"].items()}
+                echo(f"[{n}/{len(todo)}] {records[k]['variant']} seed {records[k]['seed']}: executions {outcome}")
+    except KeyboardInterrupt:
+        echo("interrupted: the tasks replayed so far are on file")
+
+
+def _summary(name: str, records: list[dict], variants: list[Variant], plan_time: float, executions: int,
+             directory: Path) -> list[dict]:
     rows = summarise(records, variants)
     (directory / "summary.json").write_text(json.dumps({"experiment": name, "rows": rows, "plan_time": plan_time,
                                                         "executions": executions}, indent=1))

@@ -36,6 +36,8 @@ def pliant_add_commands(subparsers):
     parser.add_argument("--only", nargs="*", help="variant labels to run (default all)")
     parser.add_argument("--fresh", action="store_true", help="forget the tasks already on file")
     parser.add_argument("--output", default="out/experiments", help="directory (default out/experiments)")
+    parser.add_argument("--replay", action="store_true",
+                        help="plan nothing: execute the saved policies on file again and replace their executions")
     parser.set_defaults(handler=_experiment_command)
 
 
@@ -46,7 +48,7 @@ def _experiment_command(args) -> int:
 
     rows = run_experiment(args.name, plans=args.plans, executions=args.executions, plan_time=args.plan_time,
                           exec_time=args.exec_time, jobs=args.jobs, fresh=args.fresh, output=Path(args.output),
-                          only=args.only)
+                          only=args.only, replay=args.replay)
     header = ("variant", "world", "plans", "P_plan", "P_exec", "actions", "t first (s)", "simulated", "stored",
               "solutions")
     lines = [header] + [(r["variant"], r["world"], str(r["plans"]), f"{r['p_plan']:.2f}",

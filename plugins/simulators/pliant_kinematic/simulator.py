@@ -88,7 +88,9 @@ class KinematicSimulator(Simulator):
     """Fast kinematic simulation with contact and compliance for batches of particles (thesis app. B).
 
     Works with any :class:`~pliant.interfaces.RobotModel` (body points and point Jacobians) in the
-    scene's voxelised environment.  Self-collision of multi-link robots is not modelled yet.
+    scene's voxelised environment.  Multi-link robots that report self-contacts
+    (:meth:`~pliant.interfaces.RobotModel.self_contacts`) also have their own links resolved apart, by app. B's
+    momentum model (:meth:`_resolve_self_collision`).
     """
 
     Options = KinematicOptions

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -96,3 +97,25 @@ def test_baxter_reach_compares_the_belief_planner_with_contact_rrt_and_its_pipel
     assert type(simulator).__name__ == "PybulletSimulator"
     assert simulator.noise.model == "proportional" and simulator.per_actuator
     np.testing.assert_allclose(simulator.limits, [0.5, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0])
+
+
+def test_replay_executes_the_saved_policies_again_without_planning(tmp_path):
+    label = experiments()["maze"][0].label
+    run_experiment("maze", plans=1, executions=1, plan_time=5.0, exec_time=2.0, jobs=1, fresh=False,
+                   output=tmp_path, only=[label], echo=lambda *_: None)
+    log = tmp_path / "maze" / "runs.jsonl"
+    (planned,) = [json.loads(x) for x in log.read_text().splitlines()]
+    assert planned["planned"] and Path(planned["policy_file"]).is_file()
+    lines = []
+    run_experiment("maze", plans=1, executions=2, plan_time=5.0, exec_time=2.0, jobs=1, fresh=False,
+                   output=tmp_path, only=[label], echo=lines.append, replay=True)
+    (replayed,) = [json.loads(x) for x in log.read_text().splitlines()]
+    assert lines[0] == "replaying 1 saved policies, 1 at a time"
+    assert replayed["replayed"] and replayed["statistics"] == planned["statistics"]      # nothing planned again
+    assert {w: len(runs) for w, runs in replayed["executions"].items()} == {"unblocked": 2, "blocked": 2}
+    # the first execution of each world uses the same seed as before: the same outcome
+    for world, runs in planned["executions"].items():
+        assert replayed["executions"][world][0] == runs[0]
+    with pytest.raises(ConfigError, match="replay"):
+        run_experiment("maze", plans=1, executions=1, plan_time=1.0, exec_time=1.0, jobs=1, fresh=True,
+                       output=tmp_path, echo=lambda *_: None, replay=True)
