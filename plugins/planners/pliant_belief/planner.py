@@ -139,6 +139,7 @@ class BeliefPlanner(Planner):
                     break
                 connecting = o.connect and not tree.solutions
                 while True:
+                    before = float(space.distance(tree.nodes[near].expected, target))
                     new = self._extend(tree, near, target, problem, cluster, settings, rng, counters)
                     counters["extensions"] += 1
                     counters["splits"] += len(new) > 1
@@ -147,8 +148,11 @@ class BeliefPlanner(Planner):
                             first = termination.elapsed
                     if not (connecting and len(new) == 1) or tree.solutions or termination.should_stop(iteration):
                         break
-                    reached = float(space.distance(tree.nodes[new[0]].expected, target)) <= self._min_progress
-                    if reached:
+                    after = float(space.distance(tree.nodes[new[0]].expected, target))
+                    # reached, or trapped (RRT-Connect): an extension in contact can end somewhere new yet no
+                    # closer, e.g. sliding back and forth along a face; connecting on from there never ended
+                    # (one Baxter run: a single connect of 7,538 extensions filled the whole 240 s)
+                    if after <= self._min_progress or after > before - self._min_progress:
                         break
                     near = new[0]
                 progress.update(iterations=iteration, nodes=len(tree.nodes), solutions=len(tree.solutions))

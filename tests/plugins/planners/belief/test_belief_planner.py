@@ -164,3 +164,22 @@ def test_rotation_spread_in_se2_bounds_the_heading():
     headings = np.array([planner._sample(problem.space, goal, np.random.default_rng(k))[2] for k in range(200)])
     assert np.abs((headings - goal[2] + np.pi) % (2 * np.pi) - np.pi).max() <= 0.25 + 1e-12
     assert np.ptp(headings) > 0.3
+
+
+def test_connect_stops_when_an_extension_comes_no_closer_to_its_target(monkeypatch):
+    # a compliant extension may end somewhere new without approaching the target (sliding back and forth along
+    # a face): RRT-Connect must count that as trapped, not extend forever
+    problem, planner = maze(max_iterations=3, goal_bias=0.0)
+    calls = []
+
+    def sideways(tree, near, target, *args):
+        calls.append(near)
+        if len(calls) > 50:
+            raise AssertionError("the connect loop never stopped")
+        q = tree.nodes[near].expected.copy()
+        q[1] += 0.5 if len(calls) % 2 else -0.5             # oscillates along y, never approaches
+        return [tree.add(BeliefNode(particles=q[None], action=q, parent=near, action_id=tree.new_action_id()))]
+
+    monkeypatch.setattr(planner, "_extend", sideways)
+    result = planner.plan(problem, np.random.default_rng(0))
+    assert result.statistics["iterations"] == 3 and len(calls) <= 3 * 2
