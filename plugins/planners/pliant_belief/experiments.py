@@ -6,7 +6,8 @@ experiment (e.g. the maze with and without the block added during execution, the
 in parallel over ``--jobs`` processes (one core each), every finished task is appended to
 ``out/experiments/NAME/runs.jsonl`` at once (each planned policy to ``policies/``, to replay it), and a
 second invocation resumes: tasks already on file are skipped (``--fresh`` forgets those of the variants
-being run).  The table (P_plan, P_exec as mean [std] over plans, actions, planning statistics) is printed
+being run; ``--replay`` plans nothing and executes the saved policies again, replacing their executions).
+The table (P_plan, P_exec as mean [std] over plans, actions, planning statistics) is printed
 and written with the runs to ``summary.json``.
 
 Experiments (pipelines in ``scenes/pipelines``):
@@ -95,7 +96,6 @@ def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exe
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     import pliant
     from pliant.interfaces import PlanningProblem
-
 
     base = [*variant.overrides, f"planner.max_time={plan_time}", "planner.progress=false", f"seed={seed}"]
     pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=base)
