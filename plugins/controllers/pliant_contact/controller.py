@@ -102,17 +102,20 @@ class ContactMotionController(Controller):
         progressed = distance <= self.closest - self.options.stuck_distance
         if progressed:
             self.closest = distance
-        goal = self._predict(q, target, dt) if self.options.mode == "track" else target
-        if self.is_stuck():
+        stuck = self.is_stuck()
+        if stuck:
             self.stuck_iterations += 1
-            fraction = self.stuck_iterations * self.options.eps_adjust
-            if fraction >= self.options.eps_adjust_max:
+            if self.stuck_iterations * self.options.eps_adjust >= self.options.eps_adjust_max:
                 self.gave_up = True
                 return np.zeros(self.space.tangent_dim)
-            if self.options.mode != "track":
-                goal = self._adjust(q, target, fraction, dt)
         elif progressed:
             self.stuck_iterations = 0
+        if self.options.mode == "track":
+            goal = self._predict(q, target, dt)
+        elif stuck:
+            goal = self._adjust(q, target, self.stuck_iterations * self.options.eps_adjust, dt)
+        else:
+            goal = target
         self.adjusted_target = goal
         return self.options.gain * self.space.difference(goal, q)
 

@@ -139,7 +139,7 @@ class BeliefPlanner(Planner):
                     break
                 connecting = o.connect and not tree.solutions
                 while True:
-                    before = float(space.distance(tree.nodes[near].expected, target))
+                    before = float(space.distance(tree.nodes[near].expected, target)) if connecting else 0.0
                     new = self._extend(tree, near, target, problem, cluster, settings, rng, counters)
                     counters["extensions"] += 1
                     counters["splits"] += len(new) > 1

@@ -603,7 +603,8 @@ class PartialPolicy(Policy):
         from pliant_belief.clustering import ClusteringContext, matches
 
         if wcr_threshold is None:
-            wcr_threshold = self.match_thresholds.get("wcr_threshold") or 0.75
+            saved = self.match_thresholds.get("wcr_threshold")
+            wcr_threshold = 0.75 if saved is None else saved
         if distance_threshold is None:
             distance_threshold = self.match_thresholds.get("distance_threshold")
         self.match_thresholds = {"wcr_threshold": wcr_threshold, "distance_threshold": distance_threshold}
