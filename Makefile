@@ -6,26 +6,45 @@ STAMP  := $(VENV)/.installed
 
 .PHONY: install demo test lint bench clean
 
+# ROS 1 from Debian's packages, for the ROS drivers (plugins/drivers/pliant_ros1) and their tests.  Installed
+# when missing and when we can (root, apt); the venv sees Debian's Python packages through a .pth file appended
+# after its own site-packages, so pip's packages always win.
+ROS_DEBS := ros-core python3-rospy python3-genpy python3-std-msgs python3-sensor-msgs python3-trajectory-msgs
+ROS_STAMP := $(VENV)/.ros
+
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test]"
 	touch $(STAMP)
 
-install: $(STAMP)
+$(ROS_STAMP): $(STAMP)
+	@if ! command -v rosmaster >/dev/null 2>&1 || [ ! -d /usr/lib/python3/dist-packages/rospy ] || [ ! -d /usr/lib/python3/dist-packages/trajectory_msgs ]; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	    echo "installing ROS 1 from Debian: $(ROS_DEBS)"; \
+	    (apt-get install -y --no-install-recommends $(ROS_DEBS) >/dev/null 2>&1 || \
+	     (apt-get update -qq >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
+	      --no-install-recommends $(ROS_DEBS) >/dev/null)) || echo "could not install ROS 1; its driver tests skip"; \
+	  else echo "ROS 1 is missing and cannot be installed here (not root or no apt); its driver tests skip"; fi; \
+	fi
+	@if [ -d /usr/lib/python3/dist-packages/rospy ]; then \
+	  $(BIN)/python -c "import site, pathlib; pathlib.Path(site.getsitepackages()[0], 'zz_debian_ros.pth').write_text('/usr/lib/python3/dist-packages\n')"; fi
+	touch $(ROS_STAMP)
 
-demo: $(STAMP)
+install: $(STAMP) $(ROS_STAMP)
+
+demo: $(STAMP) $(ROS_STAMP)
 	$(BIN)/pliant run demo
 	@echo "open out/demo/report.md"
 
-lint: $(STAMP)
+lint: $(STAMP) $(ROS_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
 
 test: lint
 	$(BIN)/pytest -q
 
-bench: $(STAMP)
+bench: $(STAMP) $(ROS_STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[bench]"   # the peers (OMPL) the benchmarks compare against
 	$(BIN)/pliant bench
 

@@ -74,3 +74,74 @@ class PlanningError(PliantError):
 
 class SimulationError(PliantError):
     """A simulator was given a scene, robot or command it cannot represent."""
+
+
+class DriverError(PliantError):
+    """A robot driver refused a command, lost its robot, or the robot reported a fault.
+
+    ``joint``, ``value`` and ``limit`` name what was refused where that applies (a joint name, the offending
+    value and the limit it broke).  Every refusal of the safety layer (:mod:`pliant.hardware.safety`) is a
+    subclass, so ``except DriverError`` catches them all.
+    """
+
+    def __init__(self, message: str, *, joint: str | None = None, limit: Any = _MISSING, source: str | None = None,
+                 field: str | None = None, value: Any = _MISSING) -> None:
+        self.joint = joint
+        self.limit = None if limit is _MISSING else limit
+        if joint is not None:
+            message = f"joint {joint}: {message}"
+        if limit is not _MISSING:
+            message = f"{message} (limit {limit!r})"
+        super().__init__(message, source=source, field=field, value=value)
+
+
+class CommandRejected(DriverError):
+    """A command broke the safety contract (non-finite, past a limit, too large a step); it was not sent."""
+
+
+class NonFiniteCommand(CommandRejected):
+    """A command or target holds NaN or infinity."""
+
+
+class LimitViolation(CommandRejected):
+    """A command or target lies past a position, velocity or acceleration limit."""
+
+
+class StepTooLarge(CommandRejected):
+    """A command moves a joint further in one cycle than the largest step allowed."""
+
+
+class StateError(DriverError):
+    """The robot's state is unusable: stale, out of order, inconsistent, flooding or non-finite."""
+
+
+class StaleState(StateError):
+    """No fresh state arrived within the watchdog deadline."""
+
+
+class JointMismatch(StateError):
+    """The robot's joint names or order differ from the driver's."""
+
+
+class RobotNotReady(DriverError):
+    """The robot is disabled, e-stopped or faulted."""
+
+
+class RobotDisabled(RobotNotReady):
+    """The robot is not enabled (motors off)."""
+
+
+class EmergencyStop(RobotNotReady):
+    """The robot's emergency stop is engaged."""
+
+
+class DriveFault(RobotNotReady):
+    """A joint drive reports a fault."""
+
+
+class ConnectionLost(DriverError):
+    """The robot, its middleware (a ROS master) or its bus cannot be reached."""
+
+
+class SmoothingError(DriverError):
+    """The trajectory generator (ruckig) rejected its input or failed to plan."""
