@@ -1,0 +1,171 @@
+"""The command stream end to end with an emulated robot: motion, blending, stops, and faults.
+
+Every test ends by checking every command the robot received against the limits: nothing unsafe is ever sent.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from pliant.errors import (
+    DriverError,
+    EmergencyStop,
+    JointMismatch,
+    LimitViolation,
+    NonFiniteCommand,
+    RobotDisabled,
+    StaleState,
+    StateError,
+)
+from pliant.results import Path
+
+
+def _settled(robot, seconds=0.3):
+    """Whether the robot stands still (after its servo has caught up with the last command)."""
+    time.sleep(0.2)
+    before = robot.positions.copy()
+    time.sleep(seconds)
+    return np.allclose(before, robot.positions, atol=1e-6)
+
+
+def test_move_to_arrives_within_limits(robot_and_driver):
+    robot, driver = robot_and_driver
+    with driver:
+        reached = driver.move_to([0.5, -1.0, 1.0])
+        np.testing.assert_allclose(reached, [0.5, -1.0, 1.0], atol=0.01)
+        np.testing.assert_allclose(driver.state(), robot.positions, atol=0.01)
+    assert robot.violations() == []
+    assert len(robot.commands) > 100
+
+
+def test_context_exit_stops_a_moving_robot(robot_and_driver):
+    robot, driver = robot_and_driver
+    with driver:
+        driver.move_to([0.9, 1.9, 1.4], wait=False)
+        time.sleep(0.3)
+    assert _settled(robot)
+    assert abs(robot.positions[1]) < 1.9            # it stopped on the way, it did not finish the motion
+    assert robot.violations() == []
+
+
+def test_exception_in_the_block_stops_the_robot(robot_and_driver):
+    robot, driver = robot_and_driver
+    with pytest.raises(KeyError), driver:
+        driver.move_to([-0.9, -1.9, -0.4], wait=False)
+        time.sleep(0.2)
+        raise KeyError("user code failed")
+    assert _settled(robot)
+    assert robot.violations() == []
+
+
+def test_streamed_targets_blend(robot_and_driver):
+    robot, driver = robot_and_driver
+    with driver:
+        for k in range(100):                         # a target that moves every cycle
+            driver.stream([0.6 * np.sin(k / 20), 0.0, 0.3])
+            time.sleep(0.005)
+        driver.move_to([0.0, 0.0, 0.0])
+    speeds = np.array([v for _, _, v in robot.commands])[:, 0]
+    assert np.all(np.abs(np.diff(speeds)) <= 4.0 * 0.005 + 1e-9)   # continuous: no stop between targets
+    assert robot.violations() == []
+
+
+def test_follow_a_timed_path(robot_and_driver):
+    robot, driver = robot_and_driver
+    times = np.linspace(0, 1.0, 11)
+    path = Path(np.stack([0.5 * np.sin(np.pi * times), 0.2 * times, 0.4 * times], axis=1), times)
+    with driver:
+        end = driver.follow(path)
+    np.testing.assert_allclose(end, path.configurations[-1], atol=0.01)
+    assert robot.violations() == []
+
+
+def test_step_is_the_execution_protocol(robot_and_driver):
+    robot, driver = robot_and_driver
+    with driver:
+        driver.reset(np.zeros(3))
+        q = driver.configuration()
+        t0 = time.monotonic()
+        for _ in range(10):
+            q = driver.step(np.array([0.5, 0.0, 0.0]), 0.05, None)
+        elapsed = time.monotonic() - t0
+        assert elapsed == pytest.approx(0.5, abs=0.05)          # real time
+        assert 0.15 < q[0] < 0.3                                 # it moved along the commanded velocity
+        driver.stop()
+    assert robot.violations() == []
+
+
+@pytest.mark.parametrize(("target", "error"), [([np.nan, 0, 0], NonFiniteCommand), ([0, 0, 1.6], LimitViolation),
+                                               ([0, 2.5, 0], LimitViolation)])
+def test_bad_targets_are_refused_and_never_sent(robot_and_driver, target, error):
+    robot, driver = robot_and_driver
+    with driver:
+        driver.move_to([0.3, 0.3, 0.3], wait=False)
+        time.sleep(0.1)
+        with pytest.raises(error):
+            driver.stream(target)
+        with pytest.raises(error):                  # the stream stays faulted: no further motion
+            driver.move_to([0, 0, 0])
+        driver.stop()
+    assert _settled(robot)
+    assert robot.violations() == []
+
+
+def test_velocity_spike_in_a_stream_is_refused(robot_and_driver):
+    robot, driver = robot_and_driver
+    with driver:
+        for k in range(20):
+            driver.stream([0.01 * k, 0, 0], [0.2, 0, 0])
+            time.sleep(0.005)
+        with pytest.raises(LimitViolation, match="joint a"):
+            driver.stream([0.2, 0, 0], [5.0, 0, 0])
+    assert robot.violations() == []
+
+
+@pytest.mark.parametrize(("fault", "error"), [
+    (lambda r: setattr(r, "publishing", False), StaleState),
+    (lambda r: setattr(r, "enabled", False), RobotDisabled),
+    (lambda r: setattr(r, "estop", True), EmergencyStop),
+    (lambda r: setattr(r, "names", ("a", "b", "x")), JointMismatch),
+    (lambda r: setattr(r, "stamp_offset", -10.0), StateError),
+])
+def test_faults_mid_motion_stop_the_robot(robot_and_driver, fault, error):
+    robot, driver = robot_and_driver
+    with driver:
+        driver.move_to([0.9, 1.9, 1.4], wait=False)
+        time.sleep(0.25)
+        fault(robot)
+        with pytest.raises(error):
+            driver.move_to([0.9, 1.9, 1.4])
+        driver.stop()                                # waits until the braking reference is at rest
+        smoother = driver.session.smoother
+        assert smoother.braking and smoother.at_rest
+        assert smoother.brake_reason == f"fault: {error.__name__}" or issubclass(type(driver.session.error), error)
+    assert robot.violations() == []
+
+
+def test_connect_enables_a_disabled_robot(robot_and_driver):
+    robot, driver = robot_and_driver
+    robot.enabled = False
+    with driver:
+        assert robot.enabled
+        driver.move_to([0.1, 0.1, 0.1])
+    assert robot.violations() == []
+
+
+def test_not_connected_is_a_clear_error(robot_and_driver):
+    _, driver = robot_and_driver
+    with pytest.raises(DriverError, match="not connected"):
+        driver.state()
+
+
+def test_check_reports_state_limits_and_rates(robot_and_driver):
+    _, driver = robot_and_driver
+    with driver:
+        time.sleep(0.3)
+        report = driver.check()
+    assert report["joints"] == ["a", "b", "c"] and report["enabled"]
+    assert report["measured_command_rate"] == pytest.approx(200.0, rel=0.1)
+    assert report["sources"] == ["made up for tests"]
