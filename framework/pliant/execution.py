@@ -1,131 +1,203 @@
-"""Executing a path with a controller through any simulator, step by step (thesis 5.4, app. C).
+"""Executing a path with a controller in any execution world, step by step (thesis 5.4, app. C).
 
-:func:`execute` resets the simulator at the path's first configuration, then for each waypoint asks
-the controller for velocity commands at the control period until the controller reports the
-waypoint reached, gives up (stuck), or the time limit passes.  Everything is recorded, so the
-outcome can be drawn and replayed.  :func:`drive` is one such motion toward one target without a reset,
-the primitive that policy execution (thesis 5.3.5) builds on.
+An *execution world* (:class:`ExecutionWorld`) is a simulator or a robot driver: both take a velocity command for
+``dt`` seconds and report the configuration reached, so one loop runs a controller — and a policy — in either, and
+one pipeline setting (``execution.world``) swaps them.  This module is the only place where controller commands
+become motion.
+
+:func:`execute` resets the world at the path's first configuration (a simulator places the robot; a driver moves
+there within its limits), then for each waypoint asks the controller for velocity commands at the control period
+until the controller reports the waypoint reached, gives up (stuck), or the time limit passes.  :func:`drive` is
+one such motion toward one target without a reset, the primitive that policy execution (thesis 5.3.5) builds on.
+Everything is recorded in one typed :class:`ExecutionRecord`, and an ``on_step`` callback receives every step as
+it happens (:class:`ExecutionStep`), for viewers, learners and logs.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from pliant.errors import DimensionError
-from pliant.interfaces import Controller, Simulator
+from pliant.interfaces import Controller
 from pliant.results import Path
+
+
+@runtime_checkable
+class ExecutionWorld(Protocol):
+    """What executions run in: :class:`~pliant.interfaces.Simulator` and :class:`~pliant.interfaces.Driver`.
+
+    ``reset(q)`` puts the robot at ``q`` ``(d,)`` (placing it, or driving there); ``step(velocity, dt, rng)`` applies
+    a tangent velocity ``(t,)`` for ``dt`` s and returns the configuration ``(d,)`` reached; ``configuration()``,
+    ``in_contact()`` (during the last step) and ``object_poses()`` (movable objects by name) report.
+    """
+
+    def reset(self, q: np.ndarray) -> None: ...
+
+    def step(self, velocity: np.ndarray, dt: float, rng: np.random.Generator) -> np.ndarray: ...
+
+    def configuration(self) -> np.ndarray: ...
+
+    def in_contact(self) -> bool: ...
+
+    def object_poses(self) -> dict[str, np.ndarray]: ...
+
+
+@dataclass(frozen=True)
+class ExecutionStep:
+    """One control step, as handed to ``on_step``: ``time`` (s since the execution began), the ``configuration``
+    ``(d,)`` reached, the ``command`` ``(t,)`` applied, the ``target`` ``(d,)`` driven toward, ``contact`` during the
+    step and the movable objects' ``objects`` poses."""
+
+    time: float
+    configuration: np.ndarray
+    command: np.ndarray
+    target: np.ndarray
+    contact: bool
+    objects: dict[str, np.ndarray]
+
+
+StepListener = Callable[[ExecutionStep], None]
 
 
 @dataclass
 class ExecutionRecord:
-    """What happened during an execution.
+    """What happened during an execution of a path or a policy.
 
     configurations: ``(k, d)`` states after every control step (the first is the start).
     times: ``(k,)`` seconds.  contacts: ``(k,)`` whether the robot touched anything in that step.
-    waypoints_reached: how many waypoints (after the start) were reached.
-    outcome: ``reached`` (the last waypoint), ``stuck`` (the controller gave up) or ``timeout``.
-    objects: the movable objects' poses ``(k, p)`` by name (:meth:`Simulator.object_poses`: ``(x, y, theta)``
-    in planar scenes, else position and quaternion); empty for simulators that hold objects fixed.
+    outcome: for a path ``reached`` (the last waypoint), ``stuck`` (the controller gave up) or ``timeout``; for a
+    policy ``success``, ``failure``, ``timeout`` or ``action limit``.
+    waypoints_reached: how many waypoints (after the start) were reached (paths).
+    objects: the movable objects' poses ``(k, p)`` by name (:meth:`Simulator.object_poses`: ``(x, y, theta)`` in
+    planar scenes, else position and quaternion); empty for worlds that hold objects fixed.
+    actions / adaptations / final_node: a policy's actions performed, its probability changes and the last node
+    reached (empty / ``None`` for paths; the policy's plugin documents the entries).
+    world: the name of the world executed in (``pybullet``, ``baxter-ros``...).
     """
 
     configurations: np.ndarray
     times: np.ndarray
     contacts: np.ndarray
-    waypoints_reached: int
     outcome: str
+    waypoints_reached: int = 0
     events: list[str] = field(default_factory=list)
     objects: dict[str, np.ndarray] = field(default_factory=dict)
+    actions: list[dict] = field(default_factory=list)
+    adaptations: list[dict] = field(default_factory=list)
+    final_node: int | None = None
+    world: str = ""
 
     @property
     def success(self) -> bool:
-        return self.outcome == "reached"
+        return self.outcome in ("reached", "success")
 
     def to_dict(self) -> dict:
+        """JSON-ready description (arrays as lists)."""
+        actions = [{k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in a.items()} for a in self.actions]
         return {"configurations": self.configurations.tolist(), "times": self.times.tolist(),
-                "contacts": self.contacts.tolist(), "waypoints_reached": self.waypoints_reached,
-                "outcome": self.outcome, "events": list(self.events),
-                "objects": {name: poses.tolist() for name, poses in self.objects.items()}}
+                "contacts": self.contacts.tolist(), "outcome": self.outcome,
+                "waypoints_reached": self.waypoints_reached, "events": list(self.events),
+                "objects": {name: poses.tolist() for name, poses in self.objects.items()},
+                "actions": actions, "adaptations": list(self.adaptations), "final_node": self.final_node,
+                "world": self.world}
 
 
-def drive(simulator: Simulator, controller: Controller, target: np.ndarray, rng: np.random.Generator, *,
-          period: float = 0.1, time_limit: float = 60.0, start_time: float = 0.0,
-          poses: list[dict[str, np.ndarray]] | None = None
-          ) -> tuple[list[np.ndarray], list[float], list[bool], str]:
-    """Drive the robot from wherever the simulator holds it toward ``target`` ``(d,)`` (no reset).
+class Recorder:
+    """Collects the steps of one execution (states, times, contacts, object poses) and forwards them to
+    ``on_step``; :meth:`record` turns them into an :class:`ExecutionRecord`."""
 
-    The controller is reset, then commands velocities every ``period`` s until it reports the target
-    reached, gives up (``gave_up``: stuck, thesis app. C) or ``time_limit`` s have passed.  Returns the
-    states ``(d,)`` after every control step, their times (s, counted from ``start_time``), whether each step
-    touched anything, and the outcome ``reached`` / ``stuck`` / ``timeout``.  With ``poses``, the movable
-    objects' poses after every step are appended to it.
+    def __init__(self, world: ExecutionWorld, on_step: StepListener | None = None) -> None:
+        q = world.configuration()
+        self.states = [q.copy()]
+        self.times = [0.0]
+        self.contacts = [False]
+        self.objects = [world.object_poses()]
+        self.on_step = on_step
+
+    @property
+    def time(self) -> float:
+        return self.times[-1]
+
+    def add(self, world: ExecutionWorld, q: np.ndarray, t: float, command: np.ndarray, target: np.ndarray) -> None:
+        contact = bool(world.in_contact())
+        poses = world.object_poses()
+        self.states.append(q.copy())
+        self.times.append(t)
+        self.contacts.append(contact)
+        self.objects.append(poses)
+        if self.on_step is not None:
+            self.on_step(ExecutionStep(t, q.copy(), np.asarray(command, dtype=np.float64).copy(), target, contact,
+                                       poses))
+
+    def record(self, outcome: str, **fields) -> ExecutionRecord:
+        names = self.objects[0]
+        poses = {name: np.array([step[name] for step in self.objects], dtype=np.float64) for name in names}
+        return ExecutionRecord(np.array(self.states), np.array(self.times), np.array(self.contacts, dtype=bool),
+                               outcome, objects=poses, **fields)
+
+
+def drive(world: ExecutionWorld, controller: Controller, target: np.ndarray, rng: np.random.Generator,
+          recorder: Recorder, *, period: float = 0.1, time_limit: float = 60.0) -> str:
+    """Drive the robot from wherever ``world`` holds it toward ``target`` ``(d,)`` (no reset).
+
+    The controller is reset, then commands velocities every ``period`` s until it reports the target reached,
+    gives up (``gave_up``: stuck, thesis app. C) or ``time_limit`` s have passed.  Every step goes to ``recorder``
+    (times continue from its last).  Returns the outcome ``reached`` / ``stuck`` / ``timeout``.
     """
     if not (period > 0 and time_limit >= 0):
         raise DimensionError("period must be positive and time_limit non-negative (s)", field="period/time_limit",
                              value=(period, time_limit))
     target = np.asarray(target, dtype=np.float64)
     controller.reset()
-    q = simulator.configuration()
-    deadline = start_time + time_limit
-    t = start_time
-    states: list[np.ndarray] = []
-    times: list[float] = []
-    contacts: list[bool] = []
+    q = world.configuration()
+    t = recorder.time
+    deadline = t + time_limit
     while True:
         if controller.reached(q, target):
-            return states, times, contacts, "reached"
+            return "reached"
         if getattr(controller, "gave_up", False):
-            return states, times, contacts, "stuck"
+            return "stuck"
         if t >= deadline - 1e-12:
-            return states, times, contacts, "timeout"
+            return "timeout"
         velocity = controller.command(q, target, period)
-        q = simulator.step(velocity, period, rng)
+        q = world.step(velocity, period, rng)
         t += period
-        states.append(q.copy())
-        times.append(t)
-        contacts.append(simulator.in_contact())
-        if poses is not None:
-            poses.append(simulator.object_poses())
+        recorder.add(world, q, t, velocity, target)
 
 
-def execute(simulator: Simulator, controller: Controller, path: Path, rng: np.random.Generator, *,
-            period: float = 0.1, time_limit: float = 60.0) -> ExecutionRecord:
-    """Follow ``path`` waypoint by waypoint with ``controller`` in ``simulator`` (reset at the first waypoint).
+def execute(world: ExecutionWorld, controller: Controller, path: Path, rng: np.random.Generator, *,
+            period: float = 0.1, time_limit: float = 60.0, on_step: StepListener | None = None,
+            world_name: str = "") -> ExecutionRecord:
+    """Follow ``path`` waypoint by waypoint with ``controller`` in ``world`` (reset at the first waypoint).
 
-    ``period`` is the control period (s); ``time_limit`` the total budget (s).  Each waypoint is one
-    :func:`drive`.
+    ``period`` is the control period (s); ``time_limit`` the total budget (s); ``on_step`` receives every step.
+    Each waypoint is one :func:`drive`.
     """
     if not (period > 0 and time_limit > 0):
         raise DimensionError("period and time_limit must be positive seconds", field="period/time_limit",
                              value=(period, time_limit))
     waypoints = np.atleast_2d(path.configurations)
-    simulator.reset(waypoints[0])
-    q = simulator.configuration()
-    states, times, contacts, events = [q.copy()], [0.0], [False], []
-    objects = [simulator.object_poses()]
-    t = 0.0
+    world.reset(waypoints[0])
+    recorder = Recorder(world, on_step)
+    events: list[str] = []
     reached = 0
     outcome = "timeout"
     for index, target in enumerate(waypoints[1:], start=1):
-        s, ts, cs, result = drive(simulator, controller, target, rng, period=period,
-                                  time_limit=max(0.0, time_limit - t), start_time=t, poses=objects)
-        states += s
-        times += ts
-        contacts += cs
-        if ts:
-            t = ts[-1]
+        result = drive(world, controller, target, rng, recorder, period=period,
+                       time_limit=max(0.0, time_limit - recorder.time))
         if result == "reached":
             reached = index
             continue
         if result == "stuck":
             outcome = "stuck"
-            events.append(f"t={t:.2f}s: stuck before waypoint {index}")
+            events.append(f"t={recorder.time:.2f}s: stuck before waypoint {index}")
         break
     else:
         outcome = "reached"
     if outcome == "timeout" and reached != len(waypoints) - 1:
-        events.append(f"t={t:.2f}s: time limit before waypoint {reached + 1}")
-    names = objects[0]
-    poses = {name: np.array([step[name] for step in objects], dtype=np.float64) for name in names}
-    return ExecutionRecord(np.array(states), np.array(times), np.array(contacts), reached, outcome, events, poses)
+        events.append(f"t={recorder.time:.2f}s: time limit before waypoint {reached + 1}")
+    return recorder.record(outcome, waypoints_reached=reached, events=events, world=world_name)

@@ -22,6 +22,7 @@ import json
 import logging
 import time
 import tomllib
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from pliant.errors import ConfigError, PipelineError, PliantError
-from pliant.execution import ExecutionRecord, execute
-from pliant.interfaces import KINDS, Component, Context, PlanningProblem
+from pliant.execution import ExecutionRecord, StepListener, execute
+from pliant.interfaces import KINDS, Component, Context, Driver, PlanningProblem
 from pliant.registry import Registry, default_registry
 from pliant.results import PlanResult
 from pliant.scene import Scene, load_scene
@@ -42,8 +43,9 @@ log = logging.getLogger(__name__)
 BUILD_ORDER = ("robot", "cost", "simulator", "controller", "planner", "metric", "learner", "driver")
 TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable", "execution"}
 EXECUTION_KEYS = {"period": 0.1, "time_limit": 60.0, "action_limit": 100}
-#: ``[execution]`` keys that are not numbers: the simulator to execute in, and the scene variant it simulates
-EXECUTION_WORLD_KEYS = ("simulator", "variant")
+#: ``[execution]`` keys that are not numbers: the world to execute in (a simulator or a driver; ``simulator`` is
+#: the older spelling of ``world``), and the scene variant a simulator simulates
+EXECUTION_WORLD_KEYS = ("world", "simulator", "variant")
 DEFAULT_ROBOT = {"rigid": "rigid", "urdf": "pinocchio"}
 
 
@@ -72,7 +74,7 @@ class RunRecord:
     output: Path
     timings: dict[str, float]
     files: list[Path] = field(default_factory=list)
-    execution: ExecutionRecord | Any = None      # a policy's own record type when the result is a policy
+    execution: ExecutionRecord | None = None
 
     def summary_rows(self) -> list[tuple[str, str]]:
         """``(quantity, value)`` rows for the report table."""
@@ -94,11 +96,12 @@ class RunRecord:
             rows.append((f"metric {key}", f"{value:.6g}"))
         if self.execution is not None:
             e = self.execution
-            rows += [("execution", e.outcome), ("execution time (s)", f"{e.times[-1]:.2f}")]
-            if hasattr(e, "waypoints_reached"):
-                rows.append(("waypoints reached", str(e.waypoints_reached)))
-            if hasattr(e, "actions"):
+            rows += [("execution", e.outcome), ("execution world", e.world),
+                     ("execution time (s)", f"{e.times[-1]:.2f}")]
+            if self.result is not None and self.result.policy is not None:
                 rows.append(("actions executed", str(len(e.actions))))
+            else:
+                rows.append(("waypoints reached", str(e.waypoints_reached)))
             rows.append(("steps in contact", f"{int(e.contacts.sum())} of {len(e.contacts) - 1}"))
         for key, value in self.timings.items():
             rows.append((f"time {key} (s)", f"{value:.3f}"))
@@ -136,7 +139,7 @@ class Pipeline:
         if not isinstance(disable, (list, tuple, set, frozenset)) or not all(isinstance(d, str) for d in disable):
             raise PipelineError("must be a list of plugin names", source=source, field="disable", value=disable)
         self.disable = frozenset(disable)
-        self.execution, self.execution_world = _execution_settings(execution, source)
+        self.execution, self.world_settings = _execution_settings(execution, source)
         self.scene_spec = scene
         self.components: dict[str, ComponentSpec] = {}
         self.instances: dict[str, Component] = {}
@@ -240,11 +243,20 @@ class Pipeline:
                 context.extras[kind] = component
         return context
 
-    def run(self, *, write: bool = True) -> RunRecord:
-        """Build, plan, score and (if ``write``) write the report; returns the :class:`RunRecord`."""
+    def run(self, *, write: bool = True, on_step: StepListener | None = None) -> RunRecord:
+        """Build, plan, score, execute and (if ``write``) write the report; returns the :class:`RunRecord`.
+
+        The execution world (``[execution] world``: a simulator, or a robot driver) is created before planning, so
+        a wrong name or option fails at once; a driver connects only after planning and disconnects (stopping the
+        robot within its limits) when the execution ends for any reason.  ``on_step`` receives every control step
+        of the execution (:class:`~pliant.execution.ExecutionStep`).
+        """
         timings: dict[str, float] = {}
         t0 = time.perf_counter()
         context = self.build()
+        world = None
+        if context.controller is not None and (context.simulator is not None or self.world_settings.get("world")):
+            world = self.execution_world(context)
         timings["build"] = time.perf_counter() - t0
         rng = np.random.default_rng(self.seed)
         result, problem, metrics = None, None, {}
@@ -263,41 +275,70 @@ class Pipeline:
                 metrics = dict(metric.evaluate(result.path, problem, rng))
                 timings["metric"] = time.perf_counter() - t0
         execution = None
-        if result is not None and (result.path is not None or result.policy is not None) \
-                and context.simulator is not None and context.controller is not None:
+        if result is not None and (result.path is not None or result.policy is not None) and world is not None:
             t0 = time.perf_counter()
-            simulator = self.execution_simulator(context)
             settings = self.execution
-            if result.policy is not None:
-                execution = result.policy.execute(simulator, context.controller, rng, context=context, **settings)
-            else:
-                execution = execute(simulator, context.controller, result.path, rng, period=settings["period"],
-                                    time_limit=settings["time_limit"])
+            name = self.world_spec().name
+            with world if isinstance(world, Driver) else nullcontext():
+                if result.policy is not None:
+                    execution = result.policy.execute(world, context.controller, rng, context=context,
+                                                      on_step=on_step, world_name=name, **settings)
+                else:
+                    execution = execute(world, context.controller, result.path, rng, period=settings["period"],
+                                        time_limit=settings["time_limit"], on_step=on_step, world_name=name)
             timings["execute"] = time.perf_counter() - t0
         record = RunRecord(self, context, result, problem, metrics, self.output, timings, execution=execution)
         if write:
             self.write_report(record)
         return record
 
-    def execution_simulator(self, context: Context):
-        """The simulator executions run in: the pipeline's own, or the ``[execution]`` table's ``simulator``
-        (with the robot rebuilt for it) on the pipeline's scene or its ``variant``."""
-        world = self.execution_world
-        if not world:
+    def world_spec(self) -> ComponentSpec:
+        """The execution world's name and options: ``[execution] world`` (or its older spelling ``simulator``),
+        else the pipeline's simulator."""
+        spec = self.world_settings.get("world")
+        if spec is None and "simulator" not in self.components:
+            raise PipelineError("executing needs a simulator in the pipeline or an [execution] world",
+                                source=self.source, field="execution.world")
+        return spec if spec is not None else self.components["simulator"]
+
+    def execution_world(self, context: Context):
+        """The world executions run in (:class:`~pliant.execution.ExecutionWorld`): the pipeline's simulator, or
+        the ``[execution]`` table's ``world`` -- a simulator (with the robot rebuilt for it, on the pipeline's scene
+        or its ``variant``) or a robot driver (not yet connected; it checks that it commands the robot's joints).
+        """
+        settings = self.world_settings
+        if not settings.get("world") and "variant" not in settings:
             return context.simulator
+        spec = self.world_spec()
+        kind = self._world_kind(spec.name)
         scene = self.load_scene()
-        if "variant" in world:
+        if "variant" in settings:
+            if kind == "driver":
+                raise PipelineError("a scene variant changes a simulated world; a robot driver executes in the real "
+                                    "one", source=self.source, field="execution.variant", value=settings["variant"])
             base = self.scene_spec
             name = base.get("name") if isinstance(base, dict) else base
             candidate = self.base_dir / str(name)
-            scene = load_scene(candidate if candidate.is_file() else name, variant=world["variant"])
+            scene = load_scene(candidate if candidate.is_file() else name, variant=settings["variant"])
         world_context = Context(scene=scene, seed=self.seed)
         robot_spec = self.components.get("robot", ComponentSpec(DEFAULT_ROBOT[scene.robot.kind]))
         world_context.robot = self.registry.create("robot", robot_spec.name, world_context, source=self.source,
                                                    disabled=self.disable, **robot_spec.options)
-        spec = world.get("simulator") or self.components["simulator"]
-        return self.registry.create("simulator", spec.name, world_context, source=self.source,
-                                    disabled=self.disable, **spec.options)
+        return self.registry.create(kind, spec.name, world_context, source=self.source, disabled=self.disable,
+                                    **spec.options)
+
+    def _world_kind(self, name: str) -> str:
+        """``"simulator"`` or ``"driver"``: the kind registered under ``name``."""
+        kinds = [kind for kind in ("simulator", "driver") if name in self.registry.available(kind)]
+        if len(kinds) == 1:
+            return kinds[0]
+        if kinds:
+            raise PipelineError("names both a simulator and a driver; rename one of the plugins' components",
+                                source=self.source, field="execution.world", value=name)
+        raise PipelineError(f"no simulator or driver of that name (simulators: "
+                            f"{', '.join(self.registry.available('simulator'))}; drivers: "
+                            f"{', '.join(self.registry.available('driver')) or 'none'})", source=self.source,
+                            field="execution.world", value=name)
 
     def write_report(self, record: RunRecord) -> None:
         """Write ``result.json``, ``run.json``, figures from report hooks and ``report.md``."""
@@ -334,11 +375,11 @@ class Pipeline:
         if self.disable:
             out["disable"] = sorted(self.disable)
         out["execution"] = dict(self.execution)
-        if "simulator" in self.execution_world:
-            spec = self.execution_world["simulator"]
-            out["execution"]["simulator"] = {"name": spec.name, **spec.options}
-        if "variant" in self.execution_world:
-            out["execution"]["variant"] = self.execution_world["variant"]
+        if "world" in self.world_settings:
+            spec = self.world_settings["world"]
+            out["execution"]["world"] = {"name": spec.name, **spec.options}
+        if "variant" in self.world_settings:
+            out["execution"]["variant"] = self.world_settings["variant"]
         for kind, spec in self.components.items():
             out[kind] = {"name": spec.name, **spec.options}
         return out
@@ -357,16 +398,23 @@ def _scene_pipeline(scene_data: dict, path: Path) -> dict:
 
 
 def _override_execution(table: Any, rest: str, value: Any, source: str, key: str) -> dict:
-    """``execution.KEY=value``, ``execution.simulator=NAME`` or ``execution.simulator.OPTION=value``."""
+    """``execution.KEY=value``, ``execution.world=NAME`` (a simulator or a driver; it replaces the world and its
+    options, whichever spelling the file used) or ``execution.world.OPTION=value``."""
     table = dict(table) if isinstance(table, dict) else {}
-    if rest.startswith("simulator."):
-        current = table.get("simulator")
-        if current is None:
-            raise PipelineError("set execution.simulator=NAME before its options", source=source, field=key,
-                                value=value)
-        simulator = dict(current) if isinstance(current, dict) else {"name": current}
-        simulator[rest.removeprefix("simulator.")] = value
-        table["simulator"] = simulator
+    head, _, option = rest.partition(".")
+    if head in ("world", "simulator"):
+        current = table.pop("world", None)
+        older = table.pop("simulator", None)
+        current = current if current is not None else older
+        if option:
+            if current is None:
+                raise PipelineError("set execution.world=NAME before its options", source=source, field=key,
+                                    value=value)
+            world = dict(current) if isinstance(current, dict) else {"name": current}
+            world[option] = value
+            table["world"] = world
+        else:
+            table["world"] = value
     else:
         table[rest] = value
     return table
@@ -374,8 +422,9 @@ def _override_execution(table: Any, rest: str, value: Any, source: str, key: str
 
 def _execution_settings(table: Any, source: str) -> tuple[dict[str, float], dict[str, Any]]:
     """The ``[execution]`` table: control ``period`` and ``time_limit`` (s), a policy's ``action_limit``;
-    optionally the ``simulator`` to execute in (a name or a table with options; default the pipeline's) and
-    the scene ``variant`` that simulator runs (e.g. an obstacle added during execution, thesis 5.4.3)."""
+    optionally the ``world`` to execute in -- a simulator or a robot driver, a name or a table with options (default
+    the pipeline's simulator; ``simulator`` is accepted as the older spelling) -- and the scene ``variant`` a
+    simulated world runs (e.g. an obstacle added during execution, thesis 5.4.3)."""
     if table is None:
         return dict(EXECUTION_KEYS), {}
     if not isinstance(table, dict):
@@ -384,8 +433,11 @@ def _execution_settings(table: Any, source: str) -> tuple[dict[str, float], dict
     out: dict[str, float] = dict(EXECUTION_KEYS)
     world: dict[str, Any] = {}
     for key, value in table.items():
-        if key == "simulator":
-            world["simulator"] = _component_spec(value, source, "execution.simulator")
+        if key in ("world", "simulator"):
+            if "world" in world:
+                raise PipelineError("give the world once (simulator is the older spelling of world)", source=source,
+                                    field=f"execution.{key}", value=value)
+            world["world"] = _component_spec(value, source, f"execution.{key}")
         elif key == "variant":
             if not isinstance(value, str) or not value:
                 raise PipelineError("must be a scene variant name", source=source, field="execution.variant",

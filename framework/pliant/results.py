@@ -84,11 +84,12 @@ class Policy:
     def to_dict(self) -> dict:
         raise NotImplementedError
 
-    def execute(self, simulator, controller, rng, *, context=None, period: float = 0.1, time_limit: float = 60.0,
-                action_limit: int = 100):
-        """Run the policy in ``simulator`` with ``controller`` (control ``period`` and ``time_limit`` in s, at
-        most ``action_limit`` actions); ``context`` is the pipeline's (scene, robot...).  Returns an execution
-        record with ``outcome``, ``success``, ``configurations``, ``times``, ``contacts`` and ``to_dict()``.
+    def execute(self, world, controller, rng, *, context=None, period: float = 0.1, time_limit: float = 60.0,
+                action_limit: int = 100, on_step=None, world_name: str = ""):
+        """Run the policy in ``world`` (a :class:`~pliant.execution.ExecutionWorld`: a simulator or a driver) with
+        ``controller`` (control ``period`` and ``time_limit`` in s, at most ``action_limit`` actions); ``context``
+        is the pipeline's (scene, robot...); ``on_step`` receives every control step.  Returns a
+        :class:`~pliant.execution.ExecutionRecord`.
 
         Policy kinds that can be executed override this.
         """

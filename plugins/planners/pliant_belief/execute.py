@@ -1,6 +1,6 @@
-"""Executing a partial policy through any simulator with a controller, adapting it online (thesis 5.3.5).
+"""Executing a partial policy in any execution world with a controller, adapting it online (thesis 5.3.5).
 
-:func:`execute_policy` resets the simulator at the policy's start, then repeats: take the policy's action
+:func:`execute_policy` resets the world at the policy's start, then repeats: take the policy's action
 (a target configuration), drive toward it with the controller (:func:`pliant.execution.drive`: until the
 controller reports it reached, gives up because the robot is stuck, or the action's time runs out), and
 query the policy (thesis Algorithm 4) with the configuration reached and the action performed.  The query
@@ -14,72 +14,41 @@ unforeseen outcome, and returns the next action.  Execution stops on
   ``final_approach``; not in the thesis) does not bring it within;
 - ``timeout``: the total time limit; ``action limit``: the number of actions.
 
-Everything is recorded (:class:`PolicyExecutionRecord`): each action, the outcome node matched or inserted,
-the probability changes, the trajectory with contacts and the movable objects' poses.
+Everything is recorded in the core's :class:`~pliant.execution.ExecutionRecord`: the trajectory with contacts and
+the movable objects' poses, and, in its ``actions``, one entry per action performed: ``index``, ``from_node``,
+``action_id``, ``kind`` (forward / reverse / goal), ``target`` ``(d,)``, ``start_time`` / ``end_time`` (s), ``drive``
+(reached / stuck / timeout), ``reached`` (the configuration reached), ``node`` (matched or inserted),
+``inserted``, ``relocalized``, ``matching``, ``status`` (continue / goal / failure) and ``probability``
+(``P(node -> goal)`` after the update); in ``adaptations`` the probability changes of every query
+``{"action_index", "action", "outcome", "before", "after"}`` (eq. 5.2-5.3); ``final_node`` the last vertex reached.
+The world is any :class:`~pliant.execution.ExecutionWorld`: a simulator, or a robot driver.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pliant.errors import ConfigError, DimensionError
-from pliant.execution import drive
-from pliant.interfaces import Controller, Simulator
+from pliant.execution import ExecutionRecord, ExecutionWorld, Recorder, StepListener, drive
+from pliant.interfaces import Controller
 
-from pliant_belief.policy import Matcher, PartialPolicy
-
-
-@dataclass
-class PolicyExecutionRecord:
-    """What happened while executing a partial policy (thesis 5.3.5).
-
-    configurations: ``(k, d)`` states after every control step (the first is the start); times ``(k,)`` s;
-    contacts ``(k,)`` whether the robot touched anything in that step.
-    objects: movable objects' poses ``(k, p)`` by name (:meth:`Simulator.object_poses`), empty when fixed.
-    actions: one entry per action performed: ``index``, ``from_node``, ``action_id``, ``kind`` (forward /
-    reverse), ``target`` ``(d,)``, ``start_time`` / ``end_time`` (s), ``drive`` (reached / stuck / timeout),
-    ``reached`` (the configuration reached), ``node`` (matched or inserted), ``inserted``, ``relocalized``,
-    ``matching``,
-    ``status`` (continue / goal / failure) and ``probability`` (``P(node -> goal)`` after the update).
-    adaptations: the probability changes of every query ``{"action_index", "action", "outcome", "before",
-    "after"}`` (eq. 5.2-5.3).
-    outcome: ``success``, ``failure``, ``timeout`` or ``action limit``; final_node: the last vertex reached.
-    """
-
-    configurations: np.ndarray
-    times: np.ndarray
-    contacts: np.ndarray
-    actions: list[dict]
-    adaptations: list[dict]
-    outcome: str
-    final_node: int
-    events: list[str] = field(default_factory=list)
-    objects: dict[str, np.ndarray] = field(default_factory=dict)
-
-    @property
-    def success(self) -> bool:
-        return self.outcome == "success"
-
-    def to_dict(self) -> dict:
-        """JSON-ready description (arrays as lists)."""
-        actions = [{k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in a.items()} for a in self.actions]
-        return {"configurations": self.configurations.tolist(), "times": self.times.tolist(),
-                "contacts": self.contacts.tolist(), "actions": actions, "adaptations": list(self.adaptations),
-                "outcome": self.outcome, "final_node": self.final_node, "events": list(self.events),
-                "objects": {name: poses.tolist() for name, poses in self.objects.items()}}
+if TYPE_CHECKING:
+    from pliant_belief.policy import Matcher, PartialPolicy
 
 
-def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Controller, rng: np.random.Generator,
+def execute_policy(policy: PartialPolicy, world: ExecutionWorld, controller: Controller, rng: np.random.Generator,
                    *, matcher: Matcher | None = None, period: float = 0.1, time_limit: float = 300.0,
                    action_limit: int = 100, action_time_limit: float = 30.0, start: np.ndarray | None = None,
-                   final_approach: bool = True) -> PolicyExecutionRecord:
-    """Execute ``policy`` in ``simulator`` with ``controller``, querying and adapting it after every action.
+                   final_approach: bool = True, on_step: StepListener | None = None,
+                   world_name: str = "") -> ExecutionRecord:
+    """Execute ``policy`` in ``world`` with ``controller``, querying and adapting it after every action.
 
     ``matcher(particles, q) -> bool`` (else ``policy.matcher``) matches observations to nodes (thesis
     Algorithm 4).  ``period``: control period (s); ``time_limit``: total budget (s); ``action_limit``: most
     actions; ``action_time_limit``: most seconds one action may drive.  ``start`` ``(d,)`` (default: the start
-    node's expected configuration) is where the simulator is reset.  The policy itself is adapted in place.
+    node's expected configuration) is where the world is reset.  ``on_step`` receives every control step.
+    The policy itself is adapted in place.
     ``final_approach``: when the policy stops at a goal vertex but the robot is outside the goal tolerance
     (a goal vertex needs only ``P_goal`` of its particles in the goal), drive to the goal configuration
     once (an action of kind ``goal``) and judge success there; ``False`` ends such an execution as failed.
@@ -97,10 +66,10 @@ def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Cont
     if q0.shape != (space.dim,) or not np.all(np.isfinite(q0)):
         raise DimensionError(f"start must be a finite configuration of shape ({space.dim},)", field="start",
                              value=np.asarray(q0).tolist())
-    simulator.reset(q0)
-    q = simulator.configuration()
-    states, times, contacts, events = [q.copy()], [0.0], [False], []
-    objects = [simulator.object_poses()]
+    world.reset(q0)
+    q = world.configuration()
+    recorder = Recorder(world, on_step)
+    events: list[str] = []
     actions: list[dict] = []
     adaptations: list[dict] = []
     t = 0.0
@@ -108,12 +77,9 @@ def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Cont
 
     def perform(target: np.ndarray, t: float) -> tuple[np.ndarray, float, str]:
         """Drive toward ``target`` from time ``t``, recording the steps; (configuration reached, time, outcome)."""
-        s, ts, cs, driven = drive(simulator, controller, target, rng, period=period,
-                                  time_limit=min(action_time_limit, time_limit - t), start_time=t, poses=objects)
-        states.extend(s)
-        times.extend(ts)
-        contacts.extend(cs)
-        return simulator.configuration(), (ts[-1] if ts else t), driven
+        driven = drive(world, controller, target, rng, recorder, period=period,
+                       time_limit=min(action_time_limit, time_limit - t))
+        return world.configuration(), recorder.time, driven
 
     def in_goal(q: np.ndarray) -> bool:
         return policy.goal is not None and float(space.distance(q, policy.goal)) <= policy.goal_tolerance
@@ -173,7 +139,5 @@ def execute_policy(policy: PartialPolicy, simulator: Simulator, controller: Cont
                 events.append(f"t={t:.2f}s: stopped at goal node {node} outside the goal tolerance")
         else:
             action = step.action
-    names = objects[0]
-    poses = {name: np.array([p[name] for p in objects], dtype=np.float64) for name in names}
-    return PolicyExecutionRecord(np.array(states), np.array(times), np.array(contacts, dtype=bool), actions,
-                                 adaptations, outcome, node, events, poses)
+    return recorder.record(outcome, events=events, actions=actions, adaptations=adaptations, final_node=node,
+                           world=world_name)

@@ -56,15 +56,15 @@ def _gamma(g: float) -> tuple[str, ...]:
     """Planning and execution noise ``gamma`` (linear, m/s) and ``gamma / 4`` (angular), thesis 5.4.1."""
     noise = "none" if g == 0 else "bounded"
     return (f'simulator.noise="{noise}"', f"simulator.noise_linear={g}", f"simulator.noise_angular={g / 4}",
-            f'execution.simulator.noise="{noise}"', f"execution.simulator.noise_linear={g}",
-            f"execution.simulator.noise_angular={g / 4}")
+            f'execution.world.noise="{noise}"', f"execution.world.noise_linear={g}",
+            f"execution.world.noise_angular={g / 4}")
 
 
 def experiments() -> dict[str, list[Variant]]:
     """The experiments by name (see the module docstring)."""
     maze_worlds = {"unblocked": (), "blocked": ('execution.variant="blocked"',)}
-    frictionless = {"unblocked, friction 0": ("execution.simulator.friction=0.0",),
-                    "blocked, friction 0": ('execution.variant="blocked"', "execution.simulator.friction=0.0")}
+    frictionless = {"unblocked, friction 0": ("execution.world.friction=0.0",),
+                    "blocked, friction 0": ('execution.variant="blocked"', "execution.world.friction=0.0")}
     table_51 = [Variant("PC", "peg-policy", ('planner.clustering="pc"',)),
                 Variant("AC", "peg-policy", ('planner.clustering="ac"',))]
     table_51 += [Variant(f"WCR {t}", "peg-policy", ('planner.clustering="wcr"', f"planner.wcr_threshold={t}"))
@@ -128,7 +128,7 @@ def _execute(variant: Variant, seed: int, base: list[str], context, planned, exe
     for world, world_overrides in variant.worlds.items():
         runs = []
         world_pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=[*base, *world_overrides])
-        simulator = world_pipeline.execution_simulator(context)
+        simulator = world_pipeline.execution_world(context)
         for k in range(executions):
             policy = PartialPolicy.from_dict(saved)      # every execution starts from the planned policy
             policy.matcher = planned.matcher

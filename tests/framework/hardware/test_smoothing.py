@@ -36,10 +36,10 @@ def test_a_new_target_mid_motion_blends_without_stopping(limits):
     s = OnlineSmoother(limits)
     s.reset(np.zeros(3))
     s.set_target([0.9, 0, 0])
-    p1, v1, _ = _run(s, 100)
+    _, v1, _ = _run(s, 100)
     assert v1[-1, 0] > 0.5
     s.set_target([-0.9, 0, 0])
-    p2, v2, a2 = _run(s, 1000)
+    p2, v2, _ = _run(s, 1000)
     speeds = np.concatenate([v1[:, 0], v2[:, 0]])
     # the velocity changes continuously (bounded by the acceleration limit per cycle): no jump to zero
     assert np.all(np.abs(np.diff(speeds)) <= limits.acceleration[0] * limits.period + 1e-9)

@@ -106,7 +106,7 @@ def test_simple_rrt_never_touches_a_wall_and_contact_rrt_uses_one_particle():
 
 def test_a_pipeline_plans_a_policy_and_executes_it():
     record = Pipeline.from_file("maze-policy", overrides=[
-        "planner.max_time=1000", "planner.max_iterations=150", "planner.particles=8", "execution.simulator=kinematic",
+        "planner.max_time=1000", "planner.max_iterations=150", "planner.particles=8", "execution.world=kinematic",
         "execution.time_limit=600", 'output="/tmp/pliant-test-maze-policy"']).run(write=False)
     assert record.result.status is Status.SOLVED
     assert record.execution is not None and len(record.execution.actions) >= 1

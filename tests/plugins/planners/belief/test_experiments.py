@@ -94,7 +94,7 @@ def test_baxter_reach_compares_the_belief_planner_with_contact_rrt_and_its_pipel
     context = pipeline.build()
     assert context.extras["planner"].options.mode == "contact"
     assert context.simulator.noise.model == "none"
-    simulator = pipeline.execution_simulator(context)
+    simulator = pipeline.execution_world(context)
     assert type(simulator).__name__ == "PybulletSimulator"
     assert simulator.noise.model == "proportional" and simulator.per_actuator
     np.testing.assert_allclose(simulator.limits, [0.5, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0])

@@ -56,19 +56,20 @@ def test_pressed_on_a_ledge_and_commanded_along_it_the_block_slides_as_in_the_ki
     mostly down into the ledge.  The servo's force follows the velocity error, so the block slides right
     until it drops into the pocket, as in the frictionless planning model (pymunk's capped pivot joint spent
     its whole force pushing down and the block never moved, frictionless too)."""
-    from pliant.execution import drive
+    from pliant.execution import Recorder, drive
 
     pipeline = Pipeline.from_file("maze-policy", overrides=["planner.progress=false"])   # friction 0.1, noise
     context = pipeline.build()
     start, target = np.array([0.645, 1.25, 0.0]), np.array([0.75, 0.75, 0.0])
     for seed in range(3):
         finals = []
-        for simulator in (pipeline.execution_simulator(context), context.simulator):
+        for simulator in (pipeline.execution_world(context), context.simulator):
             simulator.reset(start)
-            states, _, _, outcome = drive(simulator, context.controller, target, np.random.default_rng(seed),
-                                          time_limit=30.0)
+            recorder = Recorder(simulator)
+            outcome = drive(simulator, context.controller, target, np.random.default_rng(seed), recorder,
+                            time_limit=30.0)
             assert outcome == "reached"
-            finals.append(states[-1])
+            finals.append(recorder.states[-1])
         assert finals[0][1] < 0.85 and finals[1][1] < 0.85       # both dropped below the ledge (y = 1.25 on it)
         assert np.abs(finals[0][:2] - finals[1][:2]).max() < 0.1
 
