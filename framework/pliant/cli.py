@@ -3,6 +3,7 @@
     pliant plugins [--kind KIND] [--options KIND NAME]   what is installed, and each component's options
     pliant scenes [NAME]                                 bundled scenes (and one scene's details)
     pliant run PIPELINE [--set key=value ...]            run a pipeline file or bundled pipeline
+    pliant driver [NAME --check] [--set option=value]    robot drivers; inspect a robot without moving it
     pliant bench [NAME] [-- ARGS]                        run a benchmark script from benchmarks/
 
 Plugins add their own sub-commands through the ``pliant_add_commands`` hook.  Errors in input are
@@ -27,6 +28,7 @@ EXAMPLES = """examples:
   pliant scenes                                  list bundled scenes
   pliant run demo                                run the bundled demo pipeline
   pliant run my.toml --set planner.max_time=5 --set simulator=pybullet
+  pliant driver baxter-ros --check --set side=right   inspect a robot (state, limits, rates)
   pliant bench                                   list the benchmarks
 """
 
@@ -121,6 +123,48 @@ def cmd_run(args) -> int:
     return 0 if record.result is None or record.result.solved else 1
 
 
+def cmd_driver(args) -> int:
+    from pliant import registry
+    from pliant.errors import DriverError
+    from pliant.pipeline import parse_override
+
+    reg = registry.default_registry()
+    if not args.name:
+        print(_table([(e.name, e.plugin, e.description) for e in reg.entries() if e.kind == "driver"],
+                     ("driver", "plugin", "description")))
+        return 0
+    options = dict(parse_override(text, "--set") for text in (args.set or []))
+    driver = reg.create("driver", args.name, source="--set", **options)
+    if not args.check:
+        print(f"driver '{args.name}': joints {', '.join(driver.joint_names())}; limits {driver.limits.source}")
+        print("add --check to connect and inspect the robot")
+        return 0
+    try:
+        report = driver.check()
+    except DriverError as exc:
+        if getattr(exc, "report", None):
+            _print_report(args.name, exc.report)
+        raise
+    _print_report(args.name, report)
+    print("\nok: the robot answers, its joints match, it is ready")
+    return 0
+
+
+def _print_report(name: str, report: dict) -> None:
+    status = "enabled" if report["enabled"] else "DISABLED"
+    status += ", E-STOP" if report["estop"] else ""
+    status += f", fault: {report['fault']}" if report["fault"] else ""
+    print(f"{name}: {status}{' (' + report['detail'] + ')' if report['detail'] else ''}")
+    timeout = report["command_timeout"]
+    print(f"  command rate {report['command_rate']:g} Hz; joint states measured at {report['measured_state_rate']:.1f}"
+          f" Hz; robot command timeout {'none' if timeout is None else f'{timeout:g} s'}; state watchdog "
+          f"{report['state_timeout']:g} s")
+    rows = [(n, f"{p:+.4f}", f"{v:+.4f}", *limits[1:]) for n, p, v, limits in
+            zip(report["joints"], report["positions"], report["velocities"], report["limits"])]
+    print(_table(rows, ("joint", "position", "velocity", "lower", "upper", "vel max", "acc max", "jerk max")))
+    print("limits from: " + "; ".join(report["sources"]))
+
+
 def _benchmarks_dir() -> Path:
     env = os.environ.get("PLIANT_BENCHMARKS")
     candidates = [Path(env)] if env else []
@@ -169,6 +213,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override one value, e.g. planner.max_time=5, simulator=pybullet, scene.variant=soft")
     p.add_argument("--output", help="report directory (default out/<pipeline name>)")
     p.set_defaults(handler=cmd_run)
+
+    p = sub.add_parser("driver", help="list robot drivers, or inspect a robot (--check)",
+                       description="Inspect a robot through its driver without moving it: connect, read its joint "
+                                   "states and status, print state, limits and rates; any problem is one line and "
+                                   "exit status 2.")
+    p.add_argument("name", nargs="?", help="driver name (pliant driver lists them)")
+    p.add_argument("--check", action="store_true", help="connect and inspect the robot")
+    p.add_argument("--set", action="append", metavar="OPTION=VALUE",
+                   help="a driver option, e.g. side=left or master_uri=http://127.0.0.1:11311")
+    p.set_defaults(handler=cmd_driver)
 
     p = sub.add_parser("bench", help="run a benchmark script (prints a table, writes JSON)")
     p.add_argument("name", nargs="?", help="benchmark name; omit to list them")

@@ -32,7 +32,9 @@ class ExecutionWorld(Protocol):
 
     ``reset(q)`` puts the robot at ``q`` ``(d,)`` (placing it, or driving there); ``step(velocity, dt, rng)`` applies
     a tangent velocity ``(t,)`` for ``dt`` s and returns the configuration ``(d,)`` reached; ``configuration()``,
-    ``in_contact()`` (during the last step) and ``object_poses()`` (movable objects by name) report.
+    ``in_contact()`` (during the last step) and ``object_poses()`` (movable objects by name) report; ``settle()``
+    brings the robot to rest at the end of an execution and returns where it rests (a simulated robot stops at
+    once; a real one decelerates within its limits, so it may travel on a little).
     """
 
     def reset(self, q: np.ndarray) -> None: ...
@@ -44,6 +46,8 @@ class ExecutionWorld(Protocol):
     def in_contact(self) -> bool: ...
 
     def object_poses(self) -> dict[str, np.ndarray]: ...
+
+    def settle(self) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -133,6 +137,12 @@ class Recorder:
             self.on_step(ExecutionStep(t, q.copy(), np.asarray(command, dtype=np.float64).copy(), target, contact,
                                        poses))
 
+    def settle(self, world: ExecutionWorld) -> None:
+        """End the execution: bring the robot to rest and, if it moved on while stopping, record where it rests."""
+        q = np.asarray(world.settle(), dtype=np.float64)
+        if not np.array_equal(q, self.states[-1]):
+            self.add(world, q, self.time, np.zeros_like(q), q)
+
     def record(self, outcome: str, **fields) -> ExecutionRecord:
         names = self.objects[0]
         poses = {name: np.array([step[name] for step in self.objects], dtype=np.float64) for name in names}
@@ -200,4 +210,5 @@ def execute(world: ExecutionWorld, controller: Controller, path: Path, rng: np.r
         outcome = "reached"
     if outcome == "timeout" and reached != len(waypoints) - 1:
         events.append(f"t={recorder.time:.2f}s: time limit before waypoint {reached + 1}")
+    recorder.settle(world)
     return recorder.record(outcome, waypoints_reached=reached, events=events, world=world_name)

@@ -346,6 +346,10 @@ class Simulator(Component):
         """Whether the robot touched anything during the last step."""
         return False
 
+    def settle(self) -> np.ndarray:
+        """End of an execution: a simulated robot stops with its last command; returns its configuration."""
+        return self.configuration()
+
 
 class Controller(Component):
     """Turns (current configuration, target) into a velocity command (thesis app. C)."""
@@ -643,8 +647,14 @@ class Driver(Component):
         return self.session.stop(wait=wait)
 
     def check(self) -> dict[str, Any]:
-        """Connect (if needed) and report state, status, limits and rates; raises the first problem found."""
-        return self.session.report()
+        """Report state, status, limits and rates, raising the first problem found as a one-line
+        :class:`~pliant.errors.DriverError`.  Not connected: look at the robot without commanding it (nor
+        enabling it); connected: report the running stream (with the measured command rate)."""
+        if getattr(self, "_stream", None) is not None:
+            return self._stream.report()
+        from pliant.hardware.stream import inspect_robot
+
+        return inspect_robot(self, self.limits, connect_timeout=self.options.connect_timeout)
 
     # --- the execution protocol (the same as a simulator's) -----------------------------------------------
 
@@ -658,6 +668,10 @@ class Driver(Component):
     def step(self, velocity: np.ndarray, dt: float, rng: np.random.Generator | None = None) -> np.ndarray:
         """Command ``velocity`` ``(d,)`` (rad/s) for ``dt`` s of real time; return the measured ``(d,)`` after."""
         return self.session.step(velocity, dt)
+
+    def settle(self) -> np.ndarray:
+        """End of an execution: decelerate to rest within the limits; returns the measured rest configuration."""
+        return self.stop()
 
     def in_contact(self) -> bool:
         """Drivers do not sense contact; the contact controller notices it from the measured motion."""

@@ -37,6 +37,10 @@ from pliant.hardware.smoothing import OnlineSmoother
 
 #: the last part of each period spent spinning instead of sleeping, for a steady command period (s)
 SPIN = 0.0005
+#: a robot whose measured joint speeds are all below this (rad/s) has stopped
+SETTLED = 1e-3
+#: the longest a stop waits for the measured robot to come to rest after the command has (s)
+SETTLE_TIME = 1.0
 #: commands kept in :attr:`CommandStream.log` (about 10 minutes at 100 Hz)
 LOG_LENGTH = 60000
 
@@ -307,13 +311,17 @@ class CommandStream:
         return self.measured().positions
 
     def stop(self, *, wait: bool = True) -> np.ndarray:
-        """Brake to rest within the limits (a stop is always allowed, even after a fault)."""
+        """Brake to rest within the limits (a stop is always allowed, even after a fault); with ``wait``, return
+        the measured positions once the command is at rest and the robot has followed it (up to 1 s)."""
         with self._lock:
             self._path = None
             self._expires = None
             self.smoother.brake("stop")
         if wait:
             self._wait(lambda: self.smoother.at_rest or not self._writing, 30.0, raise_error=False)
+            # then let the robot's own servo catch up with the last command (its measured velocity dies down)
+            self._wait(lambda: self._measured is None or np.all(np.abs(self._measured.velocities) < SETTLED),
+                       SETTLE_TIME, raise_error=False)
         with self._lock:
             return self._measured.positions if self._measured is not None else self.smoother.position
 
@@ -367,4 +375,44 @@ class CommandStream:
                 "limits": self.limits.describe(), "sources": list(self.limits.sources)}
 
 
-__all__ = ["CommandStream", "Measured"]
+def inspect_robot(driver: Any, limits: JointLimits, *, connect_timeout: float = 5.0,
+                  duration: float = 0.5) -> dict[str, Any]:
+    """Look at a robot without commanding it (``pliant driver NAME --check``): open the connection, wait for its
+    joint states, check them (names, order, stamps, freshness) for ``duration`` s and the robot's status, and
+    report state, status, limits and rates.  Raises the first problem as a one-line
+    :class:`~pliant.errors.DriverError` (master unreachable, robot disabled, joint names differ...).
+    """
+    safety = SafetyLayer(limits)
+    driver.open()
+    try:
+        deadline = time.monotonic() + connect_timeout
+        while driver.latest_state() is None:
+            if time.monotonic() > deadline:
+                raise ConnectionLost(f"connected, but no joint state arrived within {connect_timeout:g} s",
+                                     field="driver", value=type(driver).__name__)
+            time.sleep(0.005)
+        first = driver.latest_state()
+        start = time.monotonic()
+        positions, velocities = safety.read_state(first, start)
+        while time.monotonic() - start < duration:
+            time.sleep(limits.period)
+            positions, velocities = safety.read_state(driver.latest_state(), time.monotonic())
+        last = driver.latest_state()
+        elapsed = max(last.received - first.received, 1e-9)
+        status = driver.robot_status()
+        report = {"joints": list(limits.names), "positions": positions.tolist(), "velocities": velocities.tolist(),
+                  "enabled": status.enabled, "estop": status.estop, "fault": status.fault, "detail": status.detail,
+                  "command_rate": limits.command_rate, "measured_state_rate": (last.sequence - first.sequence) /
+                  elapsed, "command_timeout": limits.command_timeout, "state_timeout": limits.state_timeout,
+                  "limits": limits.describe(), "sources": list(limits.sources)}
+        try:
+            safety.check_status(status)
+        except DriverError as exc:
+            exc.report = report          # what could be read is still worth printing
+            raise
+        return report
+    finally:
+        driver.shutdown()
+
+
+__all__ = ["CommandStream", "Measured", "inspect_robot"]

@@ -139,5 +139,6 @@ def execute_policy(policy: PartialPolicy, world: ExecutionWorld, controller: Con
                 events.append(f"t={t:.2f}s: stopped at goal node {node} outside the goal tolerance")
         else:
             action = step.action
+    recorder.settle(world)
     return recorder.record(outcome, events=events, actions=actions, adaptations=adaptations, final_node=node,
                            world=world_name)
