@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from pliant.errors import ConnectionLost, DriverError, LimitViolation, PliantError
+from pliant.errors import ConnectionLost, DriverError, LimitViolation, PliantError, StepTooLarge
 from pliant.hardware.limits import JointLimits
 from pliant.hardware.safety import SafetyLayer
 from pliant.hardware.smoothing import OnlineSmoother
@@ -84,6 +84,7 @@ class CommandStream:
         self._wake = threading.Condition(self._lock)
         self._measured: Measured | None = None
         self._expires: float | None = None
+        self._streamed: tuple[np.ndarray, float] | None = None
         self._path: tuple[float, np.ndarray, np.ndarray] | None = None
         self._closing = False
         self._writing = True
@@ -251,22 +252,45 @@ class CommandStream:
 
     def stream(self, target, velocity=None, *, hold: float | None = None) -> None:
         """Aim at ``target`` ``(d,)`` (with ``velocity`` ``(d,)``); a non-zero velocity expires after ``hold`` s
-        (default four command periods) and the robot then stops."""
+        (default four command periods) and the robot then stops.
+
+        A streamed target may move each cycle by at most the step limit (``max_step`` per command period since the
+        previous streamed target; the first from the current reference): a larger jump is a fault of whoever
+        streams (``StepTooLarge``), not a motion to make.  :meth:`move_to` is for going far.
+        """
         self._check()
+        now = time.monotonic()
         try:
             position, velocity = self.safety.check_target(target, velocity)
+            with self._lock:
+                previous, since = self._streamed if self._streamed is not None else (self.smoother.position, now)
+            allowed = self.limits.max_step * (1.0 + (now - since) / self.limits.period)
+            jump = np.abs(position - previous)
+            if np.any(jump > allowed):
+                i = int(np.argmax(jump - allowed))
+                raise StepTooLarge(f"streamed target jumps {jump[i]:.4g} rad from the previous one",
+                                   joint=self.limits.names[i], value=float(position[i]), limit=float(allowed[i]))
         except DriverError as exc:
             self._refuse(exc)
+        self._aim(position, velocity, hold)
+        self._streamed = (position, now)
+
+    def _aim(self, position: np.ndarray, velocity: np.ndarray, hold: float | None) -> None:
         with self._lock:
             self._path = None
             self.smoother.set_target(position, velocity)
             self._expires = time.monotonic() + (4 * self.limits.period if hold is None else hold) \
                 if np.any(velocity) else None
+            self._streamed = None
 
     def move_to(self, q, *, wait: bool = True) -> np.ndarray:
         """Go to ``q`` and (with ``wait``) return the measured positions once within ``reach_tolerance``."""
-        self.stream(q)
-        target = self.smoother.target_position
+        self._check()
+        try:
+            target, velocity = self.safety.check_target(q)
+        except DriverError as exc:
+            self._refuse(exc)
+        self._aim(target, velocity, None)
         if not wait:
             return self.measured().positions
         with self._lock:
@@ -300,6 +324,7 @@ class CommandStream:
                 self._refuse(exc)
         with self._lock:
             self._expires = None
+            self._streamed = None
             self._path = (time.monotonic() - times[0], times, positions)
         if not wait:
             return self.measured().positions
@@ -351,6 +376,7 @@ class CommandStream:
             ahead = reference + np.sign(velocity) * stop
             blocked = (lead > self.max_lead) | (ahead > lim.command_upper) | (ahead < lim.command_lower)
             self.smoother.set_velocity(np.where(blocked, 0.0, velocity))
+            self._streamed = None
             self._expires = time.monotonic() + 2 * dt + lim.period
         now = time.monotonic()
         wake = (self._last_step + dt) if self._last_step is not None and self._last_step + dt > now else now + dt

@@ -18,6 +18,7 @@ from pliant.errors import (
     RobotDisabled,
     StaleState,
     StateError,
+    StepTooLarge,
 )
 from pliant.results import Path
 
@@ -64,7 +65,7 @@ def test_streamed_targets_blend(robot_and_driver):
     robot, driver = robot_and_driver
     with driver:
         for k in range(100):                         # a target that moves every cycle
-            driver.stream([0.6 * np.sin(k / 20), 0.0, 0.3])
+            driver.stream([0.6 * np.sin(k / 100), 0.0, 0.0])
             time.sleep(0.005)
         driver.move_to([0.0, 0.0, 0.0])
     speeds = np.array([v for _, _, v in robot.commands])[:, 0]
@@ -124,6 +125,22 @@ def test_velocity_spike_in_a_stream_is_refused(robot_and_driver):
     assert robot.violations() == []
 
 
+def test_a_jump_in_a_stream_is_refused(robot_and_driver):
+    robot, driver = robot_and_driver
+    with driver:
+        for k in range(20):
+            driver.stream([0.004 * k, 0, 0])           # 0.004 rad per 5 ms cycle: under the step limit (0.006)
+            time.sleep(0.005)
+        with pytest.raises(StepTooLarge, match="joint a") as info:
+            driver.stream([0.5, 0, 0])
+        assert info.value.limit < 0.1
+        with pytest.raises(StepTooLarge):              # faulted: no further motion until reconnecting
+            driver.stream([0.08, 0, 0])
+        driver.stop()
+    assert _settled(robot) and robot.positions[0] < 0.2
+    assert robot.violations() == []
+
+
 @pytest.mark.parametrize(("fault", "error"), [
     (lambda r: setattr(r, "publishing", False), StaleState),
     (lambda r: setattr(r, "enabled", False), RobotDisabled),
@@ -169,3 +186,25 @@ def test_check_reports_state_limits_and_rates(robot_and_driver):
     assert report["joints"] == ["a", "b", "c"] and report["enabled"]
     assert report["measured_command_rate"] == pytest.approx(200.0, rel=0.1)
     assert report["sources"] == ["made up for tests"]
+
+
+def test_no_socket_is_opened(robot_and_driver, monkeypatch):
+    """ruckig can send waypoints to a cloud service (``intermediate_positions``); the stack must never open a
+    connection of its own (this robot is in memory: any connection at all is a leak)."""
+    import socket
+
+    opened = []
+    real_connect = socket.socket.connect
+
+    def record(self, address):
+        opened.append(address)
+        return real_connect(self, address)
+
+    monkeypatch.setattr(socket.socket, "connect", record)
+    monkeypatch.setattr(socket.socket, "connect_ex", lambda self, address: opened.append(address) or 0)
+    robot, driver = robot_and_driver
+    with driver:
+        driver.move_to([0.3, -0.3, 0.3])
+        times = np.linspace(0, 0.5, 6)
+        driver.follow(Path(np.stack([0.3 - 0.2 * times, -0.3 + 0.2 * times, 0.3 + 0 * times], axis=1), times))
+    assert opened == []
