@@ -208,3 +208,4 @@ def test_no_socket_is_opened(robot_and_driver, monkeypatch):
         times = np.linspace(0, 0.5, 6)
         driver.follow(Path(np.stack([0.3 - 0.2 * times, -0.3 + 0.2 * times, 0.3 + 0 * times], axis=1), times))
     assert opened == []
+    assert robot.violations() == []
