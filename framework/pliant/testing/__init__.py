@@ -16,10 +16,11 @@ from pliant.testing.conformance import (
     build_context,
     check_component,
     check_cost,
+    check_driver,
     check_planner,
     check_robot,
     check_space,
 )
 
-__all__ = ["ConformanceFailure", "build_context", "check_component", "check_cost", "check_planner", "check_robot",
-           "check_space"]
+__all__ = ["ConformanceFailure", "build_context", "check_component", "check_cost", "check_driver", "check_planner",
+           "check_robot", "check_space"]

@@ -6,14 +6,18 @@ component and the broken rule, and returns the list of rules it verified.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from pliant.errors import PliantError
+from pliant.hardware.state import JointState, RobotStatus
 from pliant.interfaces import (
     Component,
     Context,
     Controller,
     CostModel,
+    Driver,
     Planner,
     PlanningProblem,
     RobotModel,
@@ -179,6 +183,41 @@ def check_simulator(simulator: Simulator, space: Space, start: np.ndarray, seed:
     q = simulator.step(np.zeros(space.tangent_dim), 0.1, np.random.default_rng(seed))
     _require(q.shape == (space.dim,), who, "step() returns (d,)")
     return ["simulate", "determinism", "stepping"]
+
+
+def check_driver(driver: Driver, who: str = "driver", seconds: float = 0.5) -> list[str]:
+    """The transport contract of a driver connected to a robot (or its peer) that is running and enabled.
+
+    Checks: unique joint names; a limits file that covers them; ``open`` gives ``JointState`` messages with
+    increasing stamps and a growing counter, covering the joints; ``robot_status`` is a ``RobotStatus``;
+    ``shutdown`` twice is harmless; and through the core's stream, ``state()`` is ``(d,)`` and ``move_to`` the
+    current position returns there.  Moves the robot by nothing more than holding it.
+    """
+    names = tuple(driver.joint_names())
+    _require(len(names) > 0 and len(set(names)) == len(names), who, "joint_names() are unique and not empty")
+    _require(driver.limits.names == names, who, "the limits file covers every joint, in order")
+    driver.open()
+    try:
+        deadline = time.monotonic() + driver.options.connect_timeout
+        while driver.latest_state() is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        first = driver.latest_state()
+        _require(isinstance(first, JointState), who, "latest_state() returns a JointState after open()")
+        _require(set(names) <= set(first.names), who, "the joint states name every commanded joint")
+        time.sleep(seconds)
+        last = driver.latest_state()
+        _require(last.stamp > first.stamp and last.sequence > first.sequence, who,
+                 "joint states keep arriving with increasing stamps and counter")
+        _require(isinstance(driver.robot_status(), RobotStatus), who, "robot_status() returns a RobotStatus")
+    finally:
+        driver.shutdown()
+    driver.shutdown()
+    with driver:
+        q = driver.state()
+        _require(q.shape == (len(names),), who, "state() is (d,)")
+        _require(np.allclose(driver.move_to(q), q, atol=driver.options.reach_tolerance), who,
+                 "move_to(current) arrives")
+    return ["joint names", "limits", "joint states", "status", "shutdown twice", "stream"]
 
 
 def check_component(kind: str, name: str, scene: str | None = None, seed: int = 0,

@@ -209,3 +209,11 @@ def test_no_socket_is_opened(robot_and_driver, monkeypatch):
         driver.follow(Path(np.stack([0.3 - 0.2 * times, -0.3 + 0.2 * times, 0.3 + 0 * times], axis=1), times))
     assert opened == []
     assert robot.violations() == []
+
+
+def test_the_memory_driver_passes_the_conformance_kit(robot_and_driver):
+    from pliant.testing import check_driver
+
+    robot, driver = robot_and_driver
+    assert "stream" in check_driver(driver)
+    assert robot.violations() == []
