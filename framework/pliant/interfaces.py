@@ -622,6 +622,11 @@ class Driver(Component):
         """The measured joint positions ``(d,)`` (rad), in :meth:`joint_names` order."""
         return self.session.measured().positions
 
+    def measured(self):
+        """The newest checked measurement: ``positions`` ``(d,)`` rad, ``velocities`` ``(d,)`` rad/s (estimated from
+        successive states where the robot reports none) and ``time`` (:func:`time.monotonic`, s)."""
+        return self.session.measured()
+
     def move_to(self, q: np.ndarray, *, wait: bool = True) -> np.ndarray:
         """Move to ``q`` ``(d,)`` and (with ``wait``) return the measured positions once there."""
         return self.session.move_to(q, wait=wait)

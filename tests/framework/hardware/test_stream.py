@@ -93,6 +93,8 @@ def test_step_is_the_execution_protocol(robot_and_driver):
             q = driver.step(np.array([0.5, 0.0, 0.0]), 0.05, None)
         elapsed = time.monotonic() - t0
         assert elapsed == pytest.approx(0.5, abs=0.05)          # real time
+        measured = driver.measured()
+        assert measured.velocities[0] > 0.3 and abs(measured.time - time.monotonic()) < 0.05
         assert 0.15 < q[0] < 0.3                                 # it moved along the commanded velocity
         driver.stop()
     assert robot.violations() == []
