@@ -140,10 +140,13 @@ def cmd_driver(args) -> int:
         print("add --check to connect and inspect the robot")
         return 0
     try:
-        report = driver.check()
+        report = driver.check(enable=args.enable)
     except DriverError as exc:
         if getattr(exc, "report", None):
             _print_report(args.name, exc.report)
+        if not args.enable and "disabled" in str(exc):
+            exc.message += " (--enable enables it)"
+            exc.args = (exc._format(),)
         raise
     _print_report(args.name, report)
     print("\nok: the robot answers, its joints match, it is ready")
@@ -154,6 +157,7 @@ def _print_report(name: str, report: dict) -> None:
     status = "enabled" if report["enabled"] else "DISABLED"
     status += ", E-STOP" if report["estop"] else ""
     status += f", fault: {report['fault']}" if report["fault"] else ""
+    status += f", LOST: {report['lost']}" if report["lost"] else ""
     print(f"{name}: {status}{' (' + report['detail'] + ')' if report['detail'] else ''}")
     timeout = report["command_timeout"]
     print(f"  command rate {report['command_rate']:g} Hz; joint states measured at {report['measured_state_rate']:.1f}"
@@ -219,7 +223,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "states and status, print state, limits and rates; any problem is one line and "
                                    "exit status 2.")
     p.add_argument("name", nargs="?", help="driver name (pliant driver lists them)")
-    p.add_argument("--check", action="store_true", help="connect and inspect the robot")
+    p.add_argument("--check", action="store_true", help="connect and inspect the robot (no command is sent)")
+    p.add_argument("--enable", action="store_true", help="with --check: enable a disabled robot (its motors hold)")
     p.add_argument("--set", action="append", metavar="OPTION=VALUE",
                    help="a driver option, e.g. side=left or master_uri=http://127.0.0.1:11311")
     p.set_defaults(handler=cmd_driver)

@@ -532,7 +532,8 @@ class Driver(Component):
 
     @abstractmethod
     def latest_state(self) -> JointState | None:
-        """The newest joint state received (non-blocking), ``None`` before the first."""
+        """The newest joint state received (non-blocking), ``None`` before the first.  May raise a
+        :class:`~pliant.errors.DriverError` (the stream treats it as any fault: a controlled stop)."""
 
     @abstractmethod
     def write(self, positions: np.ndarray, velocities: np.ndarray) -> None:
@@ -542,7 +543,7 @@ class Driver(Component):
         """
 
     def robot_status(self) -> RobotStatus:
-        """Whether the robot is enabled, e-stopped or faulted; the default is a robot that is always ready."""
+        """Whether the robot is enabled, e-stopped, faulted or lost; the default is a robot that is always ready."""
         return RobotStatus()
 
     def enable(self) -> None:
@@ -651,15 +652,15 @@ class Driver(Component):
         """Decelerate to rest within the limits; returns the measured positions."""
         return self.session.stop(wait=wait)
 
-    def check(self) -> dict[str, Any]:
+    def check(self, *, enable: bool = False) -> dict[str, Any]:
         """Report state, status, limits and rates, raising the first problem found as a one-line
-        :class:`~pliant.errors.DriverError`.  Not connected: look at the robot without commanding it (nor
-        enabling it); connected: report the running stream (with the measured command rate)."""
+        :class:`~pliant.errors.DriverError`.  Not connected: look at the robot without commanding it (and enable it
+        only with ``enable``); connected: report the running stream (with the measured command rate)."""
         if getattr(self, "_stream", None) is not None:
             return self._stream.report()
         from pliant.hardware.stream import inspect_robot
 
-        return inspect_robot(self, self.limits, connect_timeout=self.options.connect_timeout)
+        return inspect_robot(self, self.limits, connect_timeout=self.options.connect_timeout, enable=enable)
 
     # --- the execution protocol (the same as a simulator's) -----------------------------------------------
 

@@ -11,7 +11,7 @@ naming the joint, the value and the limit:
   name, so a robot reporting both arms and a head is fine); non-finite values; time stamps that go backwards, or
   repeat with different values; no fresh state within ``state_timeout`` (the watchdog); more state messages per
   second than ``max_state_rate`` (a flood);
-* robot status: disabled, e-stopped, faulted.
+* robot status: lost (a link or a part of it gone), disabled, e-stopped, faulted.
 
 The checks allow a relative tolerance of 1e-6 (and 1e-9 absolute) for floating-point rounding in ruckig's output.
 """
@@ -23,6 +23,7 @@ from collections import deque
 import numpy as np
 
 from pliant.errors import (
+    ConnectionLost,
     DriveFault,
     EmergencyStop,
     JointMismatch,
@@ -205,7 +206,9 @@ class SafetyLayer:
 
     @staticmethod
     def check_status(status: RobotStatus) -> None:
-        """Refuse to move a robot that is e-stopped, faulted or disabled."""
+        """Refuse to move a robot that is lost, e-stopped, faulted or disabled."""
+        if status.lost:
+            raise ConnectionLost(f"the link to the robot is lost: {status.lost}")
         if status.estop:
             raise EmergencyStop("the robot's emergency stop is engaged" + (f": {status.detail}" if status.detail
                                                                            else ""))

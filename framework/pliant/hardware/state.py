@@ -29,13 +29,16 @@ class JointState:
 @dataclass(frozen=True)
 class RobotStatus:
     """The robot's readiness: ``enabled`` (motors on), ``estop`` (emergency stop engaged), ``fault`` (a drive or
-    controller fault, in words; empty when none) and a free-text ``detail`` for ``pliant driver --check``."""
+    controller fault, in words; empty when none), ``lost`` (the link to the robot or part of it is gone: a ROS master
+    or node that died, a CAN drive's heartbeat that stopped, frames that cannot be decoded; in words, empty when
+    fine) and a free-text ``detail`` for ``pliant driver --check``."""
 
     enabled: bool = True
     estop: bool = False
     fault: str = ""
+    lost: str = ""
     detail: str = ""
 
     @property
     def ready(self) -> bool:
-        return self.enabled and not self.estop and not self.fault
+        return self.enabled and not self.estop and not self.fault and not self.lost

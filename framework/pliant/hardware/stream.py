@@ -126,10 +126,9 @@ class CommandStream:
             return
         try:
             with self._lock:
-                if self.error is None:
-                    self.smoother.brake("close")
-            self._wait(lambda: self.smoother.at_rest or self.error is not None or not self._writing,
-                       timeout, raise_error=False)
+                self.smoother.brake("close")
+            # after a fault too: the brake is already under way and must finish while commands can still be sent
+            self._wait(lambda: self.smoother.at_rest or not self._writing, timeout, raise_error=False)
         finally:
             self._closing = True
             self._thread.join(timeout=2.0)
@@ -395,18 +394,19 @@ class CommandStream:
         state_rate = (len(states) - 1) / (states[-1] - states[0]) if len(states) > 2 else float("nan")
         return {"joints": list(self.limits.names), "positions": measured.positions.tolist(),
                 "velocities": measured.velocities.tolist(), "enabled": status.enabled, "estop": status.estop,
-                "fault": status.fault, "detail": status.detail, "command_rate": self.limits.command_rate,
+                "fault": status.fault, "lost": status.lost, "detail": status.detail, "command_rate": self.limits.command_rate,
                 "measured_command_rate": rate, "measured_state_rate": state_rate,
                 "command_timeout": self.limits.command_timeout, "state_timeout": self.limits.state_timeout,
                 "limits": self.limits.describe(), "sources": list(self.limits.sources)}
 
 
 def inspect_robot(driver: Any, limits: JointLimits, *, connect_timeout: float = 5.0,
-                  duration: float = 0.5) -> dict[str, Any]:
+                  duration: float = 0.5, enable: bool = False) -> dict[str, Any]:
     """Look at a robot without commanding it (``pliant driver NAME --check``): open the connection, wait for its
     joint states, check them (names, order, stamps, freshness) for ``duration`` s and the robot's status, and
-    report state, status, limits and rates.  Raises the first problem as a one-line
-    :class:`~pliant.errors.DriverError` (master unreachable, robot disabled, joint names differ...).
+    report state, status, limits and rates.  With ``enable``, enable a disabled robot first (its motors hold; no
+    command is sent).  Raises the first problem as a one-line :class:`~pliant.errors.DriverError` (master
+    unreachable, robot disabled, joint names differ...).
     """
     safety = SafetyLayer(limits)
     driver.open()
@@ -417,6 +417,10 @@ def inspect_robot(driver: Any, limits: JointLimits, *, connect_timeout: float = 
                 raise ConnectionLost(f"connected, but no joint state arrived within {connect_timeout:g} s",
                                      field="driver", value=type(driver).__name__)
             time.sleep(0.005)
+        if enable and not driver.robot_status().enabled:
+            driver.enable()
+            while not driver.robot_status().enabled and time.monotonic() < deadline:
+                time.sleep(0.01)
         first = driver.latest_state()
         start = time.monotonic()
         positions, velocities = safety.read_state(first, start)
@@ -427,8 +431,8 @@ def inspect_robot(driver: Any, limits: JointLimits, *, connect_timeout: float = 
         elapsed = max(last.received - first.received, 1e-9)
         status = driver.robot_status()
         report = {"joints": list(limits.names), "positions": positions.tolist(), "velocities": velocities.tolist(),
-                  "enabled": status.enabled, "estop": status.estop, "fault": status.fault, "detail": status.detail,
-                  "command_rate": limits.command_rate, "measured_state_rate": (last.sequence - first.sequence) /
+                  "enabled": status.enabled, "estop": status.estop, "fault": status.fault, "lost": status.lost,
+                  "detail": status.detail, "command_rate": limits.command_rate, "measured_state_rate": (last.sequence - first.sequence) /
                   elapsed, "command_timeout": limits.command_timeout, "state_timeout": limits.state_timeout,
                   "limits": limits.describe(), "sources": list(limits.sources)}
         try:
