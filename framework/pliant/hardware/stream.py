@@ -394,7 +394,8 @@ class CommandStream:
         state_rate = (len(states) - 1) / (states[-1] - states[0]) if len(states) > 2 else float("nan")
         return {"joints": list(self.limits.names), "positions": measured.positions.tolist(),
                 "velocities": measured.velocities.tolist(), "enabled": status.enabled, "estop": status.estop,
-                "fault": status.fault, "lost": status.lost, "detail": status.detail, "command_rate": self.limits.command_rate,
+                "fault": status.fault, "lost": status.lost, "detail": status.detail,
+                "command_rate": self.limits.command_rate,
                 "measured_command_rate": rate, "measured_state_rate": state_rate,
                 "command_timeout": self.limits.command_timeout, "state_timeout": self.limits.state_timeout,
                 "limits": self.limits.describe(), "sources": list(self.limits.sources)}
@@ -432,8 +433,9 @@ def inspect_robot(driver: Any, limits: JointLimits, *, connect_timeout: float = 
         status = driver.robot_status()
         report = {"joints": list(limits.names), "positions": positions.tolist(), "velocities": velocities.tolist(),
                   "enabled": status.enabled, "estop": status.estop, "fault": status.fault, "lost": status.lost,
-                  "detail": status.detail, "command_rate": limits.command_rate, "measured_state_rate": (last.sequence - first.sequence) /
-                  elapsed, "command_timeout": limits.command_timeout, "state_timeout": limits.state_timeout,
+                  "detail": status.detail, "command_rate": limits.command_rate,
+                  "measured_state_rate": (last.sequence - first.sequence) / elapsed,
+                  "command_timeout": limits.command_timeout, "state_timeout": limits.state_timeout,
                   "limits": limits.describe(), "sources": list(limits.sources)}
         try:
             safety.check_status(status)
