@@ -69,14 +69,238 @@ def ruckig_per_cycle(cycles: int) -> dict:
     return out
 
 
+# --- over ROS 1: a real master and a robot peer on loopback ------------------------------------------------------
+
+
+def _periods_stats(times) -> dict:
+    periods = np.diff(np.asarray(times))
+    return {"n": len(periods), "p50_ms": float(np.median(periods) * 1e3),
+            "p99_ms": float(np.percentile(periods, 99) * 1e3), "max_ms": float(periods.max() * 1e3),
+            "jitter_p99_ms": float(np.percentile(np.abs(periods - np.median(periods)), 99) * 1e3)}
+
+
+def ros_timing(master, rate: float, seconds: float, workdir: Path) -> dict:
+    """Stream a slow sinusoid to Baxter's right arm at ``rate`` Hz for ``seconds`` through a real master and the
+    Baxter peer (ideal servo, so the peer's own physics does not load the machine); command periods at the driver
+    (on write) and at the peer (on receipt); command-to-state latency of step changes."""
+    import pliant
+    from pliant_ros1.peer import PeerProcess
+
+    record = workdir / f"commands-{int(rate)}.jsonl"
+    with PeerProcess("baxter", master.uri, record=record, extra=["--simulator", "none", "--speed-ratio", "1.0"]):
+        driver = pliant.registry.create("driver", "baxter-ros", side="right", master_uri=master.uri,
+                                        command_rate=rate)
+        with driver:
+            session = driver.session
+            q0 = driver.state()
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < seconds:
+                t = time.monotonic() - t0
+                driver.stream(q0 + 0.1 * np.sin(2 * np.pi * 0.25 * t) * np.array([1, 0, 0, 0, 0, 0, 0]))
+                time.sleep(0.01)
+            driver.stop()
+            writes = [t for t, _, _ in session.log if t >= t0]
+            latencies = command_to_state(driver, session, q0)
+        from pliant_ros1.peer import read_record
+
+        received = [r["t"] for r in read_record(record) if r.get("kind") == "command" and r["t"] >= t0]
+    return {"rate_hz": rate, "driver_write": _periods_stats(writes), "peer_receive": _periods_stats(received),
+            "latency": {"n": len(latencies), "p50_ms": float(np.median(latencies) * 1e3),
+                        "p99_ms": float(np.percentile(latencies, 99) * 1e3), "max_ms": float(max(latencies) * 1e3)},
+            "overruns": session.overruns}
+
+
+def command_to_state(driver, session, q0, steps: int = 20) -> list[float]:
+    """Seconds from the write of the first command that moves the arm off rest to the arrival of the first joint
+    state that shows the motion, over ``steps`` small moves (the peer is an ideal servo: this is transport plus
+    the peer's state period)."""
+    latencies = []
+    joint = 3
+    for k in range(steps):
+        driver.move_to(q0)
+        time.sleep(0.05)
+        rest = driver.latest_state().positions.copy() if hasattr(driver, "latest_state") else None
+        start_log = len(session.log)
+        target = q0.copy()
+        target[joint] += 0.02 * (1 if k % 2 else -1)
+        driver.move_to(target, wait=False)
+        moved_write = None
+        deadline = time.monotonic() + 1.0
+        while time.monotonic() < deadline:
+            log = list(session.log)[start_log:]
+            if moved_write is None:
+                for t, p, _ in log:
+                    if abs(p[joint] - q0[joint]) > 1e-9:
+                        moved_write = t
+                        break
+            state = driver.latest_state()
+            if moved_write is not None and state is not None and state.received > moved_write:
+                index = state.names.index(driver.joint_names()[joint])
+                if abs(state.positions[index] - rest[index]) > 1e-9:
+                    latencies.append(state.received - moved_write)
+                    break
+            time.sleep(0.0002)
+    driver.move_to(q0)
+    return latencies
+
+
+def baxter_policy(master, seeds: list[int], max_time: float, workdir: Path) -> dict:
+    """Plan the baxter-policy pipeline's policy per seed, then execute it in pybullet directly and through the
+    baxter-ros driver and its peer (the peer's arm in pybullet with the same options), with the same seed; the
+    tracking of the peer's measured arm against ruckig's reference during the driver execution."""
+    import pliant
+    from pliant.interfaces import PlanningProblem
+    from pliant.results import Policy
+    from pliant_ros1.peer import PeerProcess, read_record
+
+    rows = []
+    for seed in seeds:
+        pipeline = pliant.Pipeline.from_file("baxter-policy", overrides=[f"seed={seed}", f"planner.max_time={max_time}",
+                                                                         "planner.progress=false"])
+        context = pipeline.build()
+        t = time.perf_counter()
+        result = context.extras["planner"].plan(PlanningProblem.from_context(context), np.random.default_rng(seed))
+        plan_time = time.perf_counter() - t
+        row = {"seed": seed, "status": result.status.value, "plan_s": plan_time}
+        if result.policy is None:
+            rows.append(row)
+            continue
+        saved = result.policy.to_dict()
+        settings = pipeline.execution
+        world_options = pipeline.world_spec().options
+        direct = Policy.from_dict(saved)
+        record = direct.execute(pipeline.execution_world(context), context.controller, np.random.default_rng(seed),
+                                context=context, **settings)
+        row["pybullet"] = {"outcome": record.outcome, "actions": len(record.actions),
+                           "seconds": float(record.times[-1])}
+        sim_options = [f"{k}={_option_text(v)}" for k, v in world_options.items() if k not in ("frequency",)]
+        commands = workdir / f"policy-{seed}.jsonl"
+        extra = ["--simulator", "pybullet", "--physics-rate", "240", "--speed-ratio", "1.0", "--seed", str(seed)]
+        for option in sim_options:
+            extra += ["--sim-option", option]
+        with PeerProcess("baxter", master.uri, record=commands, extra=extra):
+            on_robot = pliant.Pipeline.from_file("baxter-policy", overrides=[
+                f"seed={seed}", "execution.world=baxter-ros", f'execution.world.master_uri="{master.uri}"'])
+            driver = on_robot.execution_world(context)
+            policy = Policy.from_dict(saved)
+            t = time.perf_counter()
+            with driver:
+                record = policy.execute(driver, context.controller, np.random.default_rng(seed), context=context,
+                                        **settings)
+            wall = time.perf_counter() - t
+        peer = read_record(commands)
+        row["driver"] = {"outcome": record.outcome, "actions": len(record.actions), "seconds": float(record.times[-1]),
+                         "wall_s": wall, "violations": len(_violations(peer, driver.limits)),
+                         "tracking": tracking(peer)}
+        rows.append(row)
+        print(f"seed {seed}: {row}", flush=True)
+    return {"rows": rows}
+
+
+def _option_text(value) -> str:
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(str(v) for v in value) + "]"
+    if isinstance(value, str):
+        return f'"{value}"'
+    return str(value)
+
+
+def _violations(records, limits):
+    from pliant_ros1.peer import command_violations
+
+    return command_violations(records, limits)
+
+
+def tracking(records) -> dict:
+    """RMS (rad) of the peer's measured arm against the reference it was commanded: every recorded state at time t
+    against the reference interpolated at ``t - delay``, for the delay (0 .. 50 ms) that fits best (transport and
+    servo lag), over the whole execution and over the steps in free motion (reference speed below 0.3 rad/s and
+    the arm within 0.01 rad of it: not pressed against an obstacle)."""
+    commands = [(r["t"], np.array(r["positions"], dtype=float)) for r in records
+                if r.get("kind") == "command" and r.get("accepted") and None not in r["positions"]]
+    states = [(r["t"], np.array(r["positions"], dtype=float)) for r in records if r.get("kind") == "state"]
+    if len(commands) < 10 or len(states) < 10:
+        return {}
+    ct = np.array([c[0] for c in commands])
+    cp = np.array([c[1] for c in commands])
+    st = np.array([s[0] for s in states])
+    sp = np.array([s[1] for s in states])
+    inside = (st > ct[0] + 0.05) & (st < ct[-1])
+    st, sp = st[inside], sp[inside]
+    best = None
+    for delay in np.arange(0.0, 0.0505, 0.0025):
+        ref = np.stack([np.interp(st - delay, ct, cp[:, j]) for j in range(cp.shape[1])], axis=1)
+        error = sp - ref
+        rms = float(np.sqrt(np.mean(error ** 2)))
+        if best is None or rms < best[0]:
+            best = (rms, delay, error)
+    rms, delay, error = best
+    per_step = np.sqrt(np.mean(error ** 2, axis=1))
+    free = per_step < 0.01
+    return {"rms_rad": rms, "delay_s": float(delay), "rms_free_rad": float(np.sqrt(np.mean(error[free] ** 2)))
+            if free.any() else float("nan"), "free_fraction": float(free.mean()), "samples": len(st)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="shorter runs (CI)")
+    parser.add_argument("--seconds", type=float, default=20.0, help="seconds of streaming per rate")
+    parser.add_argument("--seeds", type=int, default=3, help="Baxter policies planned and executed both ways")
+    parser.add_argument("--max-time", type=float, default=120.0, help="planning time per Baxter policy (s)")
+    parser.add_argument("--skip-policy", action="store_true", help="only the timing figures")
     args = parser.parse_args()
     results: dict = {"ruckig": ruckig_per_cycle(1000 if args.quick else CYCLES)}
     print_table("ruckig update per cycle, 7 DoF (target: median <= 50 us)", ("what", "median us", "p99 us", "max us"),
                 [(k, f"{v['median_us']:.1f}", f"{v['p99_us']:.1f}", f"{v['max_us']:.1f}")
                  for k, v in results["ruckig"].items()])
+    write_json("drivers", results)
+    import tempfile
+
+    from pliant_ros1.master import RosMaster
+
+    workdir = Path(tempfile.mkdtemp(prefix="pliant-bench-drivers-"))
+    seconds = 5.0 if args.quick else args.seconds
+    master = RosMaster().start()       # rospy: one master per process, for the whole benchmark
+    try:
+        ros_and_policy(master, args, results, workdir, seconds)
+    finally:
+        master.stop()
+
+
+def ros_and_policy(master, args, results: dict, workdir: Path, seconds: float) -> None:
+    """The figures measured over ROS 1 (see the module docstring), printed and written as they come."""
+    results["ros"] = [ros_timing(master, rate, seconds, workdir) for rate in (100.0, 500.0)]
+    rows = []
+    for r in results["ros"]:
+        for where in ("driver_write", "peer_receive"):
+            p = r[where]
+            rows.append((f"{r['rate_hz']:.0f} Hz", where.replace("_", " "), p["n"], f"{p['p50_ms']:.3f}",
+                         f"{p['p99_ms']:.3f}", f"{p['max_ms']:.3f}", f"{p['jitter_p99_ms']:.3f}"))
+    print_table("command period over ROS 1 on loopback (target: p99 jitter <= 1 ms at 100 Hz)",
+                ("rate", "where", "periods", "p50 ms", "p99 ms", "max ms", "|dev| p99 ms"), rows)
+    print_table("command-to-state latency through the Baxter peer (ideal servo, states at 100 Hz)",
+                ("rate", "moves", "p50 ms", "p99 ms", "max ms"),
+                [(f"{r['rate_hz']:.0f} Hz", r["latency"]["n"], f"{r['latency']['p50_ms']:.2f}",
+                  f"{r['latency']['p99_ms']:.2f}", f"{r['latency']['max_ms']:.2f}") for r in results["ros"]])
+    write_json("drivers", results)
+    if args.skip_policy:
+        return
+    seeds = list(range(1 if args.quick else args.seeds))
+    results["baxter_policy"] = baxter_policy(master, seeds, 30.0 if args.quick else args.max_time, workdir)
+    rows = []
+    for row in results["baxter_policy"]["rows"]:
+        pb, dr = row.get("pybullet", {}), row.get("driver", {})
+        tr = dr.get("tracking", {})
+        rows.append((row["seed"], row["status"], f"{row['plan_s']:.0f}", pb.get("outcome", "-"),
+                     dr.get("outcome", "-"), dr.get("violations", "-"),
+                     f"{tr.get('rms_rad', float('nan')):.2e}", f"{tr.get('rms_free_rad', float('nan')):.2e}",
+                     f"{1e3 * tr.get('delay_s', float('nan')):.1f}"))
+    print_table("the Baxter policy in pybullet and through baxter-ros + peer (pybullet), same seeds",
+                ("seed", "plan", "plan s", "pybullet", "driver", "violations", "track RMS rad", "free RMS rad",
+                 "delay ms"), rows)
+    ok = [r for r in results["baxter_policy"]["rows"] if "driver" in r]
+    print(f"successes: pybullet {sum(r['pybullet']['outcome'] == 'success' for r in ok)} / {len(ok)}, driver "
+          f"{sum(r['driver']['outcome'] == 'success' for r in ok)} / {len(ok)}")
     write_json("drivers", results)
 
 
