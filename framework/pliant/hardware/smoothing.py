@@ -27,6 +27,8 @@ from pliant.hardware.limits import JointLimits
 #: below these (rad/s, rad/s^2) the reference counts as at rest
 REST_VELOCITY = 1e-9
 REST_ACCELERATION = 1e-9
+#: how far (rad) a target is moved when ruckig fails on it once (see ``update``)
+NUDGE = 1e-9
 
 
 class OnlineSmoother:
@@ -132,7 +134,16 @@ class OnlineSmoother:
         inp.target_position = self.target_position.tolist()
         inp.target_velocity = self.target_velocity.tolist()
         inp.target_acceleration = [0.0] * self.limits.dof
-        result = self._call(self._otg.update, inp, self._output)
+        try:
+            result = self._call(self._otg.update, inp, self._output)
+        except SmoothingError:
+            # ruckig (0.19) fails on some valid inputs: a move from rest of exactly 2 a^3 / j^2 ("error in step 1",
+            # pantor/ruckig #90, #160) -- a distance the stream's own brake can leave.  A target 1e-9 rad away is
+            # the same motion and plans; a second failure is real.
+            if not (np.all(np.isfinite(self.target_position)) and np.all(np.isfinite(self.target_velocity))):
+                raise
+            inp.target_position = (self.target_position + NUDGE).tolist()
+            result = self._call(self._otg.update, inp, self._output)
         out = self._output
         if self.mode == "position" and out.new_calculation and not self._inside(out.trajectory.position_extrema):
             self.brake("position limit")

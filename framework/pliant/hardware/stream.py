@@ -156,16 +156,15 @@ class CommandStream:
         now = time.monotonic()
         try:
             positions, velocities = self.safety.read_state(self.driver.latest_state(), now)
+            measured = Measured(positions, velocities, now)
+            self.measured_log.append((now, positions))
+            with self._lock:
+                self._measured = measured    # kept current while braking after a status fault too
             self.safety.check_status(self.driver.robot_status())
         except DriverError as exc:
             self._fault(exc)
         except Exception as exc:  # a transport bug must still stop the robot
             self._fault(DriverError(f"reading the robot failed: {type(exc).__name__}: {exc}"))
-        else:
-            measured = Measured(positions, velocities, now)
-            self.measured_log.append((now, positions))
-            with self._lock:
-                self._measured = measured
         with self._wake:
             try:
                 self._advance_target(now)

@@ -85,3 +85,36 @@ def test_brake_decelerates_within_limits(limits):
     _within(limits, p, v, a)
     assert s.at_rest
     assert np.all(np.abs(np.diff(v, axis=0)) <= limits.acceleration * limits.period + 1e-9)
+
+
+def test_a_one_off_ruckig_failure_on_a_valid_target_is_retried_once(limits):
+    """ruckig 0.19 fails on some valid moves from rest ("error in step 1"); the same motion to a target 1e-9 rad
+    away plans.  A second failure is real and raises."""
+    import ruckig
+
+    s = OnlineSmoother(limits)
+    s.reset(np.zeros(3))
+    s.set_target([0.3, 0.2, 0.1])
+    real = s._otg
+    calls = []
+
+    class FailsOnce:
+        def update(self, inp, out):
+            calls.append(list(inp.target_position))
+            if len(calls) == 1:
+                raise ruckig.RuckigError("[ruckig] error in step 1, dof: 0 input: ...")
+            return real.update(inp, out)
+
+    s._otg = FailsOnce()
+    p, _, _ = _run(s, 400)
+    assert len(calls) > 2 and calls[1][0] == pytest.approx(0.3 + 1e-9, abs=1e-12)
+    np.testing.assert_allclose(p[-1], [0.3, 0.2, 0.1], atol=1e-8)
+
+    class AlwaysFails:
+        def update(self, inp, out):
+            raise ruckig.RuckigError("[ruckig] error in step 1")
+
+    s.set_target([0.0, 0.0, 0.0])
+    s._otg = AlwaysFails()
+    with pytest.raises(SmoothingError):
+        s.update()

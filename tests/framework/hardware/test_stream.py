@@ -219,3 +219,16 @@ def test_the_memory_driver_passes_the_conformance_kit(robot_and_driver):
     robot, driver = robot_and_driver
     assert "stream" in check_driver(driver)
     assert robot.violations() == []
+
+
+def test_the_measurement_stays_current_after_a_status_fault(robot_and_driver):
+    """After an e-stop the states are still valid: stop() returns where the arm came to rest, not where it was."""
+    robot, driver = robot_and_driver
+    with driver:
+        driver.move_to([0.9, 1.9, 1.4], wait=False)
+        time.sleep(0.3)
+        robot.estop = True                      # the emulated arm holds where it is, still publishing
+        time.sleep(0.1)
+        rest = driver.stop()
+        np.testing.assert_allclose(driver.session.measured_log[-1][1], robot.positions, atol=1e-6)
+        np.testing.assert_allclose(rest, robot.positions, atol=1e-3)
