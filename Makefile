@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install demo test lint bench clean
+.PHONY: install demo robot-demo test lint bench clean
 
 # ROS 1 from Debian's packages, for the ROS drivers (plugins/drivers/pliant_ros1) and their tests.  Installed
 # when missing and when we can (root, apt); the venv sees Debian's Python packages through a .pth file appended
@@ -36,6 +36,11 @@ install: $(STAMP) $(ROS_STAMP)
 demo: $(STAMP) $(ROS_STAMP)
 	$(BIN)/pliant run demo
 	@echo "open out/demo/report.md"
+
+# The demo's pipeline family on a robot: baxter-policy executed through the baxter-ros driver on a Baxter peer
+# (a ROS 1 node moving the arm in pybullet), with a ROS master on loopback; report in out/baxter-policy-on-baxter-ros/
+robot-demo: $(STAMP) $(ROS_STAMP)
+	$(BIN)/python -m pliant_ros1.demo baxter-policy
 
 lint: $(STAMP) $(ROS_STAMP)
 	$(BIN)/ruff check .

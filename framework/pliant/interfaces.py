@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pliant.errors import DimensionError, DriverError, JointMismatch, PlanningError
+from pliant.errors import DimensionError, DriverError, JointMismatch, LimitViolation, PlanningError
 from pliant.hardware.limits import JointLimits
 from pliant.hardware.state import JointState, RobotStatus
 from pliant.options import NoOptions, build_options, option
@@ -665,8 +665,21 @@ class Driver(Component):
     # --- the execution protocol (the same as a simulator's) -----------------------------------------------
 
     def reset(self, q: np.ndarray) -> None:
-        """Move to ``q`` (a robot cannot be placed; it drives there within its limits)."""
-        self.move_to(q)
+        """Move to ``q`` (a robot cannot be placed; it drives there within its limits).
+
+        A start on a position limit (baxter-reach starts with ``right_s1`` at its URDF limit) is driven to within
+        the position margin, the closest configuration a command may hold; a start further out is refused
+        (:class:`~pliant.errors.LimitViolation`)."""
+        limits = self.limits
+        q = np.asarray(q, dtype=np.float64)
+        inside = np.clip(q, limits.command_lower, limits.command_upper)
+        outside = np.abs(q - inside) > limits.position_margin + 1e-9
+        if np.any(outside):
+            i = int(np.argmax(outside))
+            raise LimitViolation(f"start {q[i]:.6g} rad lies beyond the position limits",
+                                 joint=limits.names[i], value=float(q[i]),
+                                 limit=[float(limits.lower[i]), float(limits.upper[i])])
+        self.move_to(inside)
 
     def configuration(self) -> np.ndarray:
         return self.state()

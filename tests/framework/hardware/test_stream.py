@@ -232,3 +232,13 @@ def test_the_measurement_stays_current_after_a_status_fault(robot_and_driver):
         rest = driver.stop()
         np.testing.assert_allclose(driver.session.measured_log[-1][1], robot.positions, atol=1e-6)
         np.testing.assert_allclose(rest, robot.positions, atol=1e-3)
+
+
+def test_reset_to_a_start_on_a_limit_drives_inside_the_margin(robot_and_driver):
+    robot, driver = robot_and_driver
+    with driver:
+        driver.reset(np.array([1.0, 0.0, 0.0]))           # on joint a's limit: held 0.05 inside it
+        np.testing.assert_allclose(driver.state(), [0.95, 0.0, 0.0], atol=0.01)
+        with pytest.raises(LimitViolation, match="joint a"):
+            driver.reset(np.array([1.2, 0.0, 0.0]))       # beyond the limit by more than the margin
+    assert robot.violations() == []
