@@ -46,15 +46,12 @@ class OnlineSmoother:
         self._planner = ruckig.Ruckig(d)
         self._check_input = ruckig.InputParameter(d)
         self._trajectory = ruckig.Trajectory(d)
-        for parameters in (self._input, self._check_input):
+        self._brake_input = ruckig.InputParameter(d)
+        for parameters in (self._input, self._check_input, self._brake_input):
             parameters.max_velocity = limits.velocity.tolist()
             parameters.max_acceleration = limits.acceleration.tolist()
             parameters.max_jerk = limits.jerk.tolist()
-        self._brake_input = ruckig.InputParameter(d)
         self._brake_input.control_interface = ruckig.ControlInterface.Velocity
-        self._brake_input.max_velocity = limits.velocity.tolist()
-        self._brake_input.max_acceleration = limits.acceleration.tolist()
-        self._brake_input.max_jerk = limits.jerk.tolist()
         self._brake_input.target_velocity = [0.0] * d
         self._brake_input.target_acceleration = [0.0] * d
         self._brake_otg = ruckig.Ruckig(d, limits.period)
