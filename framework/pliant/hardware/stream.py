@@ -1,7 +1,7 @@
 """The command stream: one thread per connected driver that sends a checked, smoothed command every period.
 
 :class:`CommandStream` is what :class:`~pliant.interfaces.Driver`'s public methods talk to.  Its thread wakes at
-the command rate (absolute-time schedule; sleep, then a short spin for the last half millisecond) and, every
+the command rate (absolute-time schedule; sleep, then a short spin for the last 1.5 ms or quarter period) and, every
 cycle:
 
 1. reads the newest joint state and checks it (:meth:`SafetyLayer.read_state`: names, order, stamps, the
@@ -35,8 +35,9 @@ from pliant.hardware.limits import JointLimits
 from pliant.hardware.safety import SafetyLayer
 from pliant.hardware.smoothing import OnlineSmoother
 
-#: the last part of each period spent spinning instead of sleeping, for a steady command period (s)
-SPIN = 0.0005
+#: the last part of each period spent spinning instead of sleeping, for a steady command period (s): a sleeping
+#: thread may wake up late by a millisecond on a busy machine; at most a quarter of the period
+SPIN = 0.0015
 #: a robot whose measured joint speeds are all below this (rad/s) has stopped
 SETTLED = 1e-3
 #: the longest a stop waits for the measured robot to come to rest after the command has (s)
@@ -138,6 +139,7 @@ class CommandStream:
 
     def _run(self) -> None:
         period = self.limits.period
+        spin = min(SPIN, period / 4)
         next_tick = time.monotonic()
         while not self._closing:
             self._cycle()
@@ -147,8 +149,8 @@ class CommandStream:
                 self.overruns += 1
                 next_tick = now
                 continue
-            if next_tick - now > SPIN:
-                time.sleep(next_tick - now - SPIN)
+            if next_tick - now > spin:
+                time.sleep(next_tick - now - spin)
             while time.monotonic() < next_tick:
                 pass
 
