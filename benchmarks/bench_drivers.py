@@ -144,10 +144,12 @@ def command_to_state(driver, session, q0, steps: int = 20) -> list[float]:
     return latencies
 
 
-def baxter_policy(master, seeds: list[int], max_time: float, workdir: Path) -> dict:
+def baxter_policy(master, seeds: list[int], max_time: float, workdir: Path, peer_noise: str | None = None) -> dict:
     """Plan the baxter-policy pipeline's policy per seed, then execute it in pybullet directly and through the
     baxter-ros driver and its peer (the peer's arm in pybullet with the same options), with the same seed; the
-    tracking of the peer's measured arm against ruckig's reference during the driver execution."""
+    tracking of the peer's measured arm against ruckig's reference during the driver execution.  ``peer_noise``
+    replaces the actuation noise model of the peer's arm (``none``: the tracking of the arm itself, without the
+    thesis's 10% velocity noise that the planner plans for)."""
     import pliant
     from pliant.interfaces import PlanningProblem
     from pliant.results import Policy
@@ -173,6 +175,8 @@ def baxter_policy(master, seeds: list[int], max_time: float, workdir: Path) -> d
                                 context=context, **settings)
         row["pybullet"] = {"outcome": record.outcome, "actions": len(record.actions),
                            "seconds": float(record.times[-1])}
+        if peer_noise is not None:
+            world_options = {**world_options, "noise": peer_noise}
         sim_options = [f"{k}={_option_text(v)}" for k, v in world_options.items() if k not in ("frequency",)]
         commands = workdir / f"policy-{seed}.jsonl"
         extra = ["--simulator", "pybullet", "--physics-rate", "240", "--speed-ratio", "1.0", "--seed", str(seed)]
@@ -248,6 +252,9 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=3, help="Baxter policies planned and executed both ways")
     parser.add_argument("--max-time", type=float, default=120.0, help="planning time per Baxter policy (s)")
     parser.add_argument("--skip-policy", action="store_true", help="only the timing figures")
+    parser.add_argument("--peer-noise", default=None, help="the peer arm's noise model (default the pipeline's "
+                        "execution world's; none: tracking without injected actuation noise)")
+    parser.add_argument("--first-seed", type=int, default=0, help="the first Baxter policy seed")
     args = parser.parse_args()
     results: dict = {"ruckig": ruckig_per_cycle(1000 if args.quick else CYCLES)}
     print_table("ruckig update per cycle, 7 DoF (target: median <= 50 us)", ("what", "median us", "p99 us", "max us"),
@@ -285,8 +292,9 @@ def ros_and_policy(master, args, results: dict, workdir: Path, seconds: float) -
     write_json("drivers", results)
     if args.skip_policy:
         return
-    seeds = list(range(1 if args.quick else args.seeds))
-    results["baxter_policy"] = baxter_policy(master, seeds, 30.0 if args.quick else args.max_time, workdir)
+    seeds = list(range(args.first_seed, args.first_seed + (1 if args.quick else args.seeds)))
+    results["baxter_policy"] = baxter_policy(master, seeds, 30.0 if args.quick else args.max_time, workdir,
+                                             args.peer_noise)
     rows = []
     for row in results["baxter_policy"]["rows"]:
         pb, dr = row.get("pybullet", {}), row.get("driver", {})
