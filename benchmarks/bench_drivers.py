@@ -177,7 +177,11 @@ def baxter_policy(master, seeds: list[int], max_time: float, workdir: Path, peer
                            "seconds": float(record.times[-1])}
         if peer_noise is not None:
             world_options = {**world_options, "noise": peer_noise}
-        sim_options = [f"{k}={_option_text(v)}" for k, v in world_options.items() if k not in ("frequency",)]
+        # the peer is the robot: its joints move as fast as the limits file allows (the pipeline's
+        # joint_velocity_limits describe the simulated actuators of the direct execution; the driver's ruckig
+        # reference, which the arm must track, is bounded by the limits file)
+        sim_options = [f"{k}={_option_text(v)}" for k, v in world_options.items()
+                       if k not in ("frequency", "joint_velocity_limits")]
         commands = workdir / f"policy-{seed}.jsonl"
         extra = ["--simulator", "pybullet", "--physics-rate", "240", "--speed-ratio", "1.0", "--seed", str(seed)]
         for option in sim_options:
