@@ -37,10 +37,11 @@ demo: $(STAMP) $(ROS_STAMP)
 	$(BIN)/pliant run demo
 	@echo "open out/demo/report.md"
 
-# The demo's pipeline family on a robot: baxter-policy executed through the baxter-ros driver on a Baxter peer
-# (a ROS 1 node moving the arm in pybullet), with a ROS master on loopback; report in out/baxter-policy-on-baxter-ros/
+# A policy executed on a robot: iiwa-policy (30 s of planning) through the iiwa-ros driver on an iiwa peer (a ROS 1
+# node moving the arm in pybullet), with a ROS master on loopback; report in out/iiwa-policy-on-iiwa-ros/.
+# Baxter: .venv/bin/python -m pliant_ros1.demo baxter-policy --set planner.max_time=180 (it plans for minutes).
 robot-demo: $(STAMP) $(ROS_STAMP)
-	$(BIN)/python -m pliant_ros1.demo baxter-policy
+	$(BIN)/python -m pliant_ros1.demo iiwa-policy
 
 lint: $(STAMP) $(ROS_STAMP)
 	$(BIN)/ruff check .

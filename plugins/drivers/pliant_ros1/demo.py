@@ -2,7 +2,8 @@
 
 ::
 
-    python -m pliant_ros1.demo baxter-policy          (make robot-demo)
+    python -m pliant_ros1.demo iiwa-policy            (make robot-demo)
+    python -m pliant_ros1.demo baxter-policy --set planner.max_time=180
     python -m pliant_ros1.demo pr2-policy --seed 1
 
 A ROS master starts on a free loopback port; the robot's peer (:mod:`pliant_ros1.peer`) starts on it with its arm
