@@ -119,7 +119,7 @@ def command_to_state(driver, session, q0, steps: int = 20) -> list[float]:
     for k in range(steps):
         driver.move_to(q0)
         time.sleep(0.05)
-        rest = driver.latest_state().positions.copy() if hasattr(driver, "latest_state") else None
+        rest = driver.latest_state().positions.copy()
         start_log = len(session.log)
         target = q0.copy()
         target[joint] += 0.02 * (1 if k % 2 else -1)

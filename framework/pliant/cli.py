@@ -125,7 +125,7 @@ def cmd_run(args) -> int:
 
 def cmd_driver(args) -> int:
     from pliant import registry
-    from pliant.errors import DriverError
+    from pliant.errors import DriverError, RobotDisabled
     from pliant.pipeline import parse_override
 
     reg = registry.default_registry()
@@ -144,9 +144,9 @@ def cmd_driver(args) -> int:
     except DriverError as exc:
         if getattr(exc, "report", None):
             _print_report(args.name, exc.report)
-        if not args.enable and "disabled" in str(exc):
-            exc.message += " (--enable enables it)"
-            exc.args = (exc._format(),)
+        if not args.enable and isinstance(exc, RobotDisabled):
+            print(f"error: {exc} (--enable enables it)", file=sys.stderr)
+            return 2
         raise
     _print_report(args.name, report)
     print("\nok: the robot answers, its joints match, it is ready")

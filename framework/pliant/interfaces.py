@@ -644,7 +644,7 @@ class Driver(Component):
         """Set the streamed target ``(d,)`` (optionally with a target velocity ``(d,)``); returns at once.
 
         A new target mid-motion blends into the current motion (online ruckig).  With a non-zero velocity the
-        target expires after ``hold`` s (default two command periods... see the stream): then the robot stops.
+        target expires after ``hold`` s (default four command periods): then the robot stops.
         """
         self.session.stream(target, velocity, hold=hold)
 

@@ -18,12 +18,12 @@ No rospy here: the plugin's entry point, the limits tests and ``pliant plugins``
 from __future__ import annotations
 
 import functools
-import importlib.metadata
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
 from pliant.errors import ConfigError
+from pliant.robot_data import example_robot_data_dir
 
 #: the robots this plugin drives
 ROBOTS = ("pr2", "baxter", "iiwa")
@@ -39,27 +39,6 @@ BAXTER_STATE_JOINTS = ("head_nod", "head_pan",
                        "left_e0", "left_e1", "left_s0", "left_s1", "left_w0", "left_w1", "left_w2",
                        "right_e0", "right_e1", "right_s0", "right_s1", "right_w0", "right_w1", "right_w2",
                        "torso_t0")
-
-
-def example_robot_data_dir() -> Path:
-    """The ``robots`` directory of the installed ``example-robot-data`` (found through the package's file list)."""
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        raise ConfigError("example-robot-data is not installed (it provides the PR2 and Baxter URDFs)",
-                          field="robot", value="example-robot-data") from None
-    candidates = [Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))]
-    marker = "share/example-robot-data/robots/"
-    for f in dist.files or ():
-        text = str(f).replace("\\", "/")
-        if marker in text:
-            candidates.append(Path(str(dist.locate_file(text[: text.index(marker) + len(marker) - 1]))))
-            break
-    for robots in candidates:
-        if robots.is_dir():
-            return robots
-    raise ConfigError("example-robot-data is installed but its robots directory was not found", field="robot",
-                      value=str(candidates[0]))
 
 
 def pybullet_data_dir() -> Path:

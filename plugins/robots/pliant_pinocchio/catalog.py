@@ -8,12 +8,12 @@ placeholders: the robot's data sheet gives 98, 98, 100, 130, 140, 180, 180 deg/s
 
 from __future__ import annotations
 
-import importlib.metadata
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from pliant.errors import SceneError
+from pliant.robot_data import example_robot_data_dir
 
 NAMED_ROBOTS = ("baxter", "iiwa", "pr2")
 
@@ -36,27 +36,6 @@ class RobotEntry:
     package_dirs: tuple[Path, ...]
     groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
     velocity_limits: dict[str, float] = field(default_factory=dict)
-
-
-def example_robot_data_dir(source: str | None = None) -> Path:
-    """The ``robots`` directory of the installed ``example-robot-data`` (found via the package's file list)."""
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        raise SceneError("example-robot-data is not installed (it provides the PR2 and Baxter URDFs)",
-                         source=source, field="robot.model", value="example-robot-data") from None
-    candidates = [Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))]
-    for f in dist.files or ():
-        text = str(f).replace("\\", "/")
-        marker = "share/example-robot-data/robots/"
-        if marker in text:
-            candidates.append(Path(str(dist.locate_file(text[: text.index(marker) + len(marker) - 1]))))
-            break
-    for robots in candidates:
-        if robots.is_dir():
-            return robots
-    raise SceneError("example-robot-data is installed but its robots directory was not found",
-                     source=source, field="robot.model", value=str(candidates[0]))
 
 
 def _prefixed(prefix: str, names: tuple[str, ...]) -> tuple[str, ...]:
