@@ -264,7 +264,11 @@ class RobotPeer:
     def _on_tick(self, now: float, q: np.ndarray, v: np.ndarray) -> None:
         if now >= self._next_record_state:
             self._next_record_state = now + 1.0 / RECORD_STATE_RATE
-            self._write({"kind": "state", "t": now, "positions": q.tolist(), "velocities": v.tolist()})
+            line = {"kind": "state", "t": now, "positions": q.tolist(), "velocities": v.tolist()}
+            simulator = self.emulator.simulator
+            if simulator is not None:           # ground truth a real robot does not have: for the benchmark
+                line["contact"] = bool(simulator.in_contact())
+            self._write(line)
 
     def _on_physics_error(self, exc: BaseException) -> None:
         import traceback

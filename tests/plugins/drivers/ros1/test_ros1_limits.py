@@ -50,8 +50,8 @@ def test_every_limits_file_loads_cites_its_sources_and_covers_the_arm(robot, sid
     assert limits.max_state_rate >= 5 * robots.ros_robot(robot, side).state_rate
     assert len(limits.sources) >= 3 and all(len(s) > 40 for s in limits.sources)
     assert np.all(limits.velocity > 0) and np.all(limits.acceleration > 0) and np.all(limits.jerk > 0)
-    # full speed takes a while and full acceleration a moment: no absurd numbers
-    assert np.all(limits.velocity / limits.acceleration >= 0.2) and np.all(limits.acceleration / limits.jerk >= 0.05)
+    # full speed takes at least 0.1 s and full acceleration at least 10 ms: no absurd numbers
+    assert np.all(limits.velocity / limits.acceleration >= 0.1) and np.all(limits.acceleration / limits.jerk >= 0.01)
 
 
 @pytest.mark.parametrize("side", SIDES)
