@@ -13,6 +13,7 @@ reported as one line naming the file, field and value, with exit status 2.
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import os
 import runpy
@@ -78,11 +79,11 @@ def cmd_plugins(args) -> int:
 
 
 def cmd_scenes(args) -> int:
-    from pliant.pipeline import available_pipelines
+    from pliant.pipeline import available_pipelines, check_scene
     from pliant.scene import available_scenes, load_scene
 
     if args.name:
-        scene = load_scene(args.name)
+        scene = check_scene(args.name)      # as `run` would check it (variants, robot model), without planning
         print(f"{scene.name}: {scene.description}")
         print(f"  file        {scene.source}")
         print(f"  bounds      {scene.lower.tolist()} .. {scene.upper.tolist()} m, resolution {scene.resolution} m,"
@@ -97,14 +98,19 @@ def cmd_scenes(args) -> int:
         print(f"  variants    {', '.join(scene.variants) or 'none'}")
         return 0
     rows = []
+    invalid = 0
     for name in available_scenes():
         try:
             s = load_scene(name)
             rows.append((name, ",".join(s.variants) or "-", s.description))
         except PliantError as exc:
+            invalid += 1
             rows.append((name, "?", f"INVALID: {exc}"))
     print(_table(rows, ("scene", "variants", "description")))
     print("\npipelines: " + (", ".join(available_pipelines()) or "none"))
+    if invalid:
+        print(f"error: {invalid} scene(s) invalid (see above)", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -112,8 +118,8 @@ def cmd_run(args) -> int:
     from pliant.pipeline import Pipeline
 
     overrides = list(args.set or [])
-    if args.output:
-        overrides.append(f"output={args.output!r}".replace("'", '"'))
+    if args.output is not None:
+        overrides.append(f"output={json.dumps(args.output)}")     # a JSON string is a TOML basic string
     pipeline = Pipeline.from_file(args.pipeline, overrides=overrides)
     record = pipeline.run()
     width = max(len(k) for k, _ in record.summary_rows())
@@ -261,6 +267,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:       # `pliant plugins | head`: the reader left; say nothing more
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from pliant.contracts import checked_command, checked_plan, checked_reset, checked_step
 from pliant.errors import DimensionError, DriverError, JointMismatch, LimitViolation, PlanningError
 from pliant.hardware.limits import JointLimits
 from pliant.hardware.state import JointState, RobotStatus
@@ -306,6 +307,14 @@ class Simulator(Component):
 
     kind = "simulator"
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        # the core checks reset's configuration and step's velocity, dt and rng before the plugin's code runs
+        super().__init_subclass__(**kwargs)
+        if "reset" in cls.__dict__:
+            cls.reset = checked_reset(cls.__dict__["reset"])
+        if "step" in cls.__dict__:
+            cls.step = checked_step(cls.__dict__["step"])
+
     @abstractmethod
     def simulate(self, starts: np.ndarray, targets: np.ndarray, rng: np.random.Generator,
                  duration: float, record: bool = False) -> SimulationBatch:
@@ -355,6 +364,12 @@ class Controller(Component):
     """Turns (current configuration, target) into a velocity command (thesis app. C)."""
 
     kind = "controller"
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        # the core checks command's configurations and dt before the plugin's code runs
+        super().__init_subclass__(**kwargs)
+        if "command" in cls.__dict__:
+            cls.command = checked_command(cls.__dict__["command"])
 
     def reset(self) -> None:
         """Forget internal state (e.g. the stuck-detection window) before a new motion."""
@@ -456,6 +471,12 @@ class Planner(Component):
     """Finds a path (or a policy) for a :class:`PlanningProblem`."""
 
     kind = "planner"
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        # the core checks plan's problem and rng before the plugin's code runs
+        super().__init_subclass__(**kwargs)
+        if "plan" in cls.__dict__:
+            cls.plan = checked_plan(cls.__dict__["plan"])
 
     @abstractmethod
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,

@@ -20,6 +20,7 @@ from __future__ import annotations
 import copy
 import json
 import logging
+import os
 import time
 import tomllib
 from contextlib import nullcontext
@@ -35,7 +36,7 @@ from pliant.interfaces import KINDS, Component, Context, Driver, PlanningProblem
 from pliant.registry import Registry, default_registry
 from pliant.results import PlanResult
 from pliant.scene import Scene, load_scene
-from pliant.validation import check_number, read_toml
+from pliant.validation import check_number, read_toml, safe_name
 
 log = logging.getLogger(__name__)
 
@@ -135,7 +136,12 @@ class Pipeline:
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise PipelineError("must be a non-negative integer", source=source, field="seed", value=seed)
         self.seed = int(seed)
-        self.output = Path(output) if output is not None else Path("out") / name
+        if output is not None and (not isinstance(output, (str, Path)) or not str(output).strip()
+                                   or "\0" in str(output)):
+            raise PipelineError("must be a directory path (omit it for out/<name>)", source=source, field="output",
+                                value=output)
+        # a name may hold "/" or ".."; the default folder is made from it safely (an explicit output is the user's)
+        self.output = Path(output) if output is not None else Path("out") / safe_name(name)
         if not isinstance(disable, (list, tuple, set, frozenset)) or not all(isinstance(d, str) for d in disable):
             raise PipelineError("must be a list of plugin names", source=source, field="disable", value=disable)
         self.disable = frozenset(disable)
@@ -252,6 +258,8 @@ class Pipeline:
         of the execution (:class:`~pliant.execution.ExecutionStep`).
         """
         timings: dict[str, float] = {}
+        if write:
+            self.prepare_output()
         t0 = time.perf_counter()
         context = self.build()
         world = None
@@ -291,6 +299,26 @@ class Pipeline:
         if write:
             self.write_report(record)
         return record
+
+    def prepare_output(self) -> Path:
+        """Create the report directory now, before any work, so that a directory that cannot be written (a file of
+        that name, no permission, a full disk) fails at once instead of after planning; returns it."""
+        out = self.output
+        try:
+            if out.exists() and not out.is_dir():
+                raise PipelineError("is an existing file, not a directory", source=self.source, field="output",
+                                    value=str(out))
+            out.mkdir(parents=True, exist_ok=True)
+            probe = out / f".pliant-write-test-{os.getpid()}"
+            probe.write_bytes(b"")
+            probe.unlink()
+        except PipelineError:
+            raise
+        except (OSError, ValueError) as exc:
+            reason = getattr(exc, "strerror", None) or exc
+            raise PipelineError(f"cannot be created or written ({reason})", source=self.source, field="output",
+                                value=str(out)) from None
+        return out
 
     def world_spec(self) -> ComponentSpec:
         """The execution world's name and options: ``[execution] world`` (or its older spelling ``simulator``),
@@ -383,6 +411,19 @@ class Pipeline:
         for kind, spec in self.components.items():
             out[kind] = {"name": spec.name, **spec.options}
         return out
+
+
+def check_scene(spec: str | Path, registry: Registry | None = None) -> Scene:
+    """Load a scene and check everything a run would check before planning, without planning: the file, every
+    variant (each must load), and the robot model a pipeline would build for it (the URDF is found and parsed, the
+    model and joint group exist).  Returns the scene; raises the first :class:`~pliant.errors.PliantError`."""
+    registry = registry or default_registry()
+    scene = load_scene(spec)
+    for variant in scene.variants:
+        load_scene(spec, variant=variant)
+    context = Context(scene=scene)
+    context.robot = registry.create("robot", DEFAULT_ROBOT[scene.robot.kind], context, source=str(scene.source))
+    return scene
 
 
 def _scene_pipeline(scene_data: dict, path: Path) -> dict:
@@ -546,6 +587,8 @@ def available_pipelines() -> list[str]:
 
 
 def _resolve_pipeline_path(path: str | Path) -> Path:
+    if not isinstance(path, (str, Path)) or not str(path):
+        raise PipelineError("must be a pipeline file or a bundled pipeline name", field="<file>", value=path)
     p = Path(path)
     try:
         if p.is_file():
@@ -560,5 +603,6 @@ def _resolve_pipeline_path(path: str | Path) -> Path:
                         value=str(path))
 
 
-__all__ = ["Pipeline", "ComponentSpec", "RunRecord", "apply_overrides", "parse_override", "ConfigError",
+__all__ = ["Pipeline", "ComponentSpec", "RunRecord", "apply_overrides", "check_scene", "parse_override",
+           "ConfigError",
            "PliantError"]

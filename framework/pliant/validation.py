@@ -174,3 +174,21 @@ def read_toml(path: Path, error: type[ConfigError] = ConfigError) -> dict:
         raise error(f"not valid TOML: {exc}", source=str(path), field="<file>") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise error(f"cannot read file: {exc}", source=str(path), field="<file>") from None
+
+
+#: characters kept as they are in a folder name made from a user's name; every other character becomes ``_``
+_SAFE_CHARACTERS = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_.+=,@")
+
+
+def safe_name(text: str, *, limit: int = 100) -> str:
+    """``text`` as one safe path component, for the folders pliant names after a pipeline or scene.
+
+    Letters, digits and ``-_.+=,@`` are kept; every other character (``/``, ``\\``, NUL, spaces, anything
+    non-ASCII) becomes ``_``; leading dots become ``_`` (no ``..``, no hidden folders); at most ``limit``
+    characters; an empty result is ``_``.  So ``safe_name("../../etc") == "___.._etc"`` stays inside the folder it
+    is joined to.  Paths a user gives explicitly (``--output``) are theirs and are not changed.
+    """
+    name = "".join(c if c in _SAFE_CHARACTERS else "_" for c in str(text))[:limit]
+    stripped = name.lstrip(".")
+    name = "_" * (len(name) - len(stripped)) + stripped
+    return name or "_"

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.actuation import actuator_limits, angular_mask, limit_velocity
-from pliant.errors import DimensionError
+from pliant.errors import DimensionError, SimulationError
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
 from pliant.noise import NOISE_MODELS, ActuationNoise
 from pliant.options import option
@@ -204,7 +204,16 @@ class KinematicSimulator(Simulator):
                                trajectories=np.stack(trajectory, axis=1) if record else None, steps=total_micro)
 
     def reset(self, q):
-        self._q = check_batch(q, self.space, "configuration")[0][:1].copy()
+        """Place the robot at ``q`` ``(d,)`` at rest.  A configuration whose surface points lie inside an obstacle
+        (or outside the grid) is a :class:`~pliant.errors.SimulationError`: collision resolution only ever pushes
+        a robot back out along its motion, so one placed inside a wall would report no contact and pass through."""
+        q = check_batch(q, self.space, "configuration")[0][:1].copy()
+        inside = self.contact.colliding(self.robot.body_points(q, self.surface))[0]
+        if inside.any():
+            raise SimulationError(f"places the robot inside an obstacle or outside the grid ({int(inside.sum())} of "
+                                  f"its {inside.size} surface points); start it in free space", field="reset",
+                                  value=q[0].tolist())
+        self._q = q
         self._contact = False
 
     def configuration(self):

@@ -100,7 +100,19 @@ class PybulletSimulator(SteppedSimulator):
         q = check_batch(q, self.space, "configuration")[0][0]
         self.objects.reset()
         self.body.reset(q)
+        depth = self._penetration()
+        if depth > 0.25 * self.context.scene.resolution:
+            raise SimulationError(f"places the robot {depth:.4g} m inside an obstacle; start it in free space",
+                                  field="reset", value=q.tolist())
         self._contact = False
+
+    def _penetration(self) -> float:
+        """The deepest overlap (m) of the robot with another body right after a reset, 0 if none (self-contacts
+        count only with ``self_collision``)."""
+        self.pb.performCollisionDetection()
+        depths = [-c[8] for c in self.pb.getContactPoints(bodyA=self.body.body)
+                  if c[2] != self.body.body or self.options.self_collision]
+        return max(depths, default=0.0)
 
     def contact_points(self) -> np.ndarray:
         """Contacts of the robot after the last physics step, ``(k, 7)``: point on the robot (m), unit normal

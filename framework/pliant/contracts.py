@@ -1,0 +1,148 @@
+"""Argument checks the core puts in front of every component's entry points.
+
+A plugin's :meth:`~pliant.interfaces.Planner.plan`, :meth:`~pliant.interfaces.Simulator.reset` /
+:meth:`~pliant.interfaces.Simulator.step` and :meth:`~pliant.interfaces.Controller.command` receive arguments that
+were checked here first, so that every plugin -- built-in or third-party -- answers bad input with one
+:class:`~pliant.errors.PliantError` naming the argument and its value instead of a traceback deep inside, or worse,
+a result computed from garbage (a NaN command, a step of negative time, a robot placed outside the workspace).
+
+The kinds in :mod:`pliant.interfaces` wrap their subclasses' methods with these checks when the subclass is
+defined (``__init_subclass__``); a plugin author writes the method as usual.  The checks are cheap (a few array
+tests per call), so they stay on in hot loops.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import Any
+
+import numpy as np
+
+from pliant.errors import DimensionError, PlanningError, SimulationError
+
+#: the attribute that marks a method as already wrapped (a subclass of a subclass is not wrapped twice)
+WRAPPED = "__pliant_checked__"
+
+
+def check_rng(rng: Any, *, field: str = "rng") -> np.random.Generator:
+    """``rng`` if it is a :class:`numpy.random.Generator`, else :class:`~pliant.errors.PlanningError` (randomness is
+    explicit: ``numpy.random.default_rng(seed)``, never a bare seed or the legacy global state)."""
+    if not isinstance(rng, np.random.Generator):
+        raise PlanningError("must be a numpy.random.Generator (e.g. numpy.random.default_rng(seed))", field=field,
+                            value=rng)
+    return rng
+
+
+def check_duration(dt: Any, *, field: str = "dt") -> float:
+    """``dt`` (s) as a float if finite and positive, else :class:`~pliant.errors.SimulationError`."""
+    try:
+        value = float(dt)
+    except (TypeError, ValueError):
+        raise SimulationError("must be a number of seconds", field=field, value=dt) from None
+    if not math.isfinite(value) or value <= 0.0:
+        raise SimulationError("must be a finite positive number of seconds", field=field, value=dt)
+    return value
+
+
+def check_vector(values: Any, size: int, *, field: str) -> np.ndarray:
+    """``values`` as a finite float64 ``(size,)`` array, else :class:`~pliant.errors.DimensionError`."""
+    try:
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise DimensionError(f"must be {size} numbers", field=field, value=values) from None
+    if arr.shape != (size,):
+        raise DimensionError(f"must be {size} numbers (shape ({size},))", field=field, value=np.shape(values))
+    if not np.all(np.isfinite(arr)):
+        raise DimensionError("must be finite", field=field, value=arr.tolist())
+    return arr
+
+
+def _space_of(component) -> Any:
+    context = getattr(component, "context", None)
+    if context is None or getattr(context, "scene", None) is None:
+        return None
+    try:
+        return context.space
+    except Exception:  # a context without a robot yet: nothing to check against
+        return None
+
+
+def checked_plan(method):
+    """Wrap a planner's ``plan(problem, rng, termination=None)``: the problem must be a
+    :class:`~pliant.interfaces.PlanningProblem` and ``rng`` a Generator."""
+    if getattr(method, WRAPPED, False):
+        return method
+
+    @functools.wraps(method)
+    def plan(self, problem, rng, *args, **kwargs):
+        from pliant.interfaces import PlanningProblem
+
+        if not isinstance(problem, PlanningProblem):
+            raise PlanningError("must be a pliant.interfaces.PlanningProblem (PlanningProblem.from_context(context))",
+                                field="problem", value=type(problem).__name__)
+        check_rng(rng)
+        return method(self, problem, rng, *args, **kwargs)
+
+    setattr(plan, WRAPPED, True)
+    return plan
+
+
+def checked_reset(method):
+    """Wrap a simulator's ``reset(q)``: ``q`` must be a finite configuration inside the space's bounds (a robot placed
+    outside the workspace would jump back in one step)."""
+    if getattr(method, WRAPPED, False):
+        return method
+
+    @functools.wraps(method)
+    def reset(self, q, *args, **kwargs):
+        space = _space_of(self)
+        if space is not None:
+            q = space.check(q, field="reset")
+            if q.ndim != 1:
+                raise DimensionError("must be one configuration", field="reset", value=list(q.shape))
+        return method(self, q, *args, **kwargs)
+
+    setattr(reset, WRAPPED, True)
+    return reset
+
+
+def checked_step(method):
+    """Wrap a simulator's ``step(velocity, dt, rng)``: a finite velocity per tangent direction, a finite positive
+    ``dt`` (s)."""
+    if getattr(method, WRAPPED, False):
+        return method
+
+    @functools.wraps(method)
+    def step(self, velocity, dt, *args, **kwargs):
+        dt = check_duration(dt)
+        rng = args[0] if args else kwargs.get("rng")
+        if rng is not None:
+            check_rng(rng)
+        space = _space_of(self)
+        if space is not None:
+            velocity = check_vector(velocity, space.tangent_dim, field="velocity")
+        return method(self, velocity, dt, *args, **kwargs)
+
+    setattr(step, WRAPPED, True)
+    return step
+
+
+def checked_command(method):
+    """Wrap a controller's ``command(q, target, dt)``: finite configurations of the space's size and a finite
+    positive ``dt`` -- a NaN in means an error, not a NaN command out.  (No bounds check: a measured configuration
+    may sit a hair outside a joint limit.)"""
+    if getattr(method, WRAPPED, False):
+        return method
+
+    @functools.wraps(method)
+    def command(self, q, target, dt, *args, **kwargs):
+        dt = check_duration(dt)
+        space = _space_of(self)
+        size = space.dim if space is not None else np.size(q)
+        q = check_vector(q, size, field="q")
+        target = check_vector(target, size, field="target")
+        return method(self, q, target, dt, *args, **kwargs)
+
+    setattr(command, WRAPPED, True)
+    return command
