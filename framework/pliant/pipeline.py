@@ -226,13 +226,30 @@ class Pipeline:
             target = spec
         return load_scene(target, variant=variant)
 
+    def check_execution(self) -> None:
+        """The ``[execution]`` table against the pipeline, before anything is built: a named world must exist (as a
+        simulator or a driver) and something must execute in it (a controller).  Settings nothing would use are an
+        error, not silently ignored."""
+        settings = self.world_settings
+        if not settings.get("world") and "variant" not in settings:
+            return
+        if "controller" not in self.components and "controller" not in self.instances:
+            field = "execution.world" if settings.get("world") else "execution.variant"
+            raise PipelineError("an execution world needs a controller to execute with; add a [controller] table "
+                                "(e.g. name = \"contact\") or remove this setting", source=self.source, field=field,
+                                value=settings["world"].name if settings.get("world") else settings["variant"])
+        self._world_kind(self.world_spec().name)
+
     def build(self) -> Context:
         """Load the scene and create every component, in :data:`BUILD_ORDER`, bound to one context."""
+        self.check_execution()
         scene = self.load_scene()
         context = Context(scene=scene, seed=self.seed)
         specs = dict(self.components)
         if "robot" not in specs and "robot" not in self.instances:
             specs["robot"] = ComponentSpec(DEFAULT_ROBOT[scene.robot.kind])
+        elif "robot" in specs and not specs["robot"].name:
+            specs["robot"] = ComponentSpec(DEFAULT_ROBOT[scene.robot.kind], specs["robot"].options)
         for kind in BUILD_ORDER:
             if kind in self.instances:
                 component = self.instances[kind]
@@ -349,7 +366,9 @@ class Pipeline:
             candidate = self.base_dir / str(name)
             scene = load_scene(candidate if candidate.is_file() else name, variant=settings["variant"])
         world_context = Context(scene=scene, seed=self.seed)
-        robot_spec = self.components.get("robot", ComponentSpec(DEFAULT_ROBOT[scene.robot.kind]))
+        robot_spec = self.components.get("robot", ComponentSpec(""))
+        if not robot_spec.name:
+            robot_spec = ComponentSpec(DEFAULT_ROBOT[scene.robot.kind], robot_spec.options)
         world_context.robot = self.registry.create("robot", robot_spec.name, world_context, source=self.source,
                                                    disabled=self.disable, **robot_spec.options)
         return self.registry.create(kind, spec.name, world_context, source=self.source, disabled=self.disable,
@@ -409,7 +428,7 @@ class Pipeline:
         if "variant" in self.world_settings:
             out["execution"]["variant"] = self.world_settings["variant"]
         for kind, spec in self.components.items():
-            out[kind] = {"name": spec.name, **spec.options}
+            out[kind] = {"name": spec.name, **spec.options} if spec.name else dict(spec.options)
         return out
 
 
@@ -507,6 +526,8 @@ def _component_spec(spec: Any, source: str, kind: str) -> ComponentSpec:
     if isinstance(spec, dict):
         options = dict(spec)
         name = options.pop("name", None)
+        if kind == "robot" and name is None:
+            return ComponentSpec("", options)       # options of the scene's default robot component
         if not isinstance(name, str) or not name:
             raise PipelineError("component table needs a 'name' (a registered component)", source=source,
                                 field=f"{kind}.name", value=name)
@@ -563,6 +584,8 @@ def apply_overrides(data: dict, overrides: list[str] | dict[str, Any], source: s
         if head in TOP_LEVEL:
             raise PipelineError("this field has no sub-fields", source=source, field=key, value=value)
         current = out.get(head)
+        if current is None and head == "robot":
+            current = {}                     # robot.OPTION=value: an option of the scene's default robot
         if current is None:
             raise PipelineError(f"the pipeline has no {head}; set {head}=NAME first", source=source, field=key,
                                 value=value)

@@ -97,10 +97,14 @@ class Policy:
 
     @classmethod
     def from_dict(cls, data: dict) -> Policy:
+        if not isinstance(data, dict):
+            raise ConfigError("a policy must be a table", field="policy", value=type(data).__name__)
         kind = data.get("kind")
         if kind not in Policy._kinds:
-            raise ConfigError("unknown policy kind (is the plugin that defines it installed?)", field="policy.kind",
-                              value=kind)
+            _load_policy_kinds()
+        if kind not in Policy._kinds:
+            raise ConfigError(f"unknown policy kind (known: {', '.join(sorted(Policy._kinds)) or 'none'}; is the "
+                              "plugin that defines it installed?)", field="policy.kind", value=kind)
         return Policy._kinds[kind].from_dict(data)
 
     def save(self, path: str | FilePath) -> None:
@@ -201,6 +205,20 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, enum.Enum):
         return value.value
     return value
+
+
+def _load_policy_kinds() -> None:
+    """Import every planner plugin's component (policy kinds register when their module is imported), so that a
+    policy file can be read in a fresh process; plugins that fail to load are skipped (the registry reports them)."""
+    from pliant.registry import default_registry
+
+    registry = default_registry()
+    for entry in registry.entries():
+        if entry.kind == "planner":
+            try:
+                entry.load()
+            except Exception:  # a broken plugin: `pliant plugins` names it; here its policies stay unknown
+                continue
 
 
 def _write_json(path: str | FilePath, data: dict) -> None:

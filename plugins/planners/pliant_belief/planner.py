@@ -38,6 +38,7 @@ from scipy.special import erf
 
 from pliant_belief.belief import BeliefNode, BeliefTree
 from pliant_belief.local import LocalPlannerSettings, extend, goal_fraction
+from pliant_belief.policy import PartialPolicy  # importing registers the kind for Policy.from_dict
 
 MODES = ("belief", "contact", "simple")
 
@@ -177,7 +178,6 @@ class BeliefPlanner(Planner):
     # --- pieces --------------------------------------------------------------------------------------
 
     def _policy(self, tree: BeliefTree, problem: PlanningProblem):
-        from pliant_belief.policy import PartialPolicy
 
         o = self.options
         policy = PartialPolicy.from_tree(tree, p_goal=o.p_goal, attempts=o.attempts, importance=o.importance,

@@ -39,6 +39,10 @@ from pliant_pinocchio.sampling import surface_points
 class PinocchioOptions:
     """Options of :class:`PinocchioRobot` (units in each ``doc``)."""
 
+    model: str | None = option(None, "the URDF robot: a name (baxter, pr2, iiwa) or a .urdf path; default the "
+                               "scene's robot.model.  Another model than the scene's works where the scene's start "
+                               "and goal are configurations of its group (as many joints, inside its limits); the "
+                               "scene's robot.weights then do not apply (unit weights)")
     group: str | None = option(None, "joint group to plan for (default: the scene's robot.group, else 'all')")
     resolution: float | None = option(None, "spacing of the body's surface points (m); default the scene "
                                       "resolution", minimum=1e-4)
@@ -99,10 +103,12 @@ class PinocchioRobot(RobotModel):
         if spec.kind != "urdf":
             raise PlanningError("the pinocchio robot needs a scene whose [robot] kind is 'urdf'", source=scene.source,
                                 field="robot.kind", value=spec.kind)
-        entry = self._entry(spec.model, scene.source)
-        self.model_name = spec.model
+        model = self.options.model or spec.model
+        swapped = model != spec.model
+        entry = self._entry(model, scene.source)
+        self.model_name = model
         self.entry = entry
-        self._load(entry, scene.source, spec.model)
+        self._load(entry, scene.source, model)
         self._choose_group(entry, self.options.group or spec.group or "all", from_option=bool(self.options.group))
         self._set_limits(entry)
         self.base_configuration = self._posture()
@@ -110,7 +116,7 @@ class PinocchioRobot(RobotModel):
         #: batched forward kinematics of the joints carrying points; None: a joint on the chain is not
         #: a plain revolute / prismatic one, and body points fall back to the per-configuration loop
         self._chain = JointChain.build(self.model, self.joint_ids, self._used, self.base_configuration)
-        self._space = self._make_space(spec.weights)
+        self._space = self._make_space(None if swapped else spec.weights)
         self._obstacles = self._build_obstacles(scene)
         #: per joint id: which group joints move it (d,), and its subtree mass (kg; constant, for self-contacts)
         self._joint_support = self._support_mask(range(self.model.njoints))
@@ -118,7 +124,14 @@ class PinocchioRobot(RobotModel):
         self._subtree_mass = np.array(self.data.mass, dtype=np.float64)
         self._broad_phase = None            # built on the first self-collision query
         for key in ("start", "goal"):
-            self._check_scene_configuration(key, getattr(scene, key))
+            try:
+                self._check_scene_configuration(key, getattr(scene, key))
+            except SceneError as exc:
+                if not swapped:
+                    raise
+                raise SceneError(f"scene '{scene.name}' is set up for {spec.model}; its {key} is not a configuration "
+                                 f"of {model}'s group '{self.group}' ({exc.field}: {exc.message})",
+                                 source=scene.source, field="robot.model", value=model) from None
 
     # --- construction -------------------------------------------------------------------------
 
