@@ -38,6 +38,10 @@ def _as_vector(value, size: int, name: str, field: str) -> np.ndarray:
     return arr
 
 
+#: the most states :meth:`Space.discretize` makes of one edge; a smaller step than length / this is refused before
+#: anything is allocated (a planner step of 1e-9 would otherwise ask for gigabytes)
+MAX_STATES_PER_EDGE = 1_000_000
+
 class Space(ABC):
     """A configuration space.
 
@@ -130,6 +134,10 @@ class Space(ABC):
         """
         if not step > 0:
             raise DimensionError("step must be positive", field="step", value=step)
+        if float(self.distance(a, b)) > MAX_STATES_PER_EDGE * step:
+            raise DimensionError(f"splits one edge of length {float(self.distance(a, b)):.6g} into more than "
+                                 f"{MAX_STATES_PER_EDGE:,} states (pliant.spaces.MAX_STATES_PER_EDGE); use a larger "
+                                 "step", field="step", value=step)
         n = max(1, int(np.ceil(float(self.distance(a, b)) / step)))
         return self.interpolate(np.asarray(a)[None], np.asarray(b)[None], np.linspace(0.0, 1.0, n + 1)[:, None])
 
