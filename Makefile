@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 # ROS 1 from Debian's packages, for the ROS drivers (plugins/drivers/pliant_ros1) and their tests.  Installed
 # when missing and when we can (root, apt); the venv sees Debian's Python packages through a .pth file appended
 # after its own site-packages, so pip's packages always win.
-ROS_DEBS := ros-core python3-rospy python3-genpy python3-std-msgs python3-sensor-msgs python3-trajectory-msgs
+ROS_DEBS := ros-core python3-rospy python3-genpy python3-std-msgs python3-std-srvs python3-sensor-msgs python3-trajectory-msgs
 ROS_STAMP := $(VENV)/.ros
 
 $(STAMP): pyproject.toml
@@ -19,7 +19,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 $(ROS_STAMP): $(STAMP)
-	@if ! command -v rosmaster >/dev/null 2>&1 || [ ! -d /usr/lib/python3/dist-packages/rospy ] || [ ! -d /usr/lib/python3/dist-packages/trajectory_msgs ]; then \
+	@if ! command -v rosmaster >/dev/null 2>&1 || [ ! -d /usr/lib/python3/dist-packages/rospy ] || [ ! -d /usr/lib/python3/dist-packages/trajectory_msgs ] || [ ! -d /usr/lib/python3/dist-packages/std_srvs ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
 	    echo "installing ROS 1 from Debian: $(ROS_DEBS)"; \
 	    (apt-get install -y --no-install-recommends $(ROS_DEBS) >/dev/null 2>&1 || \
