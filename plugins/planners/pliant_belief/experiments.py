@@ -22,6 +22,9 @@ Experiments (pipelines in ``scenes/pipelines``):
   upright, ``planner.rotation_spread``), and WCR 0.75 with the thesis's uniform rotations.
 - ``table-5.2``: se3-peg-in-hole, Simple RRT, Contact RRT, 24 and 48 particles, gamma in
   {0, 1/16, 1/8, 1/4}.
+- ``table-5.1-tight``, ``table-5.2-tight``: the same rows on se3-peg-tight (``peg-tight-policy``: a hole 8% wider
+  than the peg instead of 30%, the scene at one tenth of the size, so the linear noise is ``gamma / 10`` m/s), where
+  on se3-peg-in-hole every row planned and executed every time.
 - ``baxter-reach``: thesis 5.4.2, Baxter's right arm reaching into a hole (``baxter-policy``, noise
   proportional to joint velocity, gamma = 0.1, executed in pybullet): the belief planner (24 particles)
   against Contact RRT (one particle, planning without noise, executed with the same noise); thesis: P_exec
@@ -52,12 +55,32 @@ class Variant:
     worlds: dict[str, tuple[str, ...]] = field(default_factory=lambda: {"": ()})
 
 
-def _gamma(g: float) -> tuple[str, ...]:
-    """Planning and execution noise ``gamma`` (linear, m/s) and ``gamma / 4`` (angular), thesis 5.4.1."""
+def _gamma(g: float, scale: float = 1.0) -> tuple[str, ...]:
+    """Planning and execution noise ``gamma`` (linear, m/s, times ``scale`` for a scene scaled by it) and
+    ``gamma / 4`` (angular, rad/s), thesis 5.4.1."""
     noise = "none" if g == 0 else "bounded"
-    return (f'simulator.noise="{noise}"', f"simulator.noise_linear={g}", f"simulator.noise_angular={g / 4}",
-            f'execution.world.noise="{noise}"', f"execution.world.noise_linear={g}",
+    return (f'simulator.noise="{noise}"', f"simulator.noise_linear={g * scale}", f"simulator.noise_angular={g / 4}",
+            f'execution.world.noise="{noise}"', f"execution.world.noise_linear={g * scale}",
             f"execution.world.noise_angular={g / 4}")
+
+
+def _tables_5(pipeline: str, scale: float = 1.0) -> tuple[list[Variant], list[Variant]]:
+    """Tables 5.1 (clustering) and 5.2 (planner modes, particles, noise) on a peg-in-hole ``pipeline`` whose
+    lengths are ``scale`` times the thesis's."""
+    table_51 = [Variant("PC", pipeline, ('planner.clustering="pc"',)),
+                Variant("AC", pipeline, ('planner.clustering="ac"',))]
+    table_51 += [Variant(f"WCR {t}", pipeline, ('planner.clustering="wcr"', f"planner.wcr_threshold={t}"))
+                 for t in (0.125, 0.25, 0.5, 0.75, 0.99)]
+    table_51 += [Variant("WCR 0.75, uniform rotations", pipeline,
+                         ('planner.clustering="wcr"', "planner.wcr_threshold=0.75", "planner.rotation_spread=null"))]
+    table_52 = []
+    for g in (0.0, 1 / 16, 1 / 8, 1 / 4):
+        table_52 += [Variant(f"simple, gamma {g:g}", pipeline, ('planner.mode="simple"', *_gamma(g, scale))),
+                     Variant(f"contact, gamma {g:g}", pipeline,
+                             ('planner.mode="contact"', 'simulator.noise="none"', *_gamma(g, scale)[3:])),
+                     Variant(f"24 particles, gamma {g:g}", pipeline, ("planner.particles=24", *_gamma(g, scale))),
+                     Variant(f"48 particles, gamma {g:g}", pipeline, ("planner.particles=48", *_gamma(g, scale)))]
+    return table_51, table_52
 
 
 def experiments() -> dict[str, list[Variant]]:
@@ -65,26 +88,17 @@ def experiments() -> dict[str, list[Variant]]:
     maze_worlds = {"unblocked": (), "blocked": ('execution.variant="blocked"',)}
     frictionless = {"unblocked, friction 0": ("execution.world.friction=0.0",),
                     "blocked, friction 0": ('execution.variant="blocked"', "execution.world.friction=0.0")}
-    table_51 = [Variant("PC", "peg-policy", ('planner.clustering="pc"',)),
-                Variant("AC", "peg-policy", ('planner.clustering="ac"',))]
-    table_51 += [Variant(f"WCR {t}", "peg-policy", ('planner.clustering="wcr"', f"planner.wcr_threshold={t}"))
-                 for t in (0.125, 0.25, 0.5, 0.75, 0.99)]
-    table_51 += [Variant("WCR 0.75, uniform rotations", "peg-policy",
-                         ('planner.clustering="wcr"', "planner.wcr_threshold=0.75", "planner.rotation_spread=null"))]
-    table_52 = []
-    for g in (0.0, 1 / 16, 1 / 8, 1 / 4):
-        table_52 += [Variant(f"simple, gamma {g:g}", "peg-policy", ('planner.mode="simple"', *_gamma(g))),
-                     Variant(f"contact, gamma {g:g}", "peg-policy",
-                             ('planner.mode="contact"', 'simulator.noise="none"', *_gamma(g)[3:])),
-                     Variant(f"24 particles, gamma {g:g}", "peg-policy", ("planner.particles=24", *_gamma(g))),
-                     Variant(f"48 particles, gamma {g:g}", "peg-policy", ("planner.particles=48", *_gamma(g)))]
+    table_51, table_52 = _tables_5("peg-policy")
+    # the tight hole of thesis 6.5.1 (8% clearance; the scene at 1/10 scale), where the rows can differ
+    tight_51, tight_52 = _tables_5("peg-tight-policy", scale=0.1)
     baxter = [Variant("belief", "baxter-policy"),
               Variant("contact RRT", "baxter-policy", ('planner.mode="contact"', 'simulator.noise="none"'))]
     return {"maze": [Variant("belief, WCR 0.75", "maze-policy", (), maze_worlds),
                      Variant("belief, WCR 0.75, thesis retire", "maze-policy", ('planner.retire="split"',),
                              maze_worlds)],
             "maze-frictionless": [Variant("belief, WCR 0.75", "maze-policy", (), frictionless)],
-            "table-5.1": table_51, "table-5.2": table_52, "baxter-reach": baxter}
+            "table-5.1": table_51, "table-5.2": table_52, "table-5.1-tight": tight_51, "table-5.2-tight": tight_52,
+            "baxter-reach": baxter}
 
 
 def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exec_time: float,

@@ -27,7 +27,8 @@ def pliant_add_commands(subparsers):
         "belief-experiment", help="thesis 5.4 experiments: plan policies, execute them, tabulate success",
         description="Plan --plans policies per variant of an experiment and execute each --executions times in "
                     "each execution world; runs are written as they finish and resumed on a second call.")
-    parser.add_argument("name", help="maze, maze-frictionless, table-5.1, table-5.2 or baxter-reach")
+    parser.add_argument("name", help="maze, maze-frictionless, table-5.1, table-5.2, table-5.1-tight, table-5.2-tight "
+                        "or baxter-reach")
     parser.add_argument("--plans", type=int, default=30, help="policies per variant (default 30)")
     parser.add_argument("--executions", type=int, default=8, help="executions per policy and world (default 8)")
     parser.add_argument("--plan-time", type=float, default=120.0, help="planning time per policy (s, default 120)")
