@@ -23,10 +23,14 @@ import numpy as np
 from pliant.errors import SceneError
 from pliant.geometry import UNIT_QUATERNION_TOLERANCE, quat_to_matrix
 from pliant.shapes import Box, Cylinder, Mesh, Shape, Sphere, VoxelArray
-from pliant.validation import Fields, read_toml
+from pliant.validation import Fields, read_toml, size_limit
 
 ROBOT_SPACES = ("r3", "se2", "se3")
 
+
+#: the most voxels a scene's grid may have (a 2000 x 2000 x 16 grid; the bundled scenes have at most 4.5 million);
+#: checked before anything is allocated.  Raise it with the environment variable PLIANT_MAX_GRID_CELLS.
+MAX_GRID_CELLS = 64_000_000
 
 @dataclass(frozen=True)
 class Material:
@@ -329,6 +333,12 @@ class _SceneReader:
         cells = (upper - lower) / resolution
         if np.any(np.abs(cells - np.round(cells)) > 1e-6 * np.maximum(1.0, cells)):
             bounds.fail("resolution", "the bounds must span a whole number of voxels", resolution)
+        limit = size_limit("PLIANT_MAX_GRID_CELLS", MAX_GRID_CELLS)
+        total = float(np.prod(np.round(cells)))
+        if total > limit:
+            bounds.fail("resolution", f"makes a grid of {' x '.join(f'{c:.0f}' for c in np.round(cells))} = "
+                        f"{total:.3g} voxels, more than the limit of {limit:,} (a coarser resolution, smaller "
+                        "bounds, or set PLIANT_MAX_GRID_CELLS)", resolution)
         bounds.finish()
         self.lower, self.resolution = lower, resolution
         planar = top.boolean("planar", False)
@@ -338,6 +348,11 @@ class _SceneReader:
             if obj.name in seen:
                 t.fail("name", "object names must be unique", obj.name)
             seen.add(obj.name)
+            lo, hi = obj.part.bounds()
+            if np.any(hi < lower) or np.any(lo > upper) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+                t.fail("position", "places the object wholly outside the scene's bounds (objects partly outside are "
+                       f"cut at the bounds): it spans {np.round(lo, 6).tolist()} .. {np.round(hi, 6).tolist()}",
+                       t.raw("position") if t.has("position") else None)
         regions = [self._region(t) for t in top.tables("regions")]
         robot = self._robot(top.table("robot"))
         start = top.vector("start")

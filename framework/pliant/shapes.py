@@ -8,12 +8,28 @@ a pose; voxelisation and the simple validity checks of the core are built on ``c
 from __future__ import annotations
 
 import struct
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from pliant.errors import SceneError
+from pliant.validation import check_regular_file, size_limit
+
+#: the most triangles a mesh may have: the inside test costs (points x triangles), so a 30,000-triangle mesh over a
+#: scene's voxels takes minutes; simplify the mesh, or raise it with the environment variable PLIANT_MAX_MESH_TRIANGLES
+MAX_MESH_TRIANGLES = 20_000
+#: the largest mesh file read (bytes; PLIANT_MAX_MESH_BYTES)
+MAX_MESH_BYTES = 64 * 2**20
+#: the largest voxel-array file read (bytes; PLIANT_MAX_VOXEL_BYTES) and the most entries of one of its arrays
+#: (PLIANT_MAX_GRID_CELLS, as a scene's grid), checked from the file's headers before any array is loaded
+MAX_VOXEL_BYTES = 512 * 2**20
+MAX_VOXEL_CELLS = 64_000_000
+#: the farthest a mesh vertex may lie from its object's origin after scaling (m)
+MAX_MESH_EXTENT = 1e6
+#: memory the inside test of a mesh may use at once (bytes): points are processed in chunks that fit
+WINDING_BUDGET = 64 * 2**20
 
 
 class Shape:
@@ -91,7 +107,11 @@ class Mesh(Shape):
 
     @classmethod
     def load(cls, path: Path, scale: float = 1.0, *, source: str | None = None, field_name: str = "file") -> Mesh:
-        """Read ``path`` (``.stl`` or ``.obj``) or raise :class:`SceneError` naming the field."""
+        """Read ``path`` (``.stl`` or ``.obj``) or raise :class:`SceneError` naming the field: a file that is not a
+        regular file or larger than :data:`MAX_MESH_BYTES`, more than :data:`MAX_MESH_TRIANGLES` triangles, or a
+        ``scale`` that puts vertices beyond :data:`MAX_MESH_EXTENT` metres (or overflows) is refused."""
+        check_regular_file(path, max_bytes=size_limit("PLIANT_MAX_MESH_BYTES", MAX_MESH_BYTES),
+                           limit_name="PLIANT_MAX_MESH_BYTES", error=SceneError, source=source, field=field_name)
         try:
             suffix = path.suffix.lower()
             if suffix == ".stl":
@@ -107,10 +127,29 @@ class Mesh(Shape):
                              value=str(path)) from None
         if tris.size == 0 or not np.all(np.isfinite(tris)):
             raise SceneError("mesh file has no finite triangles", source=source, field=field_name, value=str(path))
-        return cls(path=path, scale=scale, triangles=tris * scale)
+        limit = size_limit("PLIANT_MAX_MESH_TRIANGLES", MAX_MESH_TRIANGLES)
+        if len(tris) > limit:
+            raise SceneError(f"mesh has {len(tris):,} triangles, more than the limit of {limit:,} (simplify it, or "
+                             "set PLIANT_MAX_MESH_TRIANGLES)", source=source, field=field_name, value=str(path))
+        if not (np.isfinite(scale) and scale > 0):
+            raise SceneError("must be a finite positive number", source=source, field="scale", value=scale)
+        with np.errstate(over="ignore", invalid="ignore"):
+            scaled = tris * scale
+        reach = float(np.max(np.abs(scaled))) if np.all(np.isfinite(scaled)) else np.inf
+        if reach > MAX_MESH_EXTENT:
+            raise SceneError(f"scale {scale:g} puts mesh vertices {reach:.3g} m from the object's origin (at most "
+                             f"{MAX_MESH_EXTENT:g} m); the mesh's units are probably not metres", source=source,
+                             field=field_name.rsplit(".", 1)[0] + ".scale" if "." in field_name else "scale",
+                             value=scale)
+        return cls(path=path, scale=scale, triangles=scaled)
 
-    def winding_number(self, points: np.ndarray, chunk: int = 4096) -> np.ndarray:
-        """Generalised winding number of each point ``(n, 3)`` with respect to the mesh."""
+    def winding_number(self, points: np.ndarray, chunk: int | None = None) -> np.ndarray:
+        """Generalised winding number of each point ``(n, 3)`` with respect to the mesh.
+
+        Points go in chunks (``chunk``; default as many as fit in :data:`WINDING_BUDGET` bytes of temporaries,
+        about 20 floats per point and triangle), so memory stays bounded whatever the mesh and the point count."""
+        if chunk is None:
+            chunk = max(1, min(4096, WINDING_BUDGET // (20 * 8 * max(1, len(self.triangles)))))
         out = np.empty(len(points))
         for s in range(0, len(points), chunk):
             p = points[s:s + chunk, None, None, :]
@@ -149,11 +188,21 @@ class VoxelArray(Shape):
 
     @classmethod
     def load(cls, path: Path, resolution: float, *, source: str | None = None, field_name: str = "file") -> VoxelArray:
-        """Read ``path`` or raise :class:`SceneError` naming the field and what is wrong."""
+        """Read ``path`` or raise :class:`SceneError` naming the field and what is wrong.
+
+        Only a regular ``.npz`` file of at most :data:`MAX_VOXEL_BYTES` is opened; every array's shape is read from
+        its header and checked against :data:`MAX_VOXEL_CELLS` before it is loaded (a small compressed file may
+        hold a huge array); ``occupancy`` must hold booleans or the numbers 0 and 1 (strings, NaN, other numbers are
+        an error, not "occupied")."""
+        check_regular_file(path, max_bytes=size_limit("PLIANT_MAX_VOXEL_BYTES", MAX_VOXEL_BYTES),
+                           limit_name="PLIANT_MAX_VOXEL_BYTES", error=SceneError, source=source, field=field_name)
         try:
+            _check_npz_headers(path, size_limit("PLIANT_MAX_GRID_CELLS", MAX_VOXEL_CELLS))
             with np.load(path, allow_pickle=False) as data:
                 arrays = {k: data[k] for k in data.files}
-        except (OSError, ValueError, EOFError) as exc:
+        except SceneError as exc:
+            raise SceneError(exc.message, source=source, field=field_name, value=str(path)) from None
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
             raise SceneError(f"cannot read voxel file: {exc}", source=source, field=field_name,
                              value=str(path)) from None
         if "occupancy" not in arrays:
@@ -162,6 +211,17 @@ class VoxelArray(Shape):
         if occ.ndim != 3 or occ.size == 0:
             raise SceneError("'occupancy' must be a non-empty 3-D array", source=source, field=field_name,
                              value=list(occ.shape))
+        if occ.dtype != np.bool_:
+            if occ.dtype.kind not in "iuf":
+                raise SceneError(f"'occupancy' must hold booleans or 0 / 1, not {occ.dtype} values", source=source,
+                                 field=field_name, value=str(path))
+            if not np.all((occ == 0) | (occ == 1)):
+                raise SceneError("'occupancy' numbers must each be 0 or 1 (NaN and other values are not occupancy)",
+                                 source=source, field=field_name, value=str(path))
+        for name in ("deformability", "sensitivity"):
+            if name in arrays and arrays[name].dtype.kind not in "iuf":
+                raise SceneError(f"'{name}' must hold numbers, not {arrays[name].dtype} values", source=source,
+                                 field=field_name, value=str(path))
         extra = {}
         for name, lo, hi in (("deformability", 0.0, 1.0), ("sensitivity", 0.0, np.inf)):
             if name in arrays:
@@ -202,6 +262,25 @@ class VoxelArray(Shape):
 
     def bounds(self):
         return np.zeros(3), np.array(self.occupancy.shape) * self.resolution
+
+
+def _check_npz_headers(path: Path, max_cells: int) -> None:
+    """Read the shape of every array in the ``.npz`` at ``path`` from its ``.npy`` header (nothing is decompressed
+    beyond the header) and raise :class:`SceneError` for one with more than ``max_cells`` entries."""
+    with zipfile.ZipFile(path) as archive:
+        for member in archive.namelist():
+            if not member.endswith(".npy"):
+                continue
+            with archive.open(member) as stream:
+                version = np.lib.format.read_magic(stream)
+                if version == (1, 0):
+                    shape, _, _ = np.lib.format.read_array_header_1_0(stream)
+                else:
+                    shape, _, _ = np.lib.format.read_array_header_2_0(stream)
+            cells = int(np.prod(shape, dtype=np.float64))
+            if cells > max_cells:
+                raise SceneError(f"array '{member[:-4]}' has {cells:,} entries {list(shape)}, more than the limit of "
+                                 f"{max_cells:,} (set PLIANT_MAX_GRID_CELLS to raise it)")
 
 
 def _read_stl(path: Path) -> np.ndarray:

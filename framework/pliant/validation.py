@@ -8,6 +8,8 @@
 from __future__ import annotations
 
 import math
+import os
+import stat
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -166,12 +168,56 @@ def check_vector(value: Any, source: str, field: str, *, size: int | None = None
     return np.asarray(items, dtype=np.float64)
 
 
+#: the largest scene or pipeline file read (bytes); raise it with the environment variable PLIANT_MAX_TOML_BYTES
+MAX_TOML_BYTES = 16 * 2**20
+
+
+def size_limit(name: str, default: int) -> int:
+    """The limit ``default``, or the integer in the environment variable ``name`` when set (documented per limit in
+    docs/conventions.md, "Limits")."""
+    text = os.environ.get(name)
+    if text is None:
+        return default
+    try:
+        value = int(text)
+    except ValueError:
+        raise ConfigError("must be an integer", field=name, value=text) from None
+    if value <= 0:
+        raise ConfigError("must be positive", field=name, value=text)
+    return value
+
+
+def check_regular_file(path: Path, *, max_bytes: int, limit_name: str, error: type[ConfigError] = ConfigError,
+                       source: str | None = None, field: str = "<file>") -> Path:
+    """``path`` if it is a regular file of at most ``max_bytes`` bytes, else ``error`` naming it: a directory, a
+    FIFO (reading one would wait forever), a device or a missing file is refused before it is opened, and a file
+    over the limit says which limit (``limit_name``, an environment variable) raises it."""
+    path = Path(path)
+    try:
+        info = path.stat()
+    except (OSError, ValueError) as exc:
+        raise error(f"cannot read file: {getattr(exc, 'strerror', None) or exc}", source=source or str(path),
+                    field=field, value=str(path)) from None
+    if not stat.S_ISREG(info.st_mode):
+        kind = "a directory" if stat.S_ISDIR(info.st_mode) else "not a regular file (a FIFO, socket or device)"
+        raise error(f"is {kind}", source=source or str(path), field=field, value=str(path))
+    if info.st_size > max_bytes:
+        raise error(f"is {info.st_size:,} bytes, more than the limit of {max_bytes:,} (set {limit_name} to raise "
+                    "it)", source=source or str(path), field=field, value=str(path))
+    return path
+
+
 def read_toml(path: Path, error: type[ConfigError] = ConfigError) -> dict:
-    """Parse a TOML file; unreadable or invalid files raise ``error`` naming the file."""
+    """Parse a TOML file; unreadable, oversized (:data:`MAX_TOML_BYTES`), non-regular or invalid files (including
+    nesting deeper than Python's recursion allows) raise ``error`` naming the file."""
+    check_regular_file(path, max_bytes=size_limit("PLIANT_MAX_TOML_BYTES", MAX_TOML_BYTES),
+                       limit_name="PLIANT_MAX_TOML_BYTES", error=error)
     try:
         return tomllib.loads(Path(path).read_text())
     except tomllib.TOMLDecodeError as exc:
         raise error(f"not valid TOML: {exc}", source=str(path), field="<file>") from None
+    except RecursionError:
+        raise error("not valid TOML here: nested too deeply to read", source=str(path), field="<file>") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise error(f"cannot read file: {exc}", source=str(path), field="<file>") from None
 

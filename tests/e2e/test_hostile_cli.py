@@ -24,7 +24,7 @@ def _files(tmp) -> dict[str, str]:
         "empty": "",
         "invalid toml": "name = \n[planner\n",
         "binary": "\x00\x01\x02\xff" * 50,
-        #DEEP "deep nesting": "a = " + "[" * 50000 + "]" * 50000 + "\n",
+        "deep nesting": "a = " + "[" * 50000 + "]" * 50000 + "\n",
         "unknown top-level key": 'scene = "triple-wall"\nbogus = 1\n[planner]\nname = "straight"\n',
         "planner without a name": 'scene = "triple-wall"\n[planner]\nstep = 0.1\n',
         "planner is a number": 'scene = "triple-wall"\nplanner = 5\n',

@@ -133,7 +133,7 @@ def test_missing_mesh_file(tmp_path):
     data = copy.deepcopy(VALID_SCENE)
     data["objects"][0] = {"name": "m", "shape": "mesh", "file": "nowhere.stl", "deformability": 0.1,
                           "sensitivity": 1.0}
-    with pytest.raises(SceneError, match=r"objects\[0\]\.file: cannot read mesh file"):
+    with pytest.raises(SceneError, match=r"objects\[0\]\.file: cannot read file"):
         Scene.from_dict(data, source="bad.toml", base_dir=tmp_path)
 
 
