@@ -68,6 +68,11 @@ def cmd_plugins(args) -> int:
             rows.append((row["name"], row["type"], row["default"], rng, row["doc"]))
         print(_table(rows, ("option", "type", "default", "range", "meaning")) if rows else "(no options)")
         return 0
+    if args.kind is not None:
+        from pliant.interfaces import KINDS
+
+        if args.kind not in KINDS:
+            raise PliantError(f"unknown component kind (kinds: {', '.join(KINDS)})", field="--kind", value=args.kind)
     plugins = reg.plugins()
     print(_table([(p.name, p.distribution, p.status, p.error) for p in plugins],
                  ("plugin", "distribution", "status", "error")))
@@ -240,14 +245,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("args", nargs=argparse.REMAINDER, help="arguments passed to the benchmark")
     p.set_defaults(handler=cmd_bench)
 
-    try:
-        from pliant.registry import default_registry
+    from pliant.registry import default_registry
 
-        reg = default_registry()
-        reg.load()
-        reg.manager.hook.pliant_add_commands(subparsers=sub)
-    except Exception as exc:  # a plugin's command must not break the core commands
-        logging.getLogger(__name__).warning("a plugin failed to add its commands: %s", exc)
+    # each plugin's commands are added on their own: one that raises is reported (`pliant plugins`) and skipped,
+    # the core's and the other plugins' commands stay
+    default_registry().call_isolated("pliant_add_commands", subparsers=sub)
     return parser
 
 

@@ -15,6 +15,8 @@ Public surface::
 from __future__ import annotations
 
 import importlib
+import inspect
+import logging
 import os
 import threading
 from dataclasses import dataclass
@@ -23,11 +25,33 @@ from typing import Any
 
 import pluggy
 
-from pliant.errors import PluginError
+from pliant.errors import PliantError, PluginError
 from pliant.hookspecs import PROJECT, PliantSpec
 from pliant.interfaces import BASES, KINDS, Component, Context
 
 ENTRY_POINT_GROUP = "pliant"
+#: the distribution whose plugins are the built-ins: they load first and win every name collision
+BUILTIN_DISTRIBUTION = "pliant"
+log = logging.getLogger(__name__)
+
+
+class _PliantPluginManager(pluggy.PluginManager):
+    """A plugin manager that also takes undecorated module functions named ``pliant_*`` as hook implementations
+    (as pytest does with ``pytest_*``), so that a misspelled hook name is caught by ``check_pending`` instead of
+    being silently ignored."""
+
+    def parse_hookimpl_opts(self, plugin, name: str):
+        opts = super().parse_hookimpl_opts(plugin, name)
+        if opts is None and name.startswith(f"{PROJECT}_") and inspect.ismodule(plugin):
+            function = getattr(plugin, name, None)
+            if inspect.isfunction(function):
+                return {}
+        return opts
+
+
+def _distribution(ep) -> str:
+    dist = getattr(ep, "dist", None)
+    return dist.name if dist is not None else ""
 DISABLE_ENV = "PLIANT_DISABLE"
 
 
@@ -93,7 +117,7 @@ class Registry:
         self._plugins: dict[str, PluginStatus] = {}
         self._loaded = False
         self._lock = threading.RLock()
-        self.manager = pluggy.PluginManager(PROJECT)
+        self.manager = _PliantPluginManager(PROJECT)
         self.manager.add_hookspecs(PliantSpec)
 
     # --- loading ------------------------------------------------------------------------------
@@ -102,32 +126,82 @@ class Registry:
         return {n.strip() for n in os.environ.get(DISABLE_ENV, "").split(",") if n.strip()}
 
     def load(self) -> None:
-        """Load every entry-point plugin once (called implicitly by the queries)."""
+        """Load every entry-point plugin once (called implicitly by the queries).
+
+        The plugins of pliant's own distribution load first, so a built-in keeps every name it registers: a
+        third-party plugin registering the same kind and name fails (named, with the reason, in
+        :meth:`plugins`) and none of its components are used.  Between third-party plugins, the one whose entry
+        point sorts first keeps the name.
+        """
         with self._lock:
             if self._loaded:
                 return
             self._loaded = True
             disabled = self._disabled_from_env()
-            for ep in sorted(entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
-                dist = ep.dist.name if ep.dist is not None else ""
+            points = sorted(entry_points(group=ENTRY_POINT_GROUP),
+                            key=lambda e: (_distribution(e) != BUILTIN_DISTRIBUTION, e.name))
+            for ep in points:
+                dist = _distribution(ep)
                 if ep.name in disabled:
                     self._plugins[ep.name] = PluginStatus(ep.name, dist, "disabled", f"listed in {DISABLE_ENV}")
                     continue
                 try:
                     module = ep.load()
-                    self._call_register(module, ep.name, dist)
-                    self.manager.register(module, name=ep.name)
                 except Exception as exc:  # a broken plugin is reported, never fatal
-                    self._plugins[ep.name] = PluginStatus(ep.name, dist, "failed", f"{type(exc).__name__}: {exc}")
-                    self._entries = {k: v for k, v in self._entries.items() if v.plugin != ep.name}
+                    self._fail(ep.name, dist, f"cannot import: {type(exc).__name__}: {exc}")
                     continue
-                self._plugins[ep.name] = PluginStatus(ep.name, dist, "loaded")
+                self.add_plugin(module, ep.name, dist)
 
-    def _call_register(self, module: Any, plugin: str, distribution: str) -> None:
-        hook = getattr(module, "pliant_register", None)
-        if hook is None:
-            raise PluginError("plugin module has no pliant_register hook", field="entry point", value=plugin)
-        hook(registrar=Registrar(self, plugin, distribution))
+    def add_plugin(self, module: Any, name: str, distribution: str = "") -> bool:
+        """Register plugin ``module`` under ``name``: validate its hooks against :class:`PliantSpec` (a misspelled
+        ``pliant_*`` hook is an error, as pluggy's ``check_pending``), then call its ``pliant_register`` through
+        the plugin manager.  Any failure marks the plugin failed (see :meth:`plugins`), removes what it
+        registered and leaves everything else working; returns whether it loaded."""
+        with self._lock:
+            try:
+                self.manager.register(module, name=name)
+            except Exception as exc:
+                self._fail(name, distribution, f"{type(exc).__name__}: {exc}")
+                return False
+            try:
+                self.manager.check_pending()
+                if not any(impl.plugin is module for impl in self.manager.hook.pliant_register.get_hookimpls()):
+                    raise PluginError("the plugin module has no pliant_register hook", field="entry point",
+                                      value=name)
+                self._call_one("pliant_register", module, registrar=Registrar(self, name, distribution))
+            except Exception as exc:  # a broken plugin is reported, never fatal
+                self.manager.unregister(module)
+                self._fail(name, distribution, f"{type(exc).__name__}: {exc}")
+                return False
+            self._plugins[name] = PluginStatus(name, distribution, "loaded")
+            return True
+
+    def _fail(self, name: str, distribution: str, error: str) -> None:
+        self._plugins[name] = PluginStatus(name, distribution, "failed", error)
+        self._entries = {k: v for k, v in self._entries.items() if v.plugin != name}
+
+    def _call_one(self, hook: str, plugin: Any, **kwargs: Any) -> list[Any]:
+        """Call ``hook`` of one plugin only, through the plugin manager."""
+        others = [p for p in self.manager.get_plugins() if p is not plugin]
+        return self.manager.subset_hook_caller(hook, remove_plugins=others)(**kwargs)
+
+    def call_isolated(self, hook: str, **kwargs: Any) -> list[Any]:
+        """Call ``hook`` of every loaded plugin, one at a time: a plugin whose hook raises is logged, marked failed
+        (``pliant plugins`` shows which hook failed and why) and skipped; the others' results are returned."""
+        self.load()
+        results: list[Any] = []
+        for plugin in list(self.manager.get_plugins()):
+            name = self.manager.get_name(plugin) or repr(plugin)
+            if not any(impl.plugin is plugin for impl in getattr(self.manager.hook, hook).get_hookimpls()):
+                continue
+            try:
+                results.extend(self._call_one(hook, plugin, **kwargs))
+            except Exception as exc:  # isolate: one plugin's failure must not break the run or the others
+                log.warning("plugin '%s' failed in %s: %s: %s", name, hook, type(exc).__name__, exc)
+                status = self._plugins.get(name)
+                self._plugins[name] = PluginStatus(name, status.distribution if status else "", "failed",
+                                                   f"{hook} raised {type(exc).__name__}: {exc}")
+        return results
 
     def _add(self, entry: ComponentEntry) -> None:
         if entry.kind not in KINDS:
@@ -189,26 +263,42 @@ class Registry:
         Raises :class:`PluginError` for unknown names and :class:`~pliant.errors.ConfigError` for bad
         options.
         """
+        if context is not None and not isinstance(context, Context):
+            raise PluginError("the third argument is the pipeline's Context; pass options as keywords: "
+                              f"create({kind!r}, {name!r}, **options)", field="context",
+                              value=type(context).__name__)
         entry = self.entry(kind, name)
         if entry.plugin in disabled:
             raise PluginError(f"plugin '{entry.plugin}' is disabled in this pipeline", field=kind, value=name)
         target = entry.load()
-        if isinstance(target, type) and issubclass(target, Component):
-            component = target(dict(options), source=source)
-        else:
-            component = target(**options)
+        where = f"{kind} '{name}' from plugin '{entry.plugin}'"
+        try:
+            if isinstance(target, type) and issubclass(target, Component):
+                component = target(dict(options), source=source)
+            else:
+                component = target(**options)
+        except PliantError:
+            raise
+        except Exception as exc:  # a plugin's own bug: say whose, keep the original as the cause
+            raise PluginError(f"{where} failed to build: {type(exc).__name__}: {exc}", field=kind,
+                              value=name) from exc
         base = BASES[kind]
         if not isinstance(component, base):
-            raise PluginError(f"{kind} '{name}' from plugin '{entry.plugin}' is not a {base.__name__}",
-                              field=kind, value=type(component).__name__)
+            raise PluginError(f"{where} is not a {base.__name__}", field=kind, value=type(component).__name__)
         if context is not None:
-            component.bind(context)
+            try:
+                component.bind(context)
+            except PliantError:
+                raise
+            except Exception as exc:
+                raise PluginError(f"{where} failed to bind to the pipeline: {type(exc).__name__}: {exc}",
+                                  field=kind, value=name) from exc
         return component
 
     def report_hook(self):
-        """The ``pliant_report`` hook caller over every loaded plugin."""
-        self.load()
-        return self.manager.hook.pliant_report
+        """A callable ``(run=..., directory=...)`` calling every plugin's ``pliant_report``, each isolated
+        (:meth:`call_isolated`)."""
+        return lambda **kwargs: self.call_isolated("pliant_report", **kwargs)
 
     @staticmethod
     def _check_kind(kind: str) -> None:

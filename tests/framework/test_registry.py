@@ -148,3 +148,120 @@ def test_string_targets_load_lazily(monkeypatch):
     assert reg.available("metric") == ["lazy"]
     with pytest.raises(PluginError, match="cannot load metric 'lazy'"):
         reg.create("metric", "lazy")
+
+
+class _Dist(_EntryPoint):
+    def __init__(self, name, module, dist):
+        super().__init__(name, module)
+        self.dist = types.SimpleNamespace(name=dist)
+
+
+class OtherMetric(ConstantMetric):
+    """An impostor."""
+
+
+def test_a_builtin_keeps_its_name_whatever_the_load_order(monkeypatch):
+    impostor = types.ModuleType("impostor")
+    impostor.pliant_register = lambda registrar: (registrar.add("metric", "extra", OtherMetric),
+                                                  registrar.add("metric", "good", OtherMetric))
+    # the impostor's entry point sorts first; the built-in's distribution is pliant's own
+    _fake_plugins(monkeypatch, [_Dist("aaa-impostor", impostor, "evil"),
+                                _Dist("zzz-builtin", _good_module(), "pliant")])
+    reg = Registry()
+    assert reg.entry("metric", "good").plugin == "zzz-builtin"
+    assert type(reg.create("metric", "good")) is ConstantMetric
+    assert reg.available("metric") == ["good"]           # nothing of the failed impostor stays
+    status = {p.name: p for p in reg.plugins()}
+    assert status["zzz-builtin"].status == "loaded"
+    assert status["aaa-impostor"].status == "failed"
+    assert "already registered by plugin 'zzz-builtin'" in status["aaa-impostor"].error
+
+
+@pytest.mark.parametrize("decorated", [True, False])
+def test_a_misspelled_hook_fails_the_plugin_and_nothing_else(monkeypatch, decorated):
+    typo = types.ModuleType("typo")
+
+    def pliant_regster(registrar):
+        registrar.add("metric", "typo", ConstantMetric)
+
+    def pliant_register(registrar):
+        registrar.add("metric", "typo-ok", ConstantMetric)
+
+    typo.pliant_regster = hookimpl(pliant_regster) if decorated else pliant_regster
+    typo.pliant_register = pliant_register
+    _fake_plugins(monkeypatch, [_EntryPoint("good", _good_module()), _EntryPoint("typo", typo)])
+    reg = Registry()
+    status = {p.name: p for p in reg.plugins()}
+    assert status["good"].status == "loaded"
+    assert status["typo"].status == "failed" and "pliant_regster" in status["typo"].error
+    assert reg.available("metric") == ["good"]
+
+
+def test_a_plugin_without_a_register_hook_is_failed(monkeypatch):
+    _fake_plugins(monkeypatch, [_EntryPoint("empty", types.ModuleType("empty"))])
+    reg = Registry()
+    assert reg.plugins()[0].status == "failed" and "no pliant_register hook" in reg.plugins()[0].error
+
+
+def _reporting_module(name, *, fails):
+    module = types.ModuleType(name)
+    module.pliant_register = lambda registrar: registrar.add("metric", f"{name}-metric", ConstantMetric)
+
+    def pliant_report(run, directory):
+        if fails:
+            raise ValueError(f"{name} cannot draw")
+        return [f"{directory}/{name}.png"]
+
+    def pliant_add_commands(subparsers):
+        if fails:
+            raise RuntimeError(f"{name} has no commands today")
+        subparsers.add_parser(f"{name}-command")
+
+    module.pliant_report = pliant_report
+    module.pliant_add_commands = pliant_add_commands
+    return module
+
+
+def test_a_failing_report_or_command_hook_is_isolated_and_reported(monkeypatch):
+    import argparse
+
+    _fake_plugins(monkeypatch, [_EntryPoint("bad", _reporting_module("bad", fails=True)),
+                                _EntryPoint("fine", _reporting_module("fine", fails=False))])
+    reg = Registry()
+    assert reg.report_hook()(run=None, directory="out") == [["out/fine.png"]]     # one result per plugin
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers(dest="command")
+    reg.call_isolated("pliant_add_commands", subparsers=sub)
+    assert parser.parse_args(["fine-command"]).command == "fine-command"
+    status = {p.name: p for p in reg.plugins()}
+    assert status["fine"].status == "loaded"
+    assert status["bad"].status == "failed"
+    assert "pliant_add_commands raised RuntimeError: bad has no commands today" in status["bad"].error
+    assert reg.available("metric") == ["bad-metric", "fine-metric"]    # its components loaded fine
+
+
+def test_a_dict_where_the_context_goes_is_a_clear_error():
+    with pytest.raises(PluginError, match=r"context: .*pass options as keywords") as info:
+        registry.create("planner", "straight", {"step": 0.1})
+    assert info.value.value == "dict"
+
+
+def test_a_factory_that_raises_names_its_plugin_and_keeps_the_cause():
+    def factory(**options):
+        raise ZeroDivisionError("a plugin bug")
+
+    def pliant_factory(**options):
+        raise ConfigError("a deliberate error", field="x", value=1)
+
+    registry.register("metric", "raising-test", factory)
+    registry.register("metric", "config-test", pliant_factory)
+    try:
+        with pytest.raises(PluginError, match=r"metric 'raising-test' from plugin '<python>' failed to build: "
+                                              r"ZeroDivisionError: a plugin bug") as info:
+            registry.create("metric", "raising-test")
+        assert isinstance(info.value.__cause__, ZeroDivisionError)
+        with pytest.raises(ConfigError, match="a deliberate error"):
+            registry.create("metric", "config-test")
+    finally:
+        registry.default_registry().unregister("metric", "raising-test")
+        registry.default_registry().unregister("metric", "config-test")
