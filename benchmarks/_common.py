@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 import platform
 import statistics
@@ -40,7 +39,9 @@ def write_json(name: str, data: dict) -> Path:
     path = out / f"{name}.json"
     data = {"machine": {"python": platform.python_version(), "processor": platform.processor() or platform.machine(),
                         "cpus": os.cpu_count()}, **data}
-    path.write_text(json.dumps(data, indent=1))
+    from pliant.files import write_json as write_strict_json
+
+    write_strict_json(path, data)            # atomic, strict JSON (NaN as null)
     print(f"\nwrote {path}")
     return path
 

@@ -18,7 +18,6 @@ scores and writes a report (``result.json``, ``report.md`` and figures) under ``
 from __future__ import annotations
 
 import copy
-import json
 import logging
 import os
 import time
@@ -32,6 +31,7 @@ import numpy as np
 
 from pliant.errors import ConfigError, PipelineError, PliantError
 from pliant.execution import ExecutionRecord, StepListener, execute
+from pliant.files import write_json, write_text
 from pliant.interfaces import KINDS, Component, Context, Driver, PlanningProblem
 from pliant.registry import Registry, default_registry
 from pliant.results import PlanResult
@@ -394,11 +394,11 @@ class Pipeline:
         if record.result is not None:
             record.result.save(out / "result.json")
             record.files.append(out / "result.json")
-        (out / "run.json").write_text(json.dumps({"pipeline": self.to_dict(), "metrics": record.metrics,
-                                                  "timings": record.timings}, indent=1, default=str))
+        write_json(out / "run.json", {"pipeline": self.to_dict(), "metrics": record.metrics,
+                                      "timings": record.timings}, default=str)
         record.files.append(out / "run.json")
         if record.execution is not None:
-            (out / "execution.json").write_text(json.dumps(record.execution.to_dict()))
+            write_json(out / "execution.json", record.execution.to_dict(), indent=None)
             record.files.append(out / "execution.json")
         figures: list[Path] = []
         for produced in self.registry.report_hook()(run=record, directory=out):
@@ -411,7 +411,7 @@ class Pipeline:
         lines += [f"| {k} | {v} |" for k, v in record.summary_rows()]
         if figures:
             lines += [""] + [f"![{p.stem}]({p.name})" for p in figures]
-        (out / "report.md").write_text("\n".join(lines) + "\n")
+        write_text(out / "report.md", "\n".join(lines) + "\n")
         record.files.append(out / "report.md")
 
     def to_dict(self) -> dict:

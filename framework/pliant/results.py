@@ -222,10 +222,11 @@ def _load_policy_kinds() -> None:
 
 
 def _write_json(path: str | FilePath, data: dict) -> None:
-    """Write ``data`` as indented JSON, creating parent directories."""
-    path = FilePath(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=1))
+    """Write ``data`` as indented strict JSON, atomically (:func:`pliant.files.write_json`), creating parent
+    directories."""
+    from pliant.files import write_json
+
+    write_json(path, _jsonable(data))
 
 
 def _read_json(path: str | FilePath, what: str) -> dict:

@@ -221,14 +221,83 @@ def _slug(label: str) -> str:
     return "".join(c if c.isalnum() else "-" for c in label.lower()).strip("-")
 
 
+def _worker_init(parent: int) -> None:
+    """Pool workers: leave Ctrl-C to the parent (it cancels the queue and ends the workers), and die with the parent
+    (Linux: the kernel sends SIGTERM when it exits, even by kill -9; elsewhere a watcher thread polls)."""
+    import signal
+    import threading
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGTERM)                  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:                         # the parent died before prctl took effect
+        os._exit(1)
+
+    def watch():
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="pliant-parent-watch", daemon=True).start()
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel every queued task and end the workers now (the running tasks' results are not waited for)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())     # shutdown forgets them
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    for process in processes:
+        process.join(timeout=5.0)
+
+
+#: settings that give a record its meaning: a resume with other values would mix incomparable tasks
+RESUME_SETTINGS = ("plan_time", "executions", "exec_time")
+
+
+def _check_settings(directory: Path, settings: dict, *, replace: bool) -> dict:
+    """The run's settings on file (``settings.json``), checked against ``settings``: a resume with different ones is
+    refused, naming the setting and both values; ``replace`` (a fresh start, or a replay) writes the new ones."""
+    from pliant.files import write_json
+
+    path = directory / "settings.json"
+    if path.exists() and not replace:
+        try:
+            stored = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ConfigError(f"cannot read the run's settings: {exc}", source=str(path), field="<file>") from None
+        for key in RESUME_SETTINGS:
+            if key in stored and stored[key] != settings[key]:
+                flag = "--" + key.replace("_", "-")
+                raise ConfigError(f"this run was started with {flag} {stored[key]}; resuming with {settings[key]} "
+                                  "would mix incomparable tasks (use the same value, --fresh to start over, or "
+                                  "another --output)", source=str(path), field=flag, value=settings[key])
+        return stored
+    write_json(path, settings)
+    return settings
+
+
 def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, exec_time: float, jobs: int,
                    fresh: bool, output: Path, only: list[str] | None = None, echo=print,
                    replay: bool = False) -> list[dict]:
     """Run (or resume) experiment ``name``; returns the summary rows.
 
-    ``replay``: plan nothing; execute the saved policies of the selected variants' planned tasks on file again
-    (``executions`` times per world) and replace their executions, rewriting the file after each task.
+    Every finished task is appended to ``runs.jsonl`` at once (fsynced).  Ctrl-C cancels the queued tasks, ends
+    the workers within seconds, writes the summary of the finished tasks and raises :class:`KeyboardInterrupt`;
+    workers also end when this process is killed.  A torn last line (a crash while writing it) is dropped on
+    resume; a resume whose planning time, executions or execution time differ from the run's ``settings.json`` is
+    refused.  ``replay``: plan nothing; execute the saved policies of the selected variants' planned tasks on file
+    again (``executions`` times per world) and replace their executions, rewriting the file after each task.
     """
+    from pliant.files import append_jsonl, read_jsonl, rewrite_jsonl
+
     table = experiments()
     if name not in table:
         raise ConfigError(f"unknown experiment (experiments: {', '.join(table)})", field="NAME", value=name)
@@ -241,42 +310,69 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     if replay and fresh:
         raise ConfigError("replay executes the policies on file; fresh would forget them", field="replay/fresh",
                           value=[replay, fresh])
+    if only:
+        unknown = sorted(set(only) - {v.label for v in table[name]})
+        if unknown:
+            raise ConfigError(f"no such variant in {name} (variants: {', '.join(v.label for v in table[name])})",
+                              field="--only", value=unknown[0])
     variants = [v for v in table[name] if not only or v.label in only]
     directory = output / name
-    directory.mkdir(parents=True, exist_ok=True)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot be created ({exc.strerror or exc})", field="--output", value=str(output)) from None
     log = directory / "runs.jsonl"
-    records = [json.loads(line) for line in log.read_text().splitlines() if line.strip()] if log.exists() else []
+    records, torn = read_jsonl(log)
+    if torn:
+        echo(f"{log}: its last line was cut off (a crash while writing it): dropped, that task runs again")
+        rewrite_jsonl(log, records)
+    settings = _check_settings(directory, {"experiment": name, "plan_time": plan_time, "executions": executions,
+                                           "exec_time": exec_time, "pliant": _version()},
+                               replace=fresh or replay or not records)
     if fresh:                                    # forget the selected variants' tasks, keep the others'
         selected = {v.label for v in variants}
         records = [r for r in records if r["variant"] not in selected]
-        log.write_text("".join(json.dumps(r) + "\n" for r in records))
+        rewrite_jsonl(log, records)
     if replay:
         _replay(records, variants, executions, exec_time, jobs, log, echo)
-        return _summary(name, records, variants, plan_time, executions, directory)
+        return _summary(name, records, variants, settings, directory)
     done = {(r["variant"], r["seed"]) for r in records}
     todo = [(v, s) for v in variants for s in range(plans) if (v.label, s) not in done]
     echo(f"{name}: {len(records)} tasks on file, {len(todo)} to go, {jobs} at a time")
+    pool = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init, initargs=(os.getpid(),))
     try:
-        with ProcessPoolExecutor(max_workers=jobs) as pool, log.open("a") as sink:
+        with log.open("a") as sink:
             futures = {pool.submit(run_task, v, s, plan_time, executions, exec_time,
                                    directory / "policies" / f"{_slug(v.label)}-seed{s}.json"): (v, s) for v, s in todo}
             for k, future in enumerate(as_completed(futures), start=1):
                 record = future.result()
                 records.append(record)
-                sink.write(json.dumps(record) + "\n")
-                sink.flush()
+                append_jsonl(sink, record)
                 outcome = {w: f"{sum(e['outcome'] == 'success' for e in runs)}/{len(runs)}"
                            for w, runs in record["executions"].items()}
                 echo(f"[{k}/{len(todo)}] {record['variant']} seed {record['seed']}: "
                      f"{'planned' if record['planned'] else 'no policy'}, executions {outcome}")
     except KeyboardInterrupt:
-        echo("interrupted: finished tasks are kept; run again to resume")
-    return _summary(name, records, variants, plan_time, executions, directory)
+        _stop_pool(pool)
+        _summary(name, records, variants, settings, directory)
+        echo(f"interrupted: the {len(records)} finished tasks are in {log}; run the same command again to resume")
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return _summary(name, records, variants, settings, directory)
+
+
+def _version() -> str:
+    import pliant
+
+    return pliant.__version__
 
 
 def _replay(records: list[dict], variants: list[Variant], executions: int, exec_time: float, jobs: int, log: Path,
             echo) -> None:
     """Re-execute the saved policies of ``records`` (in place), rewriting ``log`` after each task."""
+    from pliant.files import rewrite_jsonl
+
     by_label = {v.label: v for v in variants}
     todo = [k for k, r in enumerate(records) if r["variant"] in by_label and r["planned"] and r.get("policy_file")]
     for k in todo:                               # a relative path written from another working directory
@@ -284,26 +380,31 @@ def _replay(records: list[dict], variants: list[Variant], executions: int, exec_
         if not path.is_file() and (log.parent / "policies" / path.name).is_file():
             records[k] = {**records[k], "policy_file": str(log.parent / "policies" / path.name)}
     echo(f"replaying {len(todo)} saved policies, {jobs} at a time")
+    pool = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init, initargs=(os.getpid(),))
     try:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = {pool.submit(replay_task, by_label[records[k]["variant"]], records[k], executions, exec_time): k
-                       for k in todo}
-            for n, future in enumerate(as_completed(futures), start=1):
-                k = futures[future]
-                records[k] = future.result()
-                partial = log.with_suffix(".tmp")
-                partial.write_text("".join(json.dumps(r) + "\n" for r in records))
-                partial.replace(log)
-                outcome = {w: f"{sum(e['outcome'] == 'success' for e in runs)}/{len(runs)}"
-                           for w, runs in records[k]["executions"].items()}
-                echo(f"[{n}/{len(todo)}] {records[k]['variant']} seed {records[k]['seed']}: executions {outcome}")
+        futures = {pool.submit(replay_task, by_label[records[k]["variant"]], records[k], executions, exec_time): k
+                   for k in todo}
+        for n, future in enumerate(as_completed(futures), start=1):
+            k = futures[future]
+            records[k] = future.result()
+            rewrite_jsonl(log, records)
+            outcome = {w: f"{sum(e['outcome'] == 'success' for e in runs)}/{len(runs)}"
+                       for w, runs in records[k]["executions"].items()}
+            echo(f"[{n}/{len(todo)}] {records[k]['variant']} seed {records[k]['seed']}: executions {outcome}")
     except KeyboardInterrupt:
+        _stop_pool(pool)
         echo("interrupted: the tasks replayed so far are on file")
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _summary(name: str, records: list[dict], variants: list[Variant], plan_time: float, executions: int,
+def _summary(name: str, records: list[dict], variants: list[Variant], settings: dict,
              directory: Path) -> list[dict]:
+    """Summarise the records and write ``summary.json`` (atomically, strict JSON) with the run's settings."""
+    from pliant.files import write_json
+
     rows = summarise(records, variants)
-    (directory / "summary.json").write_text(json.dumps({"experiment": name, "rows": rows, "plan_time": plan_time,
-                                                        "executions": executions}, indent=1))
+    write_json(directory / "summary.json", {"experiment": name, "settings": settings, "tasks": len(records),
+                                            "rows": rows})
     return rows

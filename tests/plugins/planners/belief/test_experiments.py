@@ -126,3 +126,137 @@ def test_replay_executes_the_saved_policies_again_without_planning(tmp_path):
     with pytest.raises(ConfigError, match="replay"):
         run_experiment("maze", plans=1, executions=1, plan_time=1.0, exec_time=1.0, jobs=1, fresh=True,
                        output=tmp_path, echo=lambda *_: None, replay=True)
+
+
+# --- interruption, crashes and resuming (real processes) -------------------------------------------------------
+
+_RUNNER = '''
+import os, signal, sys, time
+from pathlib import Path
+import pliant_belief.experiments as module
+
+# as in a terminal: a process started in the background (CI, a job shell) inherits SIGINT ignored
+signal.signal(signal.SIGINT, signal.default_int_handler)
+
+pids = Path(sys.argv[2])
+
+def task(variant, seed, plan_time, executions, exec_time, policy_file=None):
+    (pids / str(os.getpid())).write_text("")
+    time.sleep(float(sys.argv[3]) if seed else 0.2)
+    return {"variant": variant.label, "seed": seed, "planned": True, "plan_seconds": 0.1, "statistics": {},
+            "executions": {w: [{"outcome": "success", "actions": 1, "seconds": 1.0}] for w in variant.worlds}}
+
+module.run_task = task
+try:
+    module.run_experiment("maze", plans=3, executions=1, plan_time=1.0, exec_time=1.0, jobs=2, fresh=False,
+                          output=Path(sys.argv[1]), echo=lambda line: print(line, flush=True))
+except KeyboardInterrupt:
+    sys.exit(130)
+'''
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().split()[2] != "Z"
+    except OSError:
+        return False
+
+
+def _start_runner(tmp_path, task_seconds: float):
+    import subprocess
+    import sys
+
+    script = tmp_path / "runner.py"
+    script.write_text(_RUNNER)
+    pids = tmp_path / "pids"
+    pids.mkdir(exist_ok=True)
+    process = subprocess.Popen([sys.executable, str(script), str(tmp_path / "out"), str(pids), str(task_seconds)],
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    return process, pids
+
+
+def _wait(condition, timeout: float) -> bool:
+    import time
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.05)
+    return condition()
+
+
+def test_ctrl_c_stops_within_seconds_keeps_every_finished_task_and_a_resume_does_the_rest(tmp_path):
+    import signal
+    import time
+
+    from pliant.files import read_jsonl
+
+    process, pids = _start_runner(tmp_path, task_seconds=60.0)
+    log = tmp_path / "out" / "maze" / "runs.jsonl"
+    assert _wait(lambda: len(read_jsonl(log)[0]) >= 1 and len(list(pids.iterdir())) >= 2, 60.0)
+    workers = [int(p.name) for p in pids.iterdir()]
+    t0 = time.monotonic()
+    process.send_signal(signal.SIGINT)
+    output = process.communicate(timeout=20)[0]
+    assert process.returncode == 130, output
+    assert time.monotonic() - t0 < 10.0                          # not after the queued 60 s tasks
+    assert "interrupted" in output and "resume" in output
+    assert _wait(lambda: not any(_alive(pid) for pid in workers), 10.0)
+    finished, torn = read_jsonl(log)
+    assert not torn and len(finished) >= 1 and all(r["seed"] == 0 for r in finished)
+    summary = json.loads((tmp_path / "out" / "maze" / "summary.json").read_text())
+    assert summary["tasks"] == len(finished)
+    process, _ = _start_runner(tmp_path, task_seconds=0.1)       # resume: only the missing tasks run
+    output = process.communicate(timeout=120)[0]
+    assert process.returncode == 0, output
+    records, _ = read_jsonl(log)
+    keys = [(r["variant"], r["seed"]) for r in records]
+    assert len(keys) == len(set(keys)) == 2 * 3                  # every task exactly once
+
+
+def test_pool_workers_die_with_a_killed_parent(tmp_path):
+    import signal
+
+    process, pids = _start_runner(tmp_path, task_seconds=60.0)
+    assert _wait(lambda: len(list(pids.iterdir())) >= 2, 60.0)
+    workers = [int(p.name) for p in pids.iterdir()]
+    process.send_signal(signal.SIGKILL)
+    process.wait(10)
+    assert _wait(lambda: not any(_alive(pid) for pid in workers), 10.0), "workers outlived their parent"
+
+
+def test_a_torn_last_line_is_dropped_and_a_corrupt_middle_line_is_an_error(tmp_path, monkeypatch):
+    import pliant_belief.experiments as module
+
+    monkeypatch.setattr(module, "run_task", _fake_task)
+    label = experiments()["maze"][0].label
+    directory = tmp_path / "maze"
+    directory.mkdir()
+    good = json.dumps(_record(label, 0, True, {"unblocked": ["success"], "blocked": ["success"]}))
+    (directory / "runs.jsonl").write_text(good + "\n" + good[: len(good) // 2])      # a crash mid-write
+    lines = []
+    run_experiment("maze", plans=2, executions=1, plan_time=1.0, exec_time=1.0, jobs=1, fresh=False,
+                   output=tmp_path, only=[label], echo=lines.append)
+    assert "cut off" in lines[0] and lines[1].startswith("maze: 1 tasks on file, 1 to go")
+    assert [json.loads(x)["seed"] for x in (directory / "runs.jsonl").read_text().splitlines()] == [0, 1]
+    (directory / "runs.jsonl").write_text(good + "\n{not json\n" + good + "\n")
+    with pytest.raises(ConfigError, match=r"runs.jsonl:line 2: line 2 is not JSON"):
+        run_experiment("maze", plans=2, executions=1, plan_time=1.0, exec_time=1.0, jobs=1, fresh=False,
+                       output=tmp_path, only=[label], echo=lambda *_: None)
+
+
+def test_a_resume_with_other_settings_is_refused_and_fresh_starts_over(tmp_path, monkeypatch):
+    import pliant_belief.experiments as module
+
+    monkeypatch.setattr(module, "run_task", _fake_task)
+    label = experiments()["maze"][0].label
+    kwargs = {"plans": 1, "jobs": 1, "output": tmp_path, "only": [label], "echo": lambda *_: None}
+    run_experiment("maze", executions=1, plan_time=1.0, exec_time=1.0, fresh=False, **kwargs)
+    with pytest.raises(ConfigError, match=r"--plan-time: this run was started with --plan-time 1.0; resuming "
+                                          r"with 2.0"):
+        run_experiment("maze", executions=1, plan_time=2.0, exec_time=1.0, fresh=False, **kwargs)
+    run_experiment("maze", executions=1, plan_time=2.0, exec_time=1.0, fresh=True, **kwargs)
+    summary = json.loads((tmp_path / "maze" / "summary.json").read_text())
+    assert summary["settings"]["plan_time"] == 2.0                 # the settings the records were made with

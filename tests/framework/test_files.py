@@ -1,0 +1,74 @@
+"""pliant.files: atomic writes, strict JSON, logs that survive a torn last line."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from pliant.errors import ConfigError
+from pliant.files import append_jsonl, dumps, read_jsonl, rewrite_jsonl, strict, write_json, write_text
+
+
+def test_strict_json_has_no_bare_nan_and_reads_back_with_any_json_reader():
+    data = {"cost": float("nan"), "inf": np.inf, "arr": np.array([1.0, np.nan]), "n": np.int64(3),
+            "flag": np.bool_(True), 4: "key"}
+    text = dumps(data)
+    assert "NaN" not in text and "Infinity" not in text
+    assert json.loads(text) == {"cost": None, "inf": None, "arr": [1.0, None], "n": 3, "flag": True, "4": "key"}
+
+
+@settings(max_examples=200)
+@given(st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=5),
+                    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=4), inner,
+                                                                                 max_size=4), max_leaves=20))
+def test_strict_keeps_finite_data_and_nulls_only_the_non_finite(data):
+    out = json.loads(dumps(data))
+
+    def same(a, b):
+        if isinstance(a, float) and not math.isfinite(a):
+            return b is None
+        if isinstance(a, dict):
+            return a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
+        if isinstance(a, list):
+            return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b))
+        return a == b
+
+    assert same(data, out) and strict(out) == out
+
+
+def test_an_atomic_write_replaces_whole_or_not_at_all(tmp_path, monkeypatch):
+    target = tmp_path / "deep" / "result.json"
+    write_json(target, {"a": 1})
+    assert json.loads(target.read_text()) == {"a": 1}
+
+    def fail(*args):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", fail)
+    with pytest.raises(OSError, match="disk full"):
+        write_text(target, "x" * 1000)
+    assert json.loads(target.read_text()) == {"a": 1}                   # the old file, intact
+    assert [p.name for p in target.parent.iterdir()] == ["result.json"]  # no temporary left behind
+
+
+def test_a_log_reads_back_what_was_appended_and_skips_only_a_torn_last_line(tmp_path):
+    log = tmp_path / "runs.jsonl"
+    assert read_jsonl(log) == ([], False)
+    with log.open("a") as sink:
+        for k in range(3):
+            append_jsonl(sink, {"k": k, "x": float("nan")})
+    assert read_jsonl(log) == ([{"k": 0, "x": None}, {"k": 1, "x": None}, {"k": 2, "x": None}], False)
+    with log.open("a") as sink:
+        sink.write('{"k": 3, "x"')                                      # the crash
+    records, torn = read_jsonl(log)
+    assert torn and [r["k"] for r in records] == [0, 1, 2]
+    rewrite_jsonl(log, records)
+    assert read_jsonl(log) == (records, False)
+    log.write_text('{"k": 0}\n{"k": \n{"k": 2}\n')
+    with pytest.raises(ConfigError, match="line 2: line 2 is not JSON"):
+        read_jsonl(log)
