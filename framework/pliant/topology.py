@@ -298,6 +298,14 @@ def surface_topology(mask: np.ndarray) -> SurfaceTopology:
 # --- puncture and cut detection ------------------------------------------------------------------------
 
 
+def arc_margin(scene, space) -> float:
+    """The :class:`PunctureChecker` ``arc_margin`` for a robot: 0 for a rigid body that only translates (its
+    points move on the chords the checker traverses), 1/8 voxel for one that rotates (SE(2), SE(3), jointed arms:
+    between samples a voxel apart a point's arc leaves the chord by at most 1/8 voxel)."""
+    translating = getattr(scene.robot, "kind", "") == "rigid" and space.kind == "rn"
+    return 0.0 if translating else 0.125
+
+
 @dataclass(frozen=True)
 class PunctureState:
     """What a tree node stores for puncture checking (thesis 4.3.4).
@@ -338,9 +346,15 @@ class PunctureChecker:
     """
 
     def __init__(self, grid: VoxelGrid, body_points: Callable[[np.ndarray], np.ndarray],
-                 watch: str | Sequence[str] = "enterable") -> None:
+                 watch: str | Sequence[str] = "enterable", arc_margin: float = 0.0) -> None:
         self.grid = grid
         self.body_points = body_points
+        if not (np.isfinite(arc_margin) and 0.0 <= arc_margin < 0.5):
+            raise ConfigError("must be in [0, 0.5) voxels", field="arc_margin", value=arc_margin)
+        #: voxels added around each swept segment (in voxels): body points of a rotating robot move on arcs, which
+        #: leave the chord between two samples a voxel apart by at most 1/8 voxel (for points a voxel or more
+        #: from the rotation axis); 0 for a translating robot, whose points move on the chords exactly
+        self.arc_margin = float(arc_margin)
         self._shape = np.array(grid.shape, dtype=np.int64)
         names = list(grid.object_names)
         if isinstance(watch, str):
@@ -387,9 +401,15 @@ class PunctureChecker:
         return PunctureState(tuple(np.zeros(0, dtype=np.int64) for _ in self.ids))
 
     def occupied(self, configurations: np.ndarray) -> list[np.ndarray]:
-        """Per watched object, the sorted crop-flat indices of its voxels the robot occupies (thesis 4.3.4).
+        """Per watched object, the sorted crop-flat indices of its voxels the robot occupies or sweeps (thesis
+        4.3.4).
 
-        ``configurations``: ``(n, d)`` or ``(d,)``; a voxel is occupied when it contains a body point.
+        ``configurations``: ``(n, d)`` or ``(d,)``.  One configuration occupies the voxels that contain a body
+        point.  Consecutive configurations sweep, for each body point, every voxel its segment between them enters
+        (a conservative traversal: the segment is cut into pieces at most one voxel long and each piece takes the
+        voxels its bounding box, grown by :attr:`arc_margin`, overlaps), so a diagonal move through a voxel corner
+        takes the voxels beside the corner too and no finer sampling of the motion reaches a voxel the check left
+        out.
         """
         q = np.asarray(configurations, dtype=np.float64)
         if q.ndim == 1:
@@ -404,22 +424,7 @@ class PunctureChecker:
         if pts.ndim < 2 or pts.shape[-1] != 3:
             raise DimensionError("body_points must return points (n, m, 3)", field="body_points",
                                  value=list(pts.shape))
-        # index in the padded grid, clipped so that points outside land in the empty border; per axis
-        # on (n, m) slices (numpy broadcasting over a length-3 inner axis is several times slower)
-        flat = None
-        inv = 1.0 / self.grid.resolution
-        for a in range(3):
-            c = pts[..., a] - (self.grid.lower[a] - self.grid.resolution)
-            c *= inv
-            np.maximum(c, 0.0, out=c)
-            np.minimum(c, self._shape[a] + 1.0, out=c)
-            ci = c.astype(np.int64)
-            if flat is None:
-                flat = ci
-            else:
-                flat *= self._shape[a] + 2
-                flat += ci
-        flat = flat.ravel()
+        flat = self._swept_cells(pts)
         slot_of = self._slots[flat]
         hit = slot_of >= 0
         if not hit.any():
@@ -435,6 +440,42 @@ class PunctureChecker:
             _, cy, cz = self._masks[slot].shape
             out[slot] = ((i - lo[0]) * cy + (j - lo[1])) * cz + (k - lo[2])
         return out
+
+    def _padded_index(self, c: np.ndarray, axis: int) -> np.ndarray:
+        """Voxel coordinates ``c`` (in voxels from the grid's lower corner, any shape) as indices of the padded
+        grid along ``axis``, clipped so that points outside land in the empty border."""
+        ci = np.floor(c + 1.0)
+        np.maximum(ci, 0.0, out=ci)
+        np.minimum(ci, self._shape[axis] + 1.0, out=ci)
+        return ci.astype(np.int64)
+
+    def _flat(self, index: list[np.ndarray]) -> np.ndarray:
+        _, py, pz = self._shape + 2
+        return ((index[0] * py + index[1]) * pz + index[2]).ravel()
+
+    def _swept_cells(self, pts: np.ndarray) -> np.ndarray:
+        """Flat padded-grid indices of the voxels the body points ``(n, m, 3)`` occupy (n = 1) or sweep between
+        consecutive configurations (see :meth:`occupied`)."""
+        coords = (pts - self.grid.lower) / self.grid.resolution            # in voxels, (n, m, 3)
+        if len(coords) == 1:
+            return self._flat([self._padded_index(coords[..., a], a) for a in range(3)])
+        start, end = coords[:-1].reshape(-1, 3), coords[1:].reshape(-1, 3)
+        pieces = max(1, int(np.ceil(float(np.max(np.abs(end - start), initial=0.0)))))
+        t = np.linspace(0.0, 1.0, pieces + 1)[:, None, None]
+        knots = start[None] + t * (end - start)[None]                      # (pieces + 1, s, 3)
+        lo = np.minimum(knots[:-1], knots[1:]) - self.arc_margin
+        hi = np.maximum(knots[:-1], knots[1:]) + self.arc_margin
+        first = [self._padded_index(lo[..., a], a) for a in range(3)]
+        last = [self._padded_index(hi[..., a], a) for a in range(3)]
+        cells = []
+        for dx in range(3):                    # a piece spans at most 1 + 2 margin < 2 voxels: 3 indices per axis
+            for dy in range(3):
+                for dz in range(3):
+                    index = [first[0] + dx, first[1] + dy, first[2] + dz]
+                    keep = (index[0] <= last[0]) & (index[1] <= last[1]) & (index[2] <= last[2])
+                    if keep.any():
+                        cells.append(self._flat([i[keep] for i in index]))
+        return np.concatenate(cells)
 
     def extend(self, state: PunctureState, configurations: np.ndarray) -> tuple[PunctureState, bool, str]:
         """Sweep the robot through ``configurations`` from ``state``; check for puncture and cut (thesis 4.3.4).

@@ -295,3 +295,55 @@ def test_moving_a_rigid_body_through_a_slab_is_a_puncture():
     path = np.concatenate([_line(a, b, 0.02) for a, b in itertools.pairwise(over)])
     ok, reason = checker.check(path)
     assert ok, reason
+
+
+# --- the swept volume is conservative: no finer sampling finds a voxel the check left out -----------------------
+
+
+def test_a_diagonal_move_through_a_voxel_corner_takes_the_voxels_beside_the_corner():
+    m = np.zeros((12, 12, 12), bool)
+    m[3, 2, 2] = True                              # the one voxel beside the corner the probe passes through
+    checker = PunctureChecker(_grid({"dot": (m, 0.5)}), _probe())
+    # from the centre of (2, 2, 2) to the centre of (3, 3, 2): exactly through the edge x = 3, y = 3 of the grid
+    move = np.array([_centre(2, 2, 2), _centre(3, 3, 2)])
+    end_points, _, _ = checker.extend(checker.initial_state(), move[1:])
+    assert end_points.removed_count == 0          # the end configurations alone never touch it (the old check)
+    state, _, _ = checker.extend(checker.initial_state(), move)
+    assert state.removed_count == 1
+
+
+def _fine(configurations, per_edge: int) -> np.ndarray:
+    q = np.asarray(configurations, dtype=float)
+    t = np.linspace(0.0, 1.0, per_edge + 1)[:, None]
+    return np.concatenate([a + t * (b - a) for a, b in itertools.pairwise(q)])
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.tuples(st.integers(1, 4), st.integers(1, 4), st.integers(1, 4)),
+       st.tuples(st.integers(3, 6), st.integers(3, 6), st.integers(3, 6)),
+       st.lists(st.tuples(*[st.floats(0.0, 1.2, allow_nan=False)] * 3), min_size=2, max_size=4))
+def test_no_finer_sampling_of_a_path_finds_a_puncture_the_edge_check_missed(corner, size, waypoints):
+    """Random hollow boxes (a one-voxel shell around a void) and random diagonal paths: whenever 1/16-voxel
+    sampling of the path opens the void or adds a hole, the check of the path sampled a voxel apart does too."""
+    m = np.zeros((12, 12, 12), bool)
+    lo = np.array(corner)
+    hi = np.minimum(lo + np.array(size), 11)
+    m[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]] = True
+    m[lo[0] + 1:hi[0] - 1, lo[1] + 1:hi[1] - 1, lo[2] + 1:hi[2] - 1] = False
+    checker = PunctureChecker(_grid({"shell": (m, 0.5)}), _probe())
+    path = np.array(waypoints)
+    coarse = []
+    for a, b in itertools.pairwise(path):          # a voxel (0.1 m) apart at most, as the planners interpolate
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / 0.1)))
+        coarse.extend(a + (b - a) * k / n for k in range(n))
+    coarse = np.array([*coarse, path[-1]])
+    fine_state = checker.initial_state()
+    for q in _fine(coarse, 16):                    # point samples, no sweep: what a finer checker would see
+        fine_state, _, _ = checker.extend(fine_state, q[None])
+    fine_bad = any(t.tunnels > i.tunnels or t.cavities < i.cavities
+                   for t, i in zip(checker.topologies(fine_state), checker.initial))
+    edge_ok, _ = checker.check(coarse)
+    if fine_bad:
+        assert not edge_ok
+    if checker.ids:                                 # the sweep contains every voxel a finer sampling reaches
+        assert set(fine_state.removed[0].tolist()) <= set(checker.occupied(coarse)[0].tolist())

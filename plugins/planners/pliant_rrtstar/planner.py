@@ -321,10 +321,11 @@ class RRTStarPlanner(Planner):
             raise ConfigError("puncture_check needs a scene and a robot", field="planner.puncture_check", value=True)
         if not (wanted or (wanted is None and available)):
             return None
-        from pliant.topology import PunctureChecker
+        from pliant.topology import PunctureChecker, arc_margin
         from pliant.voxelgrid import VoxelGrid
 
-        checker = PunctureChecker(VoxelGrid.from_scene(problem.scene), problem.robot.body_points)
+        checker = PunctureChecker(VoxelGrid.from_scene(problem.scene), problem.robot.body_points,
+                                  arc_margin=arc_margin(problem.scene, problem.space))
         return checker if checker.ids else None             # nothing the robot may enter: nothing to check
 
 

@@ -220,10 +220,11 @@ class TRRTPlanner(Planner):
     def _puncture_checker(self, problem: PlanningProblem):
         if problem.scene is None or problem.robot is None:
             raise ConfigError("puncture_check needs a scene and a robot", field="planner.puncture_check", value=True)
-        from pliant.topology import PunctureChecker
+        from pliant.topology import PunctureChecker, arc_margin
         from pliant.voxelgrid import VoxelGrid
 
-        return PunctureChecker(VoxelGrid.from_scene(problem.scene), problem.robot.body_points)
+        return PunctureChecker(VoxelGrid.from_scene(problem.scene), problem.robot.body_points,
+                               arc_margin=arc_margin(problem.scene, problem.space))
 
     def _edge(self, problem: PlanningProblem, parent: int, q_new: np.ndarray, stats: dict):
         """Check the edge parent -> q_new: ``(state costs of its states after the parent, steps, topology)`` or

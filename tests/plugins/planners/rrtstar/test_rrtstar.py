@@ -208,3 +208,25 @@ def test_puncture_check_without_a_scene_is_refused():
     assert result.status is Status.SOLVED                     # no cost model: path length only
     assert result.cost == pytest.approx(space.path_length(result.path.configurations))
     assert result.cost < 1.05 * math.dist([0.1, 0.1], [0.9, 0.9])
+
+
+def _hollow_box_scene() -> Scene:
+    """A soft, barely sensitive hollow box (a shell one voxel thick) between start and goal, the goal diagonally
+    past it: cheapest straight through, which opens its void (thesis 4.3.4)."""
+    return Scene.from_dict({
+        "name": "hollow-box", "start": [0.15, 0.15, 0.5], "goal": [0.85, 0.85, 0.5], "goal_tolerance": 0.05,
+        "bounds": {"lower": [0, 0, 0], "upper": [1, 1, 1], "resolution": 0.05},
+        "objects": [{"name": "box", "shape": "box", "size": [0.4, 0.4, 0.4], "position": [0.5, 0.5, 0.5],
+                     "deformability": 0.5, "sensitivity": 0.001,
+                     "cutouts": [{"shape": "box", "size": [0.3, 0.3, 0.3], "position": [0.5, 0.5, 0.5]}]}],
+        "robot": {"kind": "rigid", "space": "r3", "parts": [{"shape": "box", "size": [0.04, 0.04, 0.04]}]},
+    })
+
+
+@pytest.mark.slow
+def test_with_the_puncture_check_no_quarter_voxel_sampling_of_the_path_opens_the_hollow_box():
+    problem = _problem(_hollow_box_scene())
+    checked = create("planner", "rrtstar", max_step=0.15, length_weight=1.0, goal_bias=0.1)
+    result = checked.plan(problem, np.random.default_rng(2), Termination(max_iterations=1500))
+    assert result.status is Status.SOLVED and result.statistics["punctures_refused"] > 0
+    assert not _punctures(problem, result.path.configurations, 0.05 / 4)     # a quarter voxel
