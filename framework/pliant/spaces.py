@@ -128,7 +128,8 @@ class Space(ABC):
         return self.interpolate(a, b, frac)
 
     def discretize(self, a: np.ndarray, b: np.ndarray, step: float) -> np.ndarray:
-        """Configurations from ``a`` to ``b`` inclusive, no two consecutive further than ``step``.
+        """Configurations from ``a`` to ``b`` inclusive, no two consecutive further than ``step`` (to a relative
+        1e-9: an edge within rounding of ``k`` steps is cut into ``k`` pieces).
 
         Returns ``(k, d)`` with ``k >= 2``.
         """
@@ -138,7 +139,9 @@ class Space(ABC):
             raise DimensionError(f"splits one edge of length {float(self.distance(a, b)):.6g} into more than "
                                  f"{MAX_STATES_PER_EDGE:,} states (pliant.spaces.MAX_STATES_PER_EDGE); use a larger "
                                  "step", field="step", value=step)
-        n = max(1, int(np.ceil(float(self.distance(a, b)) / step)))
+        # a relative 1e-9 of slack: an edge a hair longer than k steps (rounding) is split into k pieces, not k + 1,
+        # so that every caller -- a planner's edge checks and costs, PlanningProblem.path_cost -- splits it alike
+        n = max(1, int(np.ceil(float(self.distance(a, b)) / step - 1e-9)))
         return self.interpolate(np.asarray(a)[None], np.asarray(b)[None], np.linspace(0.0, 1.0, n + 1)[:, None])
 
     def mean(self, q: np.ndarray, weights: np.ndarray | None = None, iterations: int = 10) -> np.ndarray:

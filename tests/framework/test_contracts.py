@@ -25,10 +25,10 @@ def maze(scene_context):
 def test_a_planner_refuses_a_seed_where_a_generator_goes(maze):
     context = maze[0]
     planner = registry.create("planner", "straight", context)
-    with pytest.raises(PlanningError, match="rng: must be a numpy.random.Generator") as info:
+    with pytest.raises(PlanningError, match=r"rng: must be a numpy\.random\.Generator") as info:
         planner.plan(PlanningProblem.from_context(context), 42)
     assert info.value.value == 42
-    with pytest.raises(PlanningError, match="problem: must be a pliant.interfaces.PlanningProblem"):
+    with pytest.raises(PlanningError, match=r"problem: must be a pliant\.interfaces\.PlanningProblem"):
         planner.plan(context, np.random.default_rng(0))
 
 
@@ -50,7 +50,7 @@ def test_a_simulator_step_needs_a_finite_velocity_per_tangent_direction(maze, ve
 
 def test_a_simulator_reset_outside_the_workspace_is_refused(maze):
     context, simulator, _ = maze
-    with pytest.raises(DimensionError, match="reset: .*outside"):
+    with pytest.raises(DimensionError, match=r"reset: .*outside"):
         simulator.reset(np.asarray(context.scene.start) + [100.0, 0.0, 0.0])
 
 
@@ -92,7 +92,7 @@ def test_dynamic_simulators_refuse_a_reset_inside_a_wall(scene_context, name):
             break
     else:
         raise AssertionError("se2-maze has no wall three voxels thick")
-    with pytest.raises(SimulationError, match="reset: places the robot .* inside"):
+    with pytest.raises(SimulationError, match=r"reset: places the robot .* inside"):
         simulator.reset(np.array([centre[0], centre[1], 0.0]))
     simulator.reset(scene.start)
 

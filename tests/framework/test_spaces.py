@@ -151,3 +151,18 @@ def test_steer_and_interpolate_keep_the_shape_of_one_configuration(space):
         assert space.interpolate(a, b, t).shape == (space.dim,)
     assert space.steer(a, b, 1e-3).shape == (space.dim,)
     assert space.steer(a[None], b[None], 1e-3).shape == (1, space.dim)
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 7, 50])
+@pytest.mark.parametrize("nudge", [-1e-12, 0.0, 1e-12])
+def test_an_edge_within_rounding_of_k_steps_is_cut_into_k_pieces(k, nudge):
+    from pliant.spaces import RealVectorSpace
+
+    space = RealVectorSpace([0.0, 0.0], [100.0, 100.0])
+    step = 0.1
+    b = np.array([k * step + nudge, 0.0])
+    pieces = space.discretize(np.zeros(2), b, step)
+    assert len(pieces) == k + 1
+    assert np.allclose(np.diff(pieces[:, 0]), b[0] / k)
+    longer = space.discretize(np.zeros(2), np.array([k * step * (1 + 1e-6), 0.0]), step)
+    assert len(longer) == k + 2                       # beyond rounding: one more piece

@@ -100,3 +100,18 @@ def test_restart_mode_grows_new_trees_and_keeps_the_cheapest_solution():
     assert result.cost == history[-1, 1] == history[:, 1].min()
     assert result.cost == pytest.approx(problem.path_cost(result.path.configurations, problem.scene.resolution))
     assert stats["tree_cost"] >= result.cost                  # shortcutting never makes a path costlier
+
+
+@pytest.mark.parametrize("name", ["trrt", "gradient-trrt"])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_reported_cost_is_the_cost_recomputed_on_the_returned_path(name, seed):
+    import pliant
+    from pliant.interfaces import PlanningProblem
+    from pliant.termination import Termination
+
+    context = pliant.Pipeline.from_file("cube-wall-trrt", overrides=[f"planner={name}"]).build()
+    problem, planner = PlanningProblem.from_context(context), context.extras["planner"]
+    result = planner.plan(problem, np.random.default_rng(seed), Termination(max_time=2.0))
+    assert result.path is not None, result.status
+    recomputed = problem.path_cost(result.path.configurations, planner._check_step)
+    assert result.cost == pytest.approx(recomputed, rel=1e-9)
