@@ -146,3 +146,35 @@ def checked_command(method):
 
     setattr(command, WRAPPED, True)
     return command
+
+
+def space_label(space) -> str:
+    """``"r3"`` for a 3-D real vector space (``"r<d>"`` for others), else the space's kind (``"se2"``...)."""
+    return f"r{space.dim}" if space.kind == "rn" else space.kind
+
+
+def check_planner(planner, context, *, source: str | None = None) -> None:
+    """Reject a pipeline whose planner cannot work with what the pipeline has, before planning: a planner that
+    forward-simulates without a simulator, one that needs a cost model (with a gradient) without one, one that
+    needs the scene without one, or one given a space it does not plan in.  Raises
+    :class:`~pliant.errors.PipelineError` naming the field at fault."""
+    from pliant.errors import PipelineError
+
+    specs = planner.specs
+    name = type(planner).__name__
+    if specs.needs_simulator and context.simulator is None:
+        raise PipelineError(f"{name} plans by forward simulation and needs a simulator; add a [simulator] table "
+                            "(e.g. name = \"kinematic\")", source=source, field="simulator", value=None)
+    if specs.needs_cost and context.cost is None:
+        raise PipelineError(f"{name} needs a cost model; add cost = \"voxel\"", source=source, field="cost",
+                            value=None)
+    if specs.needs_gradient and not getattr(context.cost, "has_gradient", False):
+        raise PipelineError(f"{name} needs a cost model with a gradient (e.g. the voxel cost)", source=source,
+                            field="cost", value=type(context.cost).__name__ if context.cost is not None else None)
+    if specs.needs_scene and context.scene is None:
+        raise PipelineError(f"{name} needs the scene", source=source, field="scene", value=None)
+    if specs.spaces is not None and context.robot is not None:
+        space = context.space
+        if space_label(space) not in specs.spaces and space.kind not in specs.spaces:
+            raise PipelineError(f"{name} plans in {', '.join(specs.spaces)} only; this robot's space is "
+                                f"{space_label(space)}", source=source, field="planner", value=space_label(space))

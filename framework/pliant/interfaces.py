@@ -467,10 +467,43 @@ class PlanningProblem:
         return self.space.distance(q, self.goal) <= self.goal_tolerance + 1e-12
 
 
+@dataclass(frozen=True)
+class PlannerSpecs:
+    """What a planner handles and needs (after OMPL's ``PlannerSpecs``), so a pipeline that cannot work is rejected
+    when it is built (:func:`pliant.contracts.check_planner`) instead of when it plans.
+
+    needs_simulator: plans by forward-simulating (the pipeline must have a ``[simulator]``).
+    needs_cost: needs a cost model (``[cost]``); needs_gradient: one whose ``has_gradient`` is true.
+    needs_scene: needs the scene itself (e.g. its voxel lattice), not only the space and the checks.
+    returns_policy: the result holds a policy rather than (only) a path.
+    anytime: keeps improving its result until the termination condition stops it.
+    spaces: the configuration spaces it plans in, as ``"r3"`` (a space kind and dimension) or a kind (``"rn"``,
+    ``"se2"``, ``"se3"``, ``"compound"``); ``None``: any.
+    """
+
+    needs_simulator: bool = False
+    needs_cost: bool = False
+    needs_gradient: bool = False
+    needs_scene: bool = False
+    returns_policy: bool = False
+    anytime: bool = False
+    spaces: tuple[str, ...] | None = None
+
+
 class Planner(Component):
-    """Finds a path (or a policy) for a :class:`PlanningProblem`."""
+    """Finds a path (or a policy) for a :class:`PlanningProblem`.
+
+    ``SPECS`` declares what the planner handles and needs (:class:`PlannerSpecs`); a planner whose needs depend on
+    its options overrides :attr:`specs`.
+    """
 
     kind = "planner"
+    SPECS: ClassVar[PlannerSpecs] = PlannerSpecs()
+
+    @property
+    def specs(self) -> PlannerSpecs:
+        """This planner's :class:`PlannerSpecs` (with its options applied)."""
+        return self.SPECS
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         # the core checks plan's problem and rng before the plugin's code runs

@@ -29,10 +29,11 @@ from typing import Any
 
 import numpy as np
 
+from pliant.contracts import check_planner
 from pliant.errors import ConfigError, PipelineError, PliantError
 from pliant.execution import ExecutionRecord, StepListener, execute
 from pliant.files import write_json, write_text
-from pliant.interfaces import KINDS, Component, Context, Driver, PlanningProblem
+from pliant.interfaces import KINDS, Component, Context, Driver, Planner, PlanningProblem
 from pliant.registry import Registry, default_registry
 from pliant.results import PlanResult
 from pliant.scene import Scene, load_scene
@@ -264,6 +265,8 @@ class Pipeline:
                 setattr(context, kind, component)
             else:
                 context.extras[kind] = component
+            if kind == "planner" and isinstance(component, Planner):
+                check_planner(component, context, source=self.source)     # an impossible pipeline fails here
         return context
 
     def run(self, *, write: bool = True, on_step: StepListener | None = None) -> RunRecord:

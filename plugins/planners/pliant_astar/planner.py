@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import ConfigError, PlanningError
-from pliant.interfaces import Planner, PlanningProblem
+from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
 from pliant.results import Path, PlanResult, Status
 from pliant.termination import Termination
@@ -99,6 +99,8 @@ class AStarPlanner(Planner):
     ``field_time`` and ``search_time`` (s).
     """
 
+    SPECS = PlannerSpecs(needs_cost=True, needs_scene=True, spaces=("r3",))
+
     Options = AStarOptions
     example_components = {"cost": "voxel"}
 
@@ -131,6 +133,8 @@ class ParetoPlanner(Planner):
     Pareto path as ``{p_values, length_voxels, deformation}`` and ``statistics["sweep"]`` every
     ``(p, length, deformation)`` of the sweep.  Ctrl-C stops the sweep with the front found so far.
     """
+
+    SPECS = PlannerSpecs(needs_cost=True, needs_scene=True, spaces=("r3",))
 
     Options = ParetoOptions
     example_components = {"cost": "voxel"}

@@ -23,12 +23,12 @@ Modes (the baselines of thesis 5.4.1, as options of the same planner):
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from pliant.errors import ConfigError
 from pliant.geometry import quat_from_axis_angle, quat_multiply, wrap_angle
-from pliant.interfaces import Planner, PlanningProblem
+from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
@@ -94,9 +94,16 @@ class BeliefPlanner(Planner):
     ``time_to_first``, ``best_probability``, ``time``, ``interrupted``.
     """
 
+    SPECS = PlannerSpecs(needs_simulator=True, returns_policy=True, anytime=True)
+
     Options = BeliefPlannerOptions
     example_scene = "se2-maze"
     example_components = {"simulator": "kinematic"}
+
+    @property
+    def specs(self) -> PlannerSpecs:
+        """Simple RRT (``mode = "simple"``) checks straight edges and needs no simulator; the others do."""
+        return replace(self.SPECS, needs_simulator=self.options.mode != "simple")
     example_options = {"max_time": None, "max_iterations": 40, "particles": 8}
 
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import ConfigError
-from pliant.interfaces import Planner, PlanningProblem
+from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
@@ -100,6 +100,8 @@ class RRTStarPlanner(Planner):
     ``invalid_edges``, ``gamma``, ``radius`` (final), ``goal_states`` (sampled for a task-space
     target), ``solutions`` (nodes in the goal), ``puncture_check``, ``interrupted``.
     """
+
+    SPECS = PlannerSpecs(anytime=True)
 
     Options = RRTStarOptions
     name = "rrtstar"

@@ -12,7 +12,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.interfaces import Planner, PlanningProblem
+from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
 from pliant.results import Path, PlanResult, Status
 from pliant.termination import Termination
@@ -33,6 +33,8 @@ class StraightLinePlanner(Planner):
     when an intermediate configuration does (the message gives the fraction travelled), else
     ``solved``.
     """
+
+    SPECS = PlannerSpecs()
 
     Options = StraightLineOptions
 
@@ -77,6 +79,8 @@ class WaypointPlanner(Planner):
     Statuses as :class:`StraightLinePlanner`, checking every waypoint (not the segments between them,
     which a simulator may resolve through contact).
     """
+
+    SPECS = PlannerSpecs()
 
     Options = WaypointOptions
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import ConfigError
-from pliant.interfaces import Planner, PlanningProblem
+from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
@@ -89,6 +89,8 @@ class TRRTPlanner(Planner):
     ``refinements_skipped``, ``invalid_edges``, ``punctures``, ``gradient_kept`` (GradienT-RRT),
     ``solutions``, ``interrupted``.
     """
+
+    SPECS = PlannerSpecs(anytime=True)
 
     Options = TRRTOptions
     name = "trrt"
@@ -281,6 +283,8 @@ class GradientTRRTPlanner(TRRTPlanner):
 
     Needs a cost model with a gradient (``has_gradient``), e.g. the voxel cost.
     """
+
+    SPECS = PlannerSpecs(needs_cost=True, needs_gradient=True, anytime=True)
 
     Options = GradientTRRTOptions
     name = "gradient-trrt"
