@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pliant import registry
+from pliant.errors import DimensionError
+from pliant.interfaces import Learner, PathMetric
 from pliant.registry import default_registry
 from pliant.spaces import RealVectorSpace
 from pliant.testing import ConformanceFailure, check_component, check_space
 
-CHECKED_KINDS = ("robot", "cost", "planner", "simulator", "controller")
+CHECKED_KINDS = ("robot", "cost", "planner", "simulator", "controller", "driver")
 
 
 def _builtins():
@@ -39,3 +42,90 @@ def test_kit_detects_a_broken_space():
 def test_pytest_plugin_fixture(pliant_conformance, pliant_rng):
     assert pliant_conformance.check_space(RealVectorSpace([0.0], [1.0]))
     assert pliant_rng.random() == np.random.default_rng(0).random()     # the fixture is seeded with 0
+
+
+# --- metrics, learners and drivers: the kit checks their contracts, not only that they were created -----------
+
+
+class PathLength(PathMetric):
+    """A correct metric: the path's length in the space's metric."""
+
+    def evaluate(self, path, problem, rng):
+        q = problem.space.check(path.configurations, field="path")
+        return {"length": float(problem.space.path_length(q))}
+
+
+class NoisyLength(PathLength):
+    """Broken: ignores the seed it is given."""
+
+    def evaluate(self, path, problem, rng):
+        return {"length": super().evaluate(path, problem, rng)["length"] + np.random.default_rng().random()}
+
+
+class CrashingLength(PathLength):
+    """Broken: a traceback instead of a PliantError on a path of the wrong size."""
+
+    def evaluate(self, path, problem, rng):
+        return {"length": float(np.sum(np.diff(path.configurations, axis=0) @ np.ones(problem.space.dim)))}
+
+
+class MeanLearner(Learner):
+    """A correct learner: the mean of its samples."""
+
+    example_data = staticmethod(lambda: [1.0, 2.0, 4.0])
+
+    def fit(self, data, rng):
+        if len(data) == 0:
+            raise DimensionError("needs at least one sample", field="data", value=data)
+        return {"mean": float(np.mean(data))}
+
+
+class SilentLearner(MeanLearner):
+    """Broken: returns garbage for empty data instead of an error."""
+
+    def fit(self, data, rng):
+        return {"mean": float(np.mean(data)) if len(data) else float("nan")}
+
+
+@pytest.mark.parametrize(("cls", "broken"), [(PathLength, None), (NoisyLength, "same seed gives the same scores"),
+                                             (CrashingLength, "wrong dimension raises PliantError")])
+def test_the_kit_checks_a_metrics_evaluate(cls, broken):
+    registry.register("metric", "kit-test", cls)
+    try:
+        if broken is None:
+            assert check_component("metric", "kit-test") == ["named scores", "determinism", "bad input"]
+        else:
+            with pytest.raises(ConformanceFailure, match=broken):
+                check_component("metric", "kit-test")
+    finally:
+        default_registry().unregister("metric", "kit-test")
+
+
+@pytest.mark.parametrize(("cls", "broken"), [(MeanLearner, None), (SilentLearner, "empty data raises PliantError")])
+def test_the_kit_checks_a_learners_fit(cls, broken):
+    registry.register("learner", "kit-test", cls)
+    try:
+        if broken is None:
+            assert check_component("learner", "kit-test") == ["parameters", "determinism", "empty data"]
+        else:
+            with pytest.raises(ConformanceFailure, match=broken):
+                check_component("learner", "kit-test")
+    finally:
+        default_registry().unregister("learner", "kit-test")
+
+
+def test_a_learner_without_example_data_is_told_to_declare_it():
+    class Bare(Learner):
+        def fit(self, data, rng):
+            return {"x": 1.0}
+
+    with pytest.raises(ConformanceFailure, match="example_data"):
+        _check_bare(Bare)
+
+
+def _check_bare(cls):
+    registry.register("learner", "kit-bare", cls)
+    try:
+        check_component("learner", "kit-bare")
+    finally:
+        default_registry().unregister("learner", "kit-bare")

@@ -17,10 +17,12 @@ from pliant.testing.conformance import (
     check_component,
     check_cost,
     check_driver,
+    check_learner,
+    check_metric,
     check_planner,
     check_robot,
     check_space,
 )
 
-__all__ = ["ConformanceFailure", "build_context", "check_component", "check_cost", "check_driver", "check_planner",
-           "check_robot", "check_space"]
+__all__ = ["ConformanceFailure", "build_context", "check_component", "check_cost", "check_driver", "check_learner",
+           "check_metric", "check_planner", "check_robot", "check_space"]

@@ -18,13 +18,15 @@ from pliant.interfaces import (
     Controller,
     CostModel,
     Driver,
+    Learner,
+    PathMetric,
     Planner,
     PlanningProblem,
     RobotModel,
     Simulator,
 )
 from pliant.registry import Registry, default_registry
-from pliant.results import PlanResult, Status
+from pliant.results import Path, PlanResult, Status
 from pliant.scene import load_scene
 from pliant.spaces import Space
 
@@ -217,7 +219,48 @@ def check_driver(driver: Driver, who: str = "driver", seconds: float = 0.5) -> l
         _require(q.shape == (len(names),), who, "state() is (d,)")
         _require(np.allclose(driver.move_to(q), q, atol=driver.options.reach_tolerance), who,
                  "move_to(current) arrives")
-    return ["joint names", "limits", "joint states", "status", "shutdown twice", "stream"]
+        _raises_pliant_error(lambda: driver.stream(np.full(len(names), np.nan)), who,
+                             "a non-finite command is refused with PliantError")
+    _raises_pliant_error(lambda: driver.state(), who, "after the with-block the driver is closed")
+    return ["joint names", "limits", "joint states", "status", "shutdown twice", "stream", "non-finite",
+            "closed on exit"]
+
+
+def check_metric(metric: PathMetric, problem: PlanningProblem, path: Path, seed: int = 0,
+                 who: str = "metric") -> list[str]:
+    """A metric's ``evaluate``: named finite float scores (NaN only where documented is not allowed here: a
+    straight path between valid endpoints must score), the same scores for the same seed, and a path of the wrong
+    dimension raises PliantError."""
+    scores = metric.evaluate(path, problem, np.random.default_rng(seed))
+    _require(isinstance(scores, dict) and len(scores) > 0, who, "evaluate() returns a non-empty dict")
+    _require(all(isinstance(k, str) for k in scores), who, "the scores are named by strings")
+    values = list(scores.values())
+    _require(all(isinstance(v, (float, int, np.floating, np.integer)) and not isinstance(v, bool) for v in values),
+             who, "every score is a number")
+    again = metric.evaluate(path, problem, np.random.default_rng(seed))
+    _require(again.keys() == scores.keys() and all(np.isclose(again[k], scores[k], equal_nan=True) for k in scores),
+             who, "the same seed gives the same scores")
+    wrong = Path(np.zeros((2, problem.space.dim + 1)))
+    _raises_pliant_error(lambda: metric.evaluate(wrong, problem, np.random.default_rng(seed)), who,
+                         "a path of the wrong dimension raises PliantError")
+    return ["named scores", "determinism", "bad input"]
+
+
+def check_learner(learner: Learner, data, seed: int = 0, who: str = "learner") -> list[str]:
+    """A learner's ``fit``: a dict of named parameters from ``data`` (the class's ``example_data``), the same
+    parameters for the same seed, and empty data raises PliantError."""
+    fitted = learner.fit(data, np.random.default_rng(seed))
+    _require(isinstance(fitted, dict) and len(fitted) > 0, who, "fit() returns a non-empty dict of parameters")
+    again = learner.fit(data, np.random.default_rng(seed))
+    _require(again.keys() == fitted.keys(), who, "the same data and seed give the same parameters")
+    for key in fitted:
+        a, b = np.asarray(fitted[key]), np.asarray(again[key])
+        same = a.shape == b.shape and (np.allclose(a, b, equal_nan=True) if a.dtype.kind in "biuf" else
+                                       bool(np.all(a == b)))
+        _require(same, who, f"the same data and seed give the same parameter {key!r}")
+    _raises_pliant_error(lambda: learner.fit(type(data)() if isinstance(data, (list, dict, tuple)) else [],
+                                             np.random.default_rng(seed)), who, "empty data raises PliantError")
+    return ["parameters", "determinism", "empty data"]
 
 
 def check_component(kind: str, name: str, scene: str | None = None, seed: int = 0,
@@ -254,4 +297,18 @@ def check_component(kind: str, name: str, scene: str | None = None, seed: int = 
         v = component.command(ctx.scene.start, ctx.scene.goal, 0.1)
         _require(np.shape(v) == (ctx.space.tangent_dim,), who, "command() returns (tangent_dim,)")
         return ["command"]
+    if kind == "metric":
+        problem = PlanningProblem.from_context(ctx)
+        path = Path(np.array([problem.start, problem.goal], dtype=np.float64))
+        return check_metric(component, problem, path, seed, who)
+    if kind == "learner":
+        data = getattr(cls, "example_data", None)
+        _require(data is not None, who, "the learner class declares example_data for the kit")
+        return check_learner(component, data() if callable(data) else data, seed, who)
+    if kind == "driver":
+        # a driver needs its robot (or peer) running: check_driver(driver) does that; here what needs none
+        names = tuple(component.joint_names())
+        _require(len(names) > 0 and component.limits.names == names, who, "its limits file covers its joints")
+        _raises_pliant_error(lambda: component.state(), who, "state() before connect() raises PliantError")
+        return ["joints", "limits", "not connected"]
     return ["created"]
