@@ -33,6 +33,7 @@ Experiments (pipelines in ``scenes/pipelines``):
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import time
@@ -53,6 +54,36 @@ class Variant:
     pipeline: str
     overrides: tuple[str, ...] = ()
     worlds: dict[str, tuple[str, ...]] = field(default_factory=lambda: {"": ()})
+
+
+#: an execution world whose overrides are computed per planned policy: the maze blocked in the passage the
+#: policy's first route takes (thesis 5.4.3)
+FIRST_ROUTE = "@block-first-route"
+
+
+def first_route_passage(policy, scene) -> str | None:
+    """Which of the scene's vertical passages (regions named ``passage-<name>``) the policy's first route -- the
+    one it follows if every action succeeds -- goes through between the corridors: the passage holding most of the
+    route's expected configurations outside the corridors (``corridor-*`` regions); None if it uses none."""
+    route = np.array([policy.nodes[i].expected for i in policy.route(policy.start_node)])
+    if len(route) < 2:
+        return None
+    t = np.linspace(0.0, 1.0, 20)[:, None]
+    points = np.concatenate([a + t * (b - a) for a, b in itertools.pairwise(route)])
+    xy = points[:, :2]
+    regions = {r.name: r for r in scene.regions}
+
+    def inside(region):
+        return np.all((xy >= region.lower[:2]) & (xy <= region.upper[:2]), axis=1)
+
+    in_corridor = np.zeros(len(xy), dtype=bool)
+    for name, region in regions.items():
+        if name.startswith("corridor"):
+            in_corridor |= inside(region)
+    counts = {name.removeprefix("passage-"): int(np.sum(inside(region) & ~in_corridor))
+              for name, region in regions.items() if name.startswith("passage-")}
+    best = max(counts, key=counts.get, default=None)
+    return best if best is not None and counts[best] > 0 else None
 
 
 def _gamma(g: float, scale: float = 1.0) -> tuple[str, ...]:
@@ -88,7 +119,10 @@ def _tables_5(pipeline: str, scale: float = 1.0, worlds: dict[str, tuple[str, ..
 
 def experiments() -> dict[str, list[Variant]]:
     """The experiments by name (see the module docstring)."""
-    maze_worlds = {"unblocked": (), "blocked": ('execution.variant="blocked"',)}
+    # thesis 5.4.3 blocks the passage each policy's first route takes; the fixed block (the right passage) is kept
+    # beside it for comparison with earlier runs
+    maze_worlds = {"unblocked": (), "blocked (first route)": (FIRST_ROUTE,),
+                   "blocked (right)": ('execution.variant="blocked"',)}
     frictionless = {"unblocked, friction 0": ("execution.world.friction=0.0",),
                     "blocked, friction 0": ('execution.variant="blocked"', "execution.world.friction=0.0")}
     table_51, table_52 = _tables_5("peg-policy")
@@ -150,6 +184,13 @@ def _execute(variant: Variant, seed: int, base: list[str], context, planned, exe
     out = {}
     for world, world_overrides in variant.worlds.items():
         runs = []
+        if FIRST_ROUTE in world_overrides:
+            passage = first_route_passage(planned, context.scene)
+            if passage is None:                   # no passage on the route: nothing to block, nothing measured
+                out[world or "default"] = []
+                continue
+            world_overrides = tuple(o for o in world_overrides if o != FIRST_ROUTE) + (
+                f'execution.variant="blocked-{passage}"',)
         world_pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=[*base, *world_overrides])
         simulator = world_pipeline.execution_world(context)
         for k in range(executions):

@@ -22,30 +22,32 @@ def _record(variant, seed, planned, worlds):
 
 def test_the_summary_is_the_mean_over_planned_policies_of_their_success_rates():
     maze = experiments()["maze"][:1]
-    records = [_record("belief, WCR 0.75", 0, True, {"unblocked": ["success"] * 4, "blocked": ["failure"] * 4}),
+    records = [_record("belief, WCR 0.75", 0, True, {"unblocked": ["success"] * 4, "blocked (right)": ["failure"] * 4}),
                _record("belief, WCR 0.75", 1, True, {"unblocked": ["success", "failure", "failure", "failure"],
-                                                     "blocked": ["success"] * 4}),
+                                                     "blocked (right)": ["success"] * 4}),
                _record("belief, WCR 0.75", 2, False, {})]
     rows = {r["world"]: r for r in summarise(records, maze)}
     assert rows["unblocked"]["p_plan"] == pytest.approx(2 / 3)
     assert rows["unblocked"]["p_exec"] == pytest.approx((1.0 + 0.25) / 2)
     assert rows["unblocked"]["p_exec_std"] == pytest.approx(np.std([1.0, 0.25]))
-    assert rows["blocked"]["p_exec"] == pytest.approx(0.5)
+    assert rows["blocked (right)"]["p_exec"] == pytest.approx(0.5)
     assert rows["unblocked"]["time_to_first"] == pytest.approx(2.5)        # over planned policies only
 
 
 def test_a_second_run_resumes_from_the_tasks_on_file(tmp_path):
     (tmp_path / "maze").mkdir()
     label = experiments()["maze"][0].label
-    done = [_record(label, s, True, {"unblocked": ["success"], "blocked": ["failure"]}) for s in range(2)]
+    done = [_record(label, s, True, {"unblocked": ["success"], "blocked (right)": ["failure"]}) for s in range(2)]
     (tmp_path / "maze" / "runs.jsonl").write_text("".join(json.dumps(r) + "\n" for r in done))
     lines = []
     rows = run_experiment("maze", plans=2, executions=1, plan_time=1.0, exec_time=1.0, jobs=1, fresh=False,
                           output=tmp_path, only=[label], echo=lines.append)
     assert lines[0] == "maze: 2 tasks on file, 0 to go, 1 at a time"          # nothing planned again
-    assert {r["world"]: r["p_exec"] for r in rows} == {"unblocked": 1.0, "blocked": 0.0}
+    p_exec = {r["world"]: r["p_exec"] for r in rows}
+    assert p_exec["unblocked"] == 1.0 and p_exec["blocked (right)"] == 0.0
+    assert np.isnan(p_exec["blocked (first route)"])                        # no executions of that world on file
     summary = json.loads((tmp_path / "maze" / "summary.json").read_text())
-    assert summary["experiment"] == "maze" and len(summary["rows"]) == 2
+    assert summary["experiment"] == "maze" and len(summary["rows"]) == 3
 
 
 @pytest.mark.parametrize("name, options, field", [
@@ -67,7 +69,7 @@ def test_fresh_forgets_only_the_variants_being_run(tmp_path, monkeypatch):
     monkeypatch.setattr(module, "run_task", _fake_task)          # no planning here: the bookkeeping only
     (tmp_path / "maze").mkdir()
     first, second = (v.label for v in experiments()["maze"][:2])
-    kept = _record(second, 0, True, {"unblocked": ["success"], "blocked": ["success"]})
+    kept = _record(second, 0, True, {"unblocked": ["success"], "blocked (right)": ["success"]})
     forgotten = _record(first, 0, False, {})
     (tmp_path / "maze" / "runs.jsonl").write_text(json.dumps(kept) + "\n" + json.dumps(forgotten) + "\n")
     lines = []
@@ -76,8 +78,8 @@ def test_fresh_forgets_only_the_variants_being_run(tmp_path, monkeypatch):
     assert lines[0].startswith("maze: 1 tasks on file, 1 to go")       # the selected variant starts over
     left = [json.loads(x) for x in (tmp_path / "maze" / "runs.jsonl").read_text().splitlines()]
     assert [r["variant"] for r in left] == [first, second]             # the other variant's task is kept
-    assert left[1]["executions"] == {"unblocked": [{"outcome": "success", "actions": 10, "seconds": 5.0}],
-                                     "blocked": [{"outcome": "success", "actions": 10, "seconds": 5.0}]}
+    run = [{"outcome": "success", "actions": 10, "seconds": 5.0}]
+    assert left[1]["executions"] == {"unblocked": run, "blocked (first route)": run, "blocked (right)": run}
 
 
 def test_baxter_reach_compares_the_belief_planner_with_contact_rrt_and_its_pipeline_builds():
@@ -121,7 +123,8 @@ def test_replay_executes_the_saved_policies_again_without_planning(tmp_path):
     (replayed,) = [json.loads(x) for x in log.read_text().splitlines()]
     assert lines[0] == "replaying 1 saved policies, 1 at a time"
     assert replayed["replayed"] and replayed["statistics"] == planned["statistics"]      # nothing planned again
-    assert {w: len(runs) for w, runs in replayed["executions"].items()} == {"unblocked": 2, "blocked": 2}
+    runs = {w: len(runs) for w, runs in replayed["executions"].items()}
+    assert runs == {"unblocked": 2, "blocked (first route)": 2, "blocked (right)": 2}
     assert all(run["seconds"] <= 2.0 + 1e-9 for runs in replayed["executions"].values() for run in runs)
     with pytest.raises(ConfigError, match="replay"):
         run_experiment("maze", plans=1, executions=1, plan_time=1.0, exec_time=1.0, jobs=1, fresh=True,
@@ -234,7 +237,7 @@ def test_a_torn_last_line_is_dropped_and_a_corrupt_middle_line_is_an_error(tmp_p
     label = experiments()["maze"][0].label
     directory = tmp_path / "maze"
     directory.mkdir()
-    good = json.dumps(_record(label, 0, True, {"unblocked": ["success"], "blocked": ["success"]}))
+    good = json.dumps(_record(label, 0, True, {"unblocked": ["success"], "blocked (right)": ["success"]}))
     (directory / "runs.jsonl").write_text(good + "\n" + good[: len(good) // 2])      # a crash mid-write
     lines = []
     run_experiment("maze", plans=2, executions=1, plan_time=1.0, exec_time=1.0, jobs=1, fresh=False,
@@ -260,3 +263,24 @@ def test_a_resume_with_other_settings_is_refused_and_fresh_starts_over(tmp_path,
     run_experiment("maze", executions=1, plan_time=2.0, exec_time=1.0, fresh=True, **kwargs)
     summary = json.loads((tmp_path / "maze" / "summary.json").read_text())
     assert summary["settings"]["plan_time"] == 2.0                 # the settings the records were made with
+
+
+def test_the_first_route_block_is_the_passage_the_policys_first_route_takes():
+    from types import SimpleNamespace
+
+    from pliant import load_scene
+    from pliant_belief.experiments import first_route_passage
+
+    scene = load_scene("se2-maze")
+
+    def policy(*points):
+        nodes = [SimpleNamespace(expected=np.array([x, y, 0.0])) for x, y in points]
+        return SimpleNamespace(nodes=nodes, start_node=0, route=lambda start: list(range(len(nodes))))
+
+    # start top right, down the middle passage, along the bottom corridor to the goal bottom left
+    assert first_route_passage(policy((7.75, 7.75), (5.0, 8.0), (5.0, 2.0), (0.75, 0.75)), scene) == "middle"
+    assert first_route_passage(policy((7.75, 7.75), (8.2, 5.0), (8.2, 2.0), (0.75, 0.75)), scene) == "right"
+    assert first_route_passage(policy((7.75, 7.75), (1.7, 8.0), (1.7, 1.5), (0.75, 0.75)), scene) == "left"
+    for passage in ("left", "middle", "right"):                # each has a variant that blocks it
+        blocked = load_scene("se2-maze", variant=f"blocked-{passage}")
+        assert [o.name for o in blocked.objects][-1] == "block"
