@@ -147,7 +147,7 @@ def test_static_objects_with_friction_are_walls_of_that_friction():
     ({"cutouts": [{"shape": "box", "size": [0.04, 0.04, 0.1], "position": [0.6, 0.5, 0.0]}]},
      r"objects\[1\]\.cutouts", "cut-outs"),
     ({"orientation": [0.0, 0.7071067811865476, 0.0, 0.7071067811865476]}, r"objects\[1\]\.orientation", "about z"),
-    ({"position": [0.6, 0.5, 0.2]}, r"objects\[1\]\.position", "layer"),
+    ({"position": [0.6, 0.5, 0.058]}, r"objects\[1\]\.position", "layer"),   # in the bounds, off the layer
     ({"position": [0.06, 0.5, 0.0]}, r"objects\[1\]\.position", "inside static geometry"),
     ({"shape": "mesh", "file": "tri.obj", "size": None}, r"objects\[1\]\.shape", "mesh"),
 ])
