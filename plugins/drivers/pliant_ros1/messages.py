@@ -31,7 +31,7 @@ from pliant.errors import ConfigError
 #: the shipped message definitions, one directory per ROS package
 MSG_DIR = Path(__file__).resolve().parent / "msg"
 #: the packages generated here
-PACKAGES = ("baxter_core_msgs", "iiwa_msgs")
+PACKAGES = ("baxter_core_msgs", "iiwa_msgs", "pr2_msgs")
 
 _lock = threading.Lock()
 _ready: Path | None = None

@@ -15,6 +15,9 @@ A peer speaks the robot's own topics, types and rates (:mod:`pliant_ros1.robots`
   ``speed_ratio`` x the velocity limits (0.3 at start, set on ``/robot/limb/<side>/set_speed_ratio``).
 * **pr2**: ``/joint_states`` at 100 Hz naming every movable joint of the PR2 URDF; single-point (or multi-point:
   the last point is the goal) ``JointTrajectory`` on ``/<r|l>_arm_controller/command``; it holds the last point.
+  ``/power_board/state`` (``pr2_msgs/PowerBoardState``) at 1 Hz and on every change, ``/pr2_ethercat/motors_halted``
+  (latched) on every change, and the services ``/pr2_ethercat/reset_motors`` and ``halt_motors``
+  (``std_srvs/Empty``); it starts with the motors running and ignores commands while they are halted.
 * **iiwa**: ``/iiwa/state/JointPosition`` at 250 Hz (no names, float32 values); ``/iiwa/command/JointPosition``; it
   keeps going to the last destination.
 
@@ -36,10 +39,12 @@ go there too, so a test can check every command against the limits file (:func:`
 ``stamps-backwards`` from now on, stamp joint states 1 s earlier (one jump back in time)
 ``stamps-repeat`` keep stamping joint states with one frozen time while the arm moves
 ``flood``      publish joint states at ``--flood-rate`` (default 10 kHz)
-``disable``    (Baxter) disable the robot: it holds and ignores commands until enabled again
-``estop``      (Baxter) assert the e-stop (button pressed, source user): disabled, enabling refused
+``disable``    (Baxter) disable the robot; (PR2) halt the motors: it holds and ignores commands until enabled again
+``estop``      (Baxter) assert the e-stop (button pressed, source user); (PR2) press the run-stop (the motors halt):
+               disabled, enabling refused
 ``die``        exit at once (``os._exit``), as a crashed controller
-``clear``      end every switch above (after an e-stop the robot stays disabled, as Baxter after a reset)
+``clear``      end every switch above (after an e-stop the robot stays disabled, as Baxter after a reset and a PR2
+               whose motors need reset_motors)
 ============== =============================================================================================
 
 Joint states are stamped with the wall-clock time of the physics tick they sample (as a real controller stamps
@@ -79,6 +84,9 @@ START_MARGIN = 0.05
 RECORD_STATE_RATE = 50.0
 #: Baxter's /robot/state rate (Hz; also published on every change)
 ASSEMBLY_RATE = 20.0
+#: the PR2's /power_board/state rate (Hz; also published on every change) and its EtherCAT master's namespace
+POWER_RATE = 1.0
+PR2_ETHERCAT = "/pr2_ethercat"
 READY = "pliant-peer ready"
 
 
@@ -202,6 +210,8 @@ class RobotPeer:
         self._spawn(self._publish_states, "pliant-peer-states")
         if self.robot == "baxter":
             self._spawn(self._publish_assembly, "pliant-peer-assembly")
+        if self.robot == "pr2":
+            self._spawn(self._publish_power, "pliant-peer-power")
         self._event(f"started: {self.robot} {self.side} at {self.emulator.state()[0].round(4).tolist()}, "
                     f"simulator {self.simulator_name}, enabled {self.enabled}")
         return self
@@ -235,9 +245,26 @@ class RobotPeer:
             self._state_type = JointState
         self._state_pub = advertise(self.spec.state_topic, self._state_type)
         if self.robot == "pr2":
+            from std_msgs.msg import Bool
+            from std_srvs.srv import Empty, EmptyResponse
             from trajectory_msgs.msg import JointTrajectory
 
             subscribe(self.spec.command_topic, JointTrajectory, self._on_pr2_command)
+            self._power_type = message_class("pr2_msgs/PowerBoardState")
+            self._power_pub = advertise("/power_board/state", self._power_type)
+            self._halted_pub = advertise(f"{PR2_ETHERCAT}/motors_halted", Bool, latch=True)
+
+            def reset(_request):
+                self._set_enabled(not self.estop, "reset_motors" + (" refused: run-stop pressed" if self.estop
+                                                                   else ""))
+                return EmptyResponse()
+
+            def halt(_request):
+                self._set_enabled(False, "halt_motors")
+                return EmptyResponse()
+
+            self._handles.append(rospy.Service(f"{PR2_ETHERCAT}/reset_motors", Empty, reset))
+            self._handles.append(rospy.Service(f"{PR2_ETHERCAT}/halt_motors", Empty, halt))
         if self.robot == "baxter":
             from std_msgs.msg import Bool, Float64
 
@@ -313,7 +340,8 @@ class RobotPeer:
         point = msg.points[-1]
         velocities = self._by_name(msg.joint_names, point.velocities) if len(point.velocities) else None
         self._received(self._by_name(msg.joint_names, point.positions), velocities, msg.joint_names,
-                       len(point.positions) == len(msg.joint_names), point.time_from_start.to_sec())
+                       len(point.positions) == len(msg.joint_names) and self.enabled and not self.estop,
+                       point.time_from_start.to_sec())
 
     def _on_iiwa_command(self, msg) -> None:
         p = msg.position
@@ -335,7 +363,7 @@ class RobotPeer:
         self.emulator.active = self.enabled and not self.estop
         if not self.emulator.active:
             self.emulator.hold()
-        if self.robot == "baxter":
+        if self.robot in ("baxter", "pr2"):
             self._assembly_changed.set()
 
     # --- faults -----------------------------------------------------------------------------------------------
@@ -355,9 +383,9 @@ class RobotPeer:
             self.frozen_stamp = self.emulator.state()[2]
         elif name == "flood":
             self.flood = True
-        elif name == "disable" and self.robot == "baxter":
+        elif name == "disable" and self.robot in ("baxter", "pr2"):
             self._set_enabled(False, "fault switch")
-        elif name == "estop" and self.robot == "baxter":
+        elif name == "estop" and self.robot in ("baxter", "pr2"):
             self.estop = True
             self._set_enabled(False, "e-stop")
         elif name == "die":
@@ -434,6 +462,27 @@ class RobotPeer:
             self._assembly_changed.wait(1.0 / ASSEMBLY_RATE)
             self._assembly_changed.clear()
 
+    def _publish_power(self) -> None:
+        """PR2: /power_board/state at POWER_RATE and on every change; motors_halted (latched) on every change."""
+        from std_msgs.msg import Bool
+
+        halted = None
+        while not self._stop.is_set():
+            msg = self._power_type(name="pliant peer power board", run_stop=not self.estop,
+                                   wireless_stop=True, master_state=2, circuit_state=[3, 3, 3])
+            now_halted = not self.enabled or self.estop
+            try:
+                self._power_pub.publish(msg)
+                if now_halted != halted:
+                    self._halted_pub.publish(Bool(now_halted))
+                    halted = now_halted
+            except Exception:
+                if self._stop.is_set():
+                    return
+                raise
+            self._assembly_changed.wait(1.0 / POWER_RATE)
+            self._assembly_changed.clear()
+
     # --- running ----------------------------------------------------------------------------------------------
 
     def run(self, duration: float | None = None, parent: int | None = None) -> None:
@@ -464,7 +513,7 @@ class RobotPeer:
             self.emulator.stop()
         for handle in self._handles:
             try:
-                handle.unregister()
+                (handle.unregister if hasattr(handle, "unregister") else handle.shutdown)()   # topics; services
             except Exception:
                 pass
         self._handles = []

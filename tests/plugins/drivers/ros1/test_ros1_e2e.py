@@ -212,3 +212,39 @@ def test_a_pipeline_executes_on_the_iiwa_peer_by_one_setting(make_peer, master, 
     rest = assert_at_rest(peer)
     np.testing.assert_allclose(rest, result.execution.configurations[-1], atol=0.005)
     assert_within_limits(commands_since(peer, since), load_limits(limits_file("iiwa")), tolerance=1e-6)
+
+
+def test_the_pr2_run_stop_stops_the_arm_and_reset_motors_brings_it_back(make_peer, make_driver):
+    """The PR2's run-stop (/power_board/state) and halted motors (/pr2_ethercat/motors_halted) are read: a run-stop
+    mid-motion stops the stream with EmergencyStop; resetting is refused while it is pressed; after its release
+    the motors stay halted (RobotDisabled) until --enable calls reset_motors, and the arm moves again."""
+    peer = make_peer("pr2", "right", "--physics-rate", "250")
+    rng = np.random.default_rng(7)
+    driver = make_driver("pr2-ros")
+    with driver:
+        assert wait_until(lambda: driver.robot_status().detail == "ready", 5.0), driver.robot_status()
+        q0 = driver.state()
+        target = reachable_target(q0, driver.limits, rng, 0.4, 0.6)
+        start_motion(driver, target)
+        peer.fault("estop")
+        with pytest.raises(EmergencyStop, match="run-stop pressed"):
+            driver.move_to(target)
+    with pytest.raises(EmergencyStop, match="run-stop pressed"):
+        driver.check(enable=True)                       # the driver does not reset while the run-stop is pressed
+    peer.fault("clear")                                 # released: the motors stay halted
+    with pytest.raises(RobotDisabled, match="motors halted"):
+        driver.check()
+    report = driver.check(enable=True)                  # reset_motors
+    assert report["enabled"] and report["detail"] == "ready"
+    with driver:
+        back = driver.move_to(q0)
+    np.testing.assert_allclose(back, q0, atol=driver.options.reach_tolerance)
+    events = [r["event"] for r in peer.records() if r["kind"] == "event"]
+    assert any(e.startswith("enabled (reset_motors)") for e in events)
+
+
+def test_a_simulated_pr2_without_a_power_board_runs_with_robot_state_off(make_peer, make_driver):
+    make_peer("pr2", "left", "--simulator", "none")
+    driver = make_driver("pr2-ros", side="left", robot_state=False)
+    report = driver.check()
+    assert report["enabled"] and "not read" in report["detail"]

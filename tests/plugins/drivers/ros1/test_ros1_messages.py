@@ -21,7 +21,9 @@ from pliant_ros1 import messages
 #   github.com/Sean-Skilling/baxter-project
 # - iiwa_msgs/JointPosition and iiwa_msgs/JointQuantity: gencpp headers devel/include/iiwa_msgs/JointPosition.h and
 #   JointQuantity.h in github.com/NexusReflex/Kuka_iiwa_needleForceControl (an iiwa_stack workspace)
+# - pr2_msgs/PowerBoardState: a rosserial-generated pr2_msgs/PowerBoardState.h (getMD5())
 REAL_MD5SUMS = {
+    "pr2_msgs/PowerBoardState": "08899b671e6a1a449e7ce0000da8ae7b",
     "baxter_core_msgs/JointCommand": "19bfec8434dd568ab3c633d187c36f2e",
     "baxter_core_msgs/AssemblyState": "356d9dd237ce73b2667da9235f541933",
     "iiwa_msgs/JointPosition": "658fb21894857f175855c02859cc4745",
