@@ -465,16 +465,23 @@ class PunctureChecker:
         knots = start[None] + t * (end - start)[None]                      # (pieces + 1, s, 3)
         lo = np.minimum(knots[:-1], knots[1:]) - self.arc_margin
         hi = np.maximum(knots[:-1], knots[1:]) + self.arc_margin
-        first = [self._padded_index(lo[..., a], a) for a in range(3)]
-        last = [self._padded_index(hi[..., a], a) for a in range(3)]
-        cells = []
-        for dx in range(3):                    # a piece spans at most 1 + 2 margin < 2 voxels: 3 indices per axis
-            for dy in range(3):
-                for dz in range(3):
-                    index = [first[0] + dx, first[1] + dy, first[2] + dz]
-                    keep = (index[0] <= last[0]) & (index[1] <= last[1]) & (index[2] <= last[2])
-                    if keep.any():
-                        cells.append(self._flat([i[keep] for i in index]))
+        first = [self._padded_index(lo[..., a], a).ravel() for a in range(3)]
+        last = [self._padded_index(hi[..., a], a).ravel() for a in range(3)]
+        span = [last[a] - first[a] for a in range(3)]           # 0, 1 or 2: a piece spans < 2 voxels
+        cells = [self._flat(first)]
+        wide = (span[0] > 0) | (span[1] > 0) | (span[2] > 0)     # most pieces stay inside one voxel
+        if wide.any():
+            first = [f[wide] for f in first]
+            span = [e[wide] for e in span]
+            for dx in range(int(span[0].max()) + 1):
+                for dy in range(int(span[1].max()) + 1):
+                    for dz in range(int(span[2].max()) + 1):
+                        if dx == dy == dz == 0:
+                            continue
+                        keep = (dx <= span[0]) & (dy <= span[1]) & (dz <= span[2])
+                        if keep.any():
+                            cells.append(self._flat([first[0][keep] + dx, first[1][keep] + dy,
+                                                     first[2][keep] + dz]))
         return np.concatenate(cells)
 
     def extend(self, state: PunctureState, configurations: np.ndarray) -> tuple[PunctureState, bool, str]:
