@@ -83,7 +83,8 @@ def test_each_driver_connects_to_its_peer_and_reads_the_state(robot, side, make_
     driver = make_driver(DRIVERS[robot], **({} if robot == "iiwa" else {"side": side}))
     assert driver.joint_names() == arm_joints(robot, side)
     # the conformance kit: names, limits, states with growing stamps and counter, status, shutdown twice, stream
-    assert check_driver(driver) == ["joint names", "limits", "joint states", "status", "shutdown twice", "stream", "non-finite", "closed on exit"]
+    assert check_driver(driver) == ["joint names", "limits", "joint states", "status", "shutdown twice", "stream",
+                                    "non-finite", "closed on exit"]
     driver.open()
     try:
         assert wait_until(lambda: driver.latest_state() is not None)
