@@ -95,11 +95,12 @@ def _gamma(g: float, scale: float = 1.0) -> tuple[str, ...]:
             f"execution.world.noise_angular={g / 4}")
 
 
-def _tables_5(pipeline: str, scale: float = 1.0, worlds: dict[str, tuple[str, ...]] | None = None
-              ) -> tuple[list[Variant], list[Variant]]:
+def _tables_5(pipeline: str, scale: float = 1.0, worlds_for=None) -> tuple[list[Variant], list[Variant]]:
     """Tables 5.1 (clustering) and 5.2 (planner modes, particles, noise) on a peg-in-hole ``pipeline`` whose
-    lengths are ``scale`` times the thesis's; ``worlds``: Table 5.1's execution worlds (default the pipeline's)."""
-    worlds = worlds or {"": ()}
+    lengths are ``scale`` times the thesis's; ``worlds_for(gamma)``: the execution worlds for noise ``gamma``
+    (default the pipeline's world only)."""
+    worlds_for = worlds_for or (lambda g: {"": ()})
+    worlds = worlds_for(1 / 8)
     table_51 = [Variant("PC", pipeline, ('planner.clustering="pc"',), worlds),
                 Variant("AC", pipeline, ('planner.clustering="ac"',), worlds)]
     table_51 += [Variant(f"WCR {t}", pipeline, ('planner.clustering="wcr"', f"planner.wcr_threshold={t}"), worlds)
@@ -109,11 +110,14 @@ def _tables_5(pipeline: str, scale: float = 1.0, worlds: dict[str, tuple[str, ..
                          worlds)]
     table_52 = []
     for g in (0.0, 1 / 16, 1 / 8, 1 / 4):
-        table_52 += [Variant(f"simple, gamma {g:g}", pipeline, ('planner.mode="simple"', *_gamma(g, scale))),
+        w = worlds_for(g)
+        table_52 += [Variant(f"simple, gamma {g:g}", pipeline, ('planner.mode="simple"', *_gamma(g, scale)), w),
                      Variant(f"contact, gamma {g:g}", pipeline,
-                             ('planner.mode="contact"', 'simulator.noise="none"', *_gamma(g, scale)[3:])),
-                     Variant(f"24 particles, gamma {g:g}", pipeline, ("planner.particles=24", *_gamma(g, scale))),
-                     Variant(f"48 particles, gamma {g:g}", pipeline, ("planner.particles=48", *_gamma(g, scale)))]
+                             ('planner.mode="contact"', 'simulator.noise="none"', *_gamma(g, scale)[3:]), w),
+                     Variant(f"24 particles, gamma {g:g}", pipeline, ("planner.particles=24", *_gamma(g, scale)),
+                             w),
+                     Variant(f"48 particles, gamma {g:g}", pipeline, ("planner.particles=48", *_gamma(g, scale)),
+                             w)]
     return table_51, table_52
 
 
@@ -129,11 +133,13 @@ def experiments() -> dict[str, list[Variant]]:
     # the tight hole of thesis 6.5.1 (8% clearance; the scene at 1/10 scale), where the rows can differ
     # pybullet's contact at 2 mm clearance is not the planner's model: executions there are also run in the kinematic
     # simulator (with the planning noise), which separates planning from execution fidelity
-    kinematic = ("execution.world=kinematic", "execution.world.kp=1.0", "execution.world.frequency=10.0",
-                 "execution.world.velocity_limit=0.1", "execution.world.angular_velocity_limit=0.25",
-                 'execution.world.noise="bounded"', "execution.world.noise_linear=0.0125",
-                 "execution.world.noise_angular=0.03125")
-    tight_51, tight_52 = _tables_5("peg-tight-policy", scale=0.1, worlds={"pybullet": (), "kinematic": kinematic})
+    def tight_worlds(g: float) -> dict[str, tuple[str, ...]]:
+        kinematic = ("execution.world=kinematic", "execution.world.kp=1.0", "execution.world.frequency=10.0",
+                     "execution.world.velocity_limit=0.1", "execution.world.angular_velocity_limit=0.25",
+                     *_gamma(g, 0.1)[3:])
+        return {"pybullet": (), "kinematic": kinematic}
+
+    tight_51, tight_52 = _tables_5("peg-tight-policy", scale=0.1, worlds_for=tight_worlds)
     baxter = [Variant("belief", "baxter-policy"),
               Variant("contact RRT", "baxter-policy", ('planner.mode="contact"', 'simulator.noise="none"'))]
     return {"maze": [Variant("belief, WCR 0.75", "maze-policy", (), maze_worlds),
