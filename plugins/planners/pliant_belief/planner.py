@@ -196,7 +196,7 @@ class BeliefPlanner(Planner):
         return policy
 
     def _clusterer(self, problem: PlanningProblem, rng: np.random.Generator):
-        from pliant_belief.clustering import ClusteringContext, cluster_particles
+        from pliant.clustering import ClusteringContext, cluster_particles
 
         o = self.options
         scene = problem.scene

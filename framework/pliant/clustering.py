@@ -38,11 +38,12 @@ from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
 import numpy as np
+from scipy.cluster.hierarchy import linkage
+
 from pliant.errors import ConfigError, DimensionError
 from pliant.interfaces import RobotModel, Simulator
 from pliant.spaces import Space
 from pliant.voxelgrid import VoxelGrid
-from scipy.cluster.hierarchy import linkage
 
 CLUSTERING_METHODS = ("pc", "wcr", "ac", "distance")
 

@@ -9,9 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from pliant import load_scene, registry
-from pliant.errors import ConfigError, DimensionError, PliantError
-from pliant.interfaces import Context
-from pliant_belief.clustering import (
+from pliant.clustering import (
     CLUSTERING_METHODS,
     ClusteringContext,
     _cut,
@@ -23,6 +21,8 @@ from pliant_belief.clustering import (
     matches,
     wcr_distances,
 )
+from pliant.errors import ConfigError, DimensionError, PliantError
+from pliant.interfaces import Context
 from scipy.cluster.hierarchy import fcluster, linkage
 
 # se2-maze: passages x in [3.5, 6.5] (middle) and [7.0, 9.5] (right), a 0.5 m wall between them; the
