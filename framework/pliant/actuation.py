@@ -6,9 +6,12 @@ Thesis ch. 5 limits rigid bodies by the norm of their translation (m/s) and of t
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from pliant.errors import DimensionError
+from pliant.noise import ActuationNoise
 from pliant.spaces import Space
 
 
@@ -52,3 +55,48 @@ def actuator_limits(space: Space, velocity_limit: float, angular_velocity_limit:
                                  value=list(joint_velocity_limits))
         return np.asarray(joint_velocity_limits, dtype=np.float64)
     return np.where(angular_mask(space), angular_velocity_limit, velocity_limit)
+
+
+@dataclass(frozen=True)
+class ControlLaw:
+    """The control law a simulator applies each control step, for components that must predict it.
+
+    Thesis eq. 8.1-8.2 (app. B) and eq. 6.5-6.6: each step of ``dt`` seconds commands the tangent displacement
+    ``kp * e`` (``e = space.difference(target, q)``), capped by :func:`limit_velocity` (keeping its direction),
+    and the actuators add noise drawn from ``noise`` (:mod:`pliant.noise`).  The path metric of thesis ch. 6
+    propagates reachable volumes with it.  ``kd`` (on the change of the error) is recorded, but
+    :meth:`velocity` is the proportional part only: a reachable volume has no previous error.
+
+    space: the configuration space.
+    kp: fraction of the error commanded per step (dimensionless).
+    kd: derivative gain per step.
+    dt: control period (s).
+    angular: bool ``(t,)`` rotation directions (:func:`angular_mask`).
+    linear_limit / angular_limit: speed limits (m/s, rad/s) of the translational and rotational parts.
+    per_actuator: ``(t,)`` per-actuator limits instead, or ``None``.
+    noise: the actuation noise model.
+    """
+
+    space: Space
+    kp: float
+    kd: float
+    dt: float
+    angular: np.ndarray
+    linear_limit: float
+    angular_limit: float
+    per_actuator: np.ndarray | None
+    noise: ActuationNoise
+
+    def velocity(self, q: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """Commanded tangent velocities ``(n, t)`` (m/s, rad/s) at configurations ``(n, d)`` toward ``target``."""
+        error = self.space.difference(np.broadcast_to(target, np.shape(q)), q)
+        return limit_velocity(self.kp * np.atleast_2d(error) / self.dt, self.angular, self.linear_limit,
+                              self.angular_limit, self.per_actuator)
+
+    def step(self, q: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """Noise-free configurations ``(n, d)`` one control step after ``q`` ``(n, d)``, with no obstacles."""
+        return self.space.retract(q, self.velocity(q, target) * self.dt)
+
+    def noise_bounds(self, velocity: np.ndarray) -> np.ndarray:
+        """Largest tangent displacement ``(n, t)`` the actuation error can add in one step at ``velocity``."""
+        return self.noise.limits(velocity) * self.dt

@@ -30,6 +30,7 @@ from pliant.spaces import Space
 from pliant.termination import Termination
 
 if TYPE_CHECKING:
+    from pliant.actuation import ControlLaw
     from pliant.scene import Scene
 
 KINDS = ("simulator", "robot", "controller", "planner", "metric", "cost", "learner", "driver")
@@ -358,6 +359,14 @@ class Simulator(Component):
     def settle(self) -> np.ndarray:
         """End of an execution: a simulated robot stops with its last command; returns its configuration."""
         return self.configuration()
+
+    def control_law(self) -> ControlLaw | None:
+        """The control law :meth:`simulate` applies each step (gains, period, limits, noise), or ``None``.
+
+        Components that predict the simulator's motion without simulating it (the reachable volumes of the
+        path metric, thesis 6.4.1) need it; simulators whose motion has no such law return ``None``.
+        """
+        return None
 
 
 class Controller(Component):

@@ -34,7 +34,6 @@ Experiments (pipelines in ``scenes/pipelines``):
 from __future__ import annotations
 
 import itertools
-import json
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -43,6 +42,8 @@ from pathlib import Path
 
 import numpy as np
 from pliant.errors import ConfigError
+from pliant.experiment import check_settings, open_log, run_tasks, stop_pool, worker_init
+from pliant.files import rewrite_jsonl
 
 
 @dataclass(frozen=True)
@@ -268,67 +269,8 @@ def _slug(label: str) -> str:
     return "".join(c if c.isalnum() else "-" for c in label.lower()).strip("-")
 
 
-def _worker_init(parent: int) -> None:
-    """Pool workers: leave Ctrl-C to the parent (it cancels the queue and ends the workers), and die with the parent
-    (Linux: the kernel sends SIGTERM when it exits, even by kill -9; elsewhere a watcher thread polls)."""
-    import signal
-    import threading
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL("libc.so.6", use_errno=True)
-        libc.prctl(1, signal.SIGTERM)                  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-    if os.getppid() != parent:                         # the parent died before prctl took effect
-        os._exit(1)
-
-    def watch():
-        while True:
-            time.sleep(1.0)
-            if os.getppid() != parent:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="pliant-parent-watch", daemon=True).start()
-
-
-def _stop_pool(pool: ProcessPoolExecutor) -> None:
-    """Cancel every queued task and end the workers now (the running tasks' results are not waited for)."""
-    processes = list((getattr(pool, "_processes", None) or {}).values())     # shutdown forgets them
-    pool.shutdown(wait=False, cancel_futures=True)
-    for process in processes:
-        if process.is_alive():
-            process.terminate()
-    for process in processes:
-        process.join(timeout=5.0)
-
-
 #: settings that give a record its meaning: a resume with other values would mix incomparable tasks
 RESUME_SETTINGS = ("plan_time", "executions", "exec_time")
-
-
-def _check_settings(directory: Path, settings: dict, *, replace: bool) -> dict:
-    """The run's settings on file (``settings.json``), checked against ``settings``: a resume with different ones is
-    refused, naming the setting and both values; ``replace`` (a fresh start, or a replay) writes the new ones."""
-    from pliant.files import write_json
-
-    path = directory / "settings.json"
-    if path.exists() and not replace:
-        try:
-            stored = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"cannot read the run's settings: {exc}", source=str(path), field="<file>") from None
-        for key in RESUME_SETTINGS:
-            if key in stored and stored[key] != settings[key]:
-                flag = "--" + key.replace("_", "-")
-                raise ConfigError(f"this run was started with {flag} {stored[key]}; resuming with {settings[key]} "
-                                  "would mix incomparable tasks (use the same value, --fresh to start over, or "
-                                  "another --output)", source=str(path), field=flag, value=settings[key])
-        return stored
-    write_json(path, settings)
-    return settings
 
 
 def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, exec_time: float, jobs: int,
@@ -343,8 +285,6 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     refused.  ``replay``: plan nothing; execute the saved policies of the selected variants' planned tasks on file
     again (``executions`` times per world) and replace their executions, rewriting the file after each task.
     """
-    from pliant.files import append_jsonl, read_jsonl, rewrite_jsonl
-
     table = experiments()
     if name not in table:
         raise ConfigError(f"unknown experiment (experiments: {', '.join(table)})", field="NAME", value=name)
@@ -364,18 +304,10 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
                               field="--only", value=unknown[0])
     variants = [v for v in table[name] if not only or v.label in only]
     directory = output / name
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"cannot be created ({exc.strerror or exc})", field="--output", value=str(output)) from None
-    log = directory / "runs.jsonl"
-    records, torn = read_jsonl(log)
-    if torn:
-        echo(f"{log}: its last line was cut off (a crash while writing it): dropped, that task runs again")
-        rewrite_jsonl(log, records)
-    settings = _check_settings(directory, {"experiment": name, "plan_time": plan_time, "executions": executions,
-                                           "exec_time": exec_time, "pliant": _version()},
-                               replace=fresh or replay or not records)
+    log, records = open_log(directory, "--output", echo)
+    settings = check_settings(directory, {"experiment": name, "plan_time": plan_time, "executions": executions,
+                                          "exec_time": exec_time, "pliant": _version()}, RESUME_SETTINGS,
+                              replace=fresh or replay or not records)
     if fresh:                                    # forget the selected variants' tasks, keep the others'
         selected = {v.label for v in variants}
         records = [r for r in records if r["variant"] not in selected]
@@ -386,26 +318,17 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     done = {(r["variant"], r["seed"]) for r in records}
     todo = [(v, s) for v in variants for s in range(plans) if (v.label, s) not in done]
     echo(f"{name}: {len(records)} tasks on file, {len(todo)} to go, {jobs} at a time")
-    pool = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init, initargs=(os.getpid(),))
-    try:
-        with log.open("a") as sink:
-            futures = {pool.submit(run_task, v, s, plan_time, executions, exec_time,
-                                   directory / "policies" / f"{_slug(v.label)}-seed{s}.json"): (v, s) for v, s in todo}
-            for k, future in enumerate(as_completed(futures), start=1):
-                record = future.result()
-                records.append(record)
-                append_jsonl(sink, record)
-                outcome = {w: f"{sum(e['outcome'] == 'success' for e in runs)}/{len(runs)}"
-                           for w, runs in record["executions"].items()}
-                echo(f"[{k}/{len(todo)}] {record['variant']} seed {record['seed']}: "
-                     f"{'planned' if record['planned'] else 'no policy'}, executions {outcome}")
-    except KeyboardInterrupt:
-        _stop_pool(pool)
-        _summary(name, records, variants, settings, directory)
-        echo(f"interrupted: the {len(records)} finished tasks are in {log}; run the same command again to resume")
-        raise
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+
+    def describe(record: dict) -> str:
+        outcome = {w: f"{sum(e['outcome'] == 'success' for e in runs)}/{len(runs)}"
+                   for w, runs in record["executions"].items()}
+        return (f"{record['variant']} seed {record['seed']}: {'planned' if record['planned'] else 'no policy'}, "
+                f"executions {outcome}")
+
+    tasks = [(v, s, plan_time, executions, exec_time, directory / "policies" / f"{_slug(v.label)}-seed{s}.json")
+             for v, s in todo]
+    run_tasks(run_task, tasks, jobs=jobs, log=log, records=records, describe=describe, echo=echo,
+              on_interrupt=lambda: _summary(name, records, variants, settings, directory))
     return _summary(name, records, variants, settings, directory)
 
 
@@ -418,7 +341,6 @@ def _version() -> str:
 def _replay(records: list[dict], variants: list[Variant], executions: int, exec_time: float, jobs: int, log: Path,
             echo) -> None:
     """Re-execute the saved policies of ``records`` (in place), rewriting ``log`` after each task."""
-    from pliant.files import rewrite_jsonl
 
     by_label = {v.label: v for v in variants}
     todo = [k for k, r in enumerate(records) if r["variant"] in by_label and r["planned"] and r.get("policy_file")]
@@ -427,7 +349,7 @@ def _replay(records: list[dict], variants: list[Variant], executions: int, exec_
         if not path.is_file() and (log.parent / "policies" / path.name).is_file():
             records[k] = {**records[k], "policy_file": str(log.parent / "policies" / path.name)}
     echo(f"replaying {len(todo)} saved policies, {jobs} at a time")
-    pool = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init, initargs=(os.getpid(),))
+    pool = ProcessPoolExecutor(max_workers=jobs, initializer=worker_init, initargs=(os.getpid(),))
     try:
         futures = {pool.submit(replay_task, by_label[records[k]["variant"]], records[k], executions, exec_time): k
                    for k in todo}
@@ -439,7 +361,7 @@ def _replay(records: list[dict], variants: list[Variant], executions: int, exec_
                        for w, runs in records[k]["executions"].items()}
             echo(f"[{n}/{len(todo)}] {records[k]['variant']} seed {records[k]['seed']}: executions {outcome}")
     except KeyboardInterrupt:
-        _stop_pool(pool)
+        stop_pool(pool)
         echo("interrupted: the tasks replayed so far are on file")
         raise
     finally:

@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.actuation import actuator_limits, angular_mask, limit_velocity
+from pliant.actuation import ControlLaw, actuator_limits, angular_mask, limit_velocity
 from pliant.errors import DimensionError, SimulationError
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
 from pliant.noise import NOISE_MODELS, ActuationNoise
@@ -168,6 +168,12 @@ class KinematicSimulator(Simulator):
         return limit_velocity(velocity, self.angular, self.options.velocity_limit,
                               self.options.angular_velocity_limit, self.limits if self.per_actuator else None)
 
+    def control_law(self) -> ControlLaw:
+        """The P law of :meth:`simulate` (eq. 8.1-8.2; ``kd`` recorded), its limits and noise."""
+        o = self.options
+        return ControlLaw(self.space, o.kp, o.kd, self.dt, self.angular, o.velocity_limit, o.angular_velocity_limit,
+                          self.limits if self.per_actuator else None, self.noise)
+
     # --- simulation ---------------------------------------------------------------------------
 
     def simulate(self, starts, targets, rng, duration, record=False):
@@ -177,6 +183,10 @@ class KinematicSimulator(Simulator):
         if not (math.isfinite(duration) and duration > 0):
             raise DimensionError("duration must be a positive number of seconds", field="duration", value=duration)
         n = len(q)
+        if n == 0:
+            empty = np.zeros(0, dtype=bool)
+            return SimulationBatch(final=q, in_contact=empty, stuck=empty.copy(), reached=empty.copy(),
+                                   trajectories=np.zeros((0, 1, q.shape[1])) if record else None, steps=0)
         steps = max(1, round(duration * self.options.frequency))
         touched = np.zeros(n, dtype=bool)
         stuck = np.zeros(n, dtype=bool)

@@ -1,0 +1,184 @@
+"""One waypoint-to-waypoint motion assessed by reachable-volume sampling (thesis 6.4.2-6.4.4).
+
+:func:`sample_motion` draws uniform samples in every reachable volume (``density`` per unit of weighted
+measure, 6.4.2; :func:`sample_counts`), sorts them into colliding / near contact / free with
+:class:`~.clearance.Clearance`, projects the near-contact ones to contact and labels them (:mod:`.contact`).
+Two estimates follow:
+
+- :func:`image_probability`, the primary variant (6.4.4): for every free sample ``q`` of ``RV_j``, the image of
+  one control step -- the box swept from ``q`` to its noise-free successor, widened by the largest actuation
+  error (no less than half the expected spacing of samples, ``density^(-1/t)``) -- is searched for contacts
+  of ``RV_j`` and ``RV_(j+1)`` (the step sweeps through both; with ``RV_(j+1)``'s alone, as the thesis writes, a
+  robot stopped at a wall is outside the obstacle-free ``RV_(j+1)`` and its contact is never found); if any of
+  them is stuck (or becomes stuck), ``image_samples`` noisy futures are drawn
+  around the successor (truncated normal, sigma half the bound, as eq. 6.15).  A future that collides means
+  the motion ``q -> q_future`` meets the contact manifold; where it first does is found by bisection on the
+  segment, and the future counts as stuck when the relevant contact nearest that point is (eq. 6.10).  (The
+  thesis takes the contact nearest the future itself; a future a whole step inside an obstacle is far from
+  where the robot stops.)  ``P_stuck(RV_j -> RV_(j+1))`` is the *mean* over the free samples
+  of ``RV_j`` (eq. 6.11 writes a sum, which exceeds 1 as soon as samples are many; with uniform samples the
+  mean is the probability it means), ``P_exec`` of the motion their complement's product (eq. 6.12).
+- :func:`sampling_driven_probability`, the simplified variant: the stuck contacts set how far to simulate; the
+  free samples of ``RV_0`` are simulated until they are past them (:mod:`.rollout`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pliant.interfaces import RobotModel, Simulator
+from pliant.noise import truncated_normal
+
+from pliant_reachability.clearance import Clearance
+from pliant_reachability.contact import Contacts, classify, project_to_contact
+from pliant_reachability.rollout import Rollouts, rollout
+from pliant_reachability.volumes import ReachableVolumes
+
+
+@dataclass(frozen=True)
+class SamplingSettings:
+    """How densely and how the volumes are sampled (see the metric options for units and defaults)."""
+
+    density: float
+    max_samples: int
+    near_distance: float
+    projection_iterations: int
+    stuck_fraction: float
+    theta: float
+    axis: float
+    image_samples: int
+    stuck_steps: int
+    contact_horizon: int
+
+
+@dataclass
+class SampledMotion:
+    """Samples of every reachable volume of one motion, and its labelled contacts.
+
+    x: per volume, ``(n_i, t)`` sample coordinates; colliding: per volume, bool ``(n_i,)``.
+    contacts: the projected, labelled contacts; simulated: control steps simulated to label them.
+    """
+
+    volumes: ReachableVolumes
+    x: list[np.ndarray]
+    colliding: list[np.ndarray]
+    contacts: Contacts
+
+    @property
+    def sample_count(self) -> int:
+        return int(sum(len(x) for x in self.x))
+
+
+def sample_counts(volumes: ReachableVolumes, density: float, max_samples: int) -> np.ndarray:
+    """Samples per volume: ``density`` times the weighted measure, each side counted as at least the expected
+    spacing ``density^(-1/t)``, within ``[1, max_samples]``.
+
+    The floor matters where the controller squeezes one dimension below the spacing (a rotation converging
+    to its target) while the others stay wide: the plain measure would then give such a volume one sample.
+    """
+    spacing = density ** (-1.0 / len(volumes.weights))
+    sides = np.maximum((volumes.upper - volumes.lower) * volumes.weights, spacing)
+    return np.clip(np.round(density * np.prod(sides, axis=1)), 1, max_samples).astype(np.int64)
+
+
+def sample_motion(volumes: ReachableVolumes, settings: SamplingSettings, robot: RobotModel, clearance: Clearance,
+                  simulator: Simulator, rng: np.random.Generator) -> SampledMotion:
+    """Sample, sort and label (thesis 6.4.2-6.4.3); see the module docstring."""
+    counts = sample_counts(volumes, settings.density, settings.max_samples)
+    xs, colliding, contact_x, contact_volume = [], [], [], []
+    near_limit = settings.near_distance * clearance.grid.resolution
+    for i, n in enumerate(counts):
+        x = volumes.sample(i, rng, int(n))
+        q = volumes.configurations(x)
+        dist, _, col = clearance.query(q)
+        xs.append(x)
+        colliding.append(col)
+        near = np.nonzero(~col & (dist <= near_limit))[0]
+        if len(near) == 0:
+            continue
+        projected, ok = project_to_contact(q[near], robot, clearance, settings.projection_iterations)
+        px = volumes.coordinates(projected[ok])
+        inside = volumes.contains(i, px) | (i == 0)
+        contact_x.append(px[inside])
+        contact_volume.append(np.full(int(inside.sum()), i))
+    t = len(volumes.weights)
+    cx = np.concatenate(contact_x) if contact_x else np.zeros((0, t))
+    cv = np.concatenate(contact_volume) if contact_volume else np.zeros(0, dtype=np.int64)
+    contacts = classify(volumes, cx, cv, simulator, rng, settings.stuck_fraction, settings.stuck_steps,
+                        settings.contact_horizon, settings.theta, settings.axis)
+    return SampledMotion(volumes, xs, colliding, contacts)
+
+
+def image_probability(sampled: SampledMotion, settings: SamplingSettings, clearance: Clearance,
+                      rng: np.random.Generator, bisections: int = 5) -> tuple[float, np.ndarray]:
+    """``P_exec`` of the motion by the image estimate (eq. 6.10-6.12) and ``P_stuck`` per volume pair."""
+    volumes, contacts = sampled.volumes, sampled.contacts
+    law, w = volumes.law, volumes.weights
+    spacing = settings.density ** (-1.0 / len(w)) / w                # expected sample spacing per coordinate
+    p_stuck = np.zeros(max(len(volumes) - 1, 0))
+    stuckish = contacts.stuckish
+    for j in range(len(volumes) - 1):
+        here = (contacts.volume == j) | (contacts.volume == j + 1)
+        if not np.any(here & stuckish):
+            continue
+        cx, cs = contacts.x[here], stuckish[here]
+        x = sampled.x[j][~sampled.colliding[j]]
+        if len(x) == 0:
+            continue
+        q = volumes.configurations(x)
+        velocity = law.velocity(q, volumes.target)
+        x_next = volumes.coordinates(law.step(q, volumes.target))
+        half = np.maximum(law.noise_bounds(velocity), 0.5 * spacing)
+        # the image of one step: the box swept from q to its noise-free successor, widened by the noise bound
+        low, high = np.minimum(x, x_next) - half, np.maximum(x, x_next) + half
+        inside = np.all((cx[None, :, :] >= low[:, None, :]) & (cx[None, :, :] <= high[:, None, :]), axis=2)
+        candidates = np.nonzero(np.any(inside & cs[None, :], axis=1))[0]
+        if len(candidates) == 0:
+            continue
+        k = settings.image_samples
+        t = len(w)
+        future = x_next[candidates, None, :] + truncated_normal(rng, np.repeat(half[candidates, None, :], k, axis=1))
+        hits = clearance.colliding(volumes.configurations(future.reshape(-1, t))).reshape(len(candidates), k)
+        rows, draws = np.nonzero(hits)
+        if len(rows) == 0:
+            continue
+        # where the motion q -> q_future first meets the contact manifold (bisection on the segment)
+        free_end = np.repeat(x[candidates], k, axis=0).reshape(len(candidates), k, t)[rows, draws]
+        hit_end = future[rows, draws]
+        for _ in range(bisections):
+            middle = 0.5 * (free_end + hit_end)
+            collides = clearance.colliding(volumes.configurations(middle))
+            hit_end = np.where(collides[:, None], middle, hit_end)
+            free_end = np.where(collides[:, None], free_end, middle)
+        stuck_count = np.zeros(len(candidates))
+        for row in np.unique(rows):
+            relevant = np.nonzero(inside[candidates[row]])[0]
+            meets = free_end[rows == row]
+            d = np.linalg.norm((meets[:, None, :] - cx[None, relevant, :]) * w, axis=2)
+            stuck_count[row] = np.count_nonzero(cs[relevant[np.argmin(d, axis=1)]])
+        p_stuck[j] = float(np.sum(stuck_count / k)) / len(x)
+    return float(np.prod(1.0 - p_stuck)), p_stuck
+
+
+def sampling_driven_probability(sampled: SampledMotion, settings: SamplingSettings, simulator: Simulator,
+                                rng: np.random.Generator, max_steps: int) -> tuple[float, Rollouts | None]:
+    """``P_exec`` by the sampling-driven method: 1 when no contact is stuck, else the fraction of ``RV_0``'s free
+    samples that, simulated, get nearer the target than every place a contact's simulation stuck (or reach
+    it) without sticking.
+
+    The thesis simulates until the robots "reach ``RV_(s+1)``", the volume after the last one holding a stuck
+    sample; but the obstacle-free volumes are boxes that also hold the stuck robots, so "past the stuck
+    contacts" is tested by distance to the target instead."""
+    contacts = sampled.contacts
+    if not contacts.stuckish.any():
+        return 1.0, None
+    volumes = sampled.volumes
+    ends = contacts.stuck_at[np.all(np.isfinite(contacts.stuck_at), axis=1)]
+    past = float(np.min(volumes.distance_to_target(ends if len(ends) else contacts.x[contacts.stuckish])))
+    starts = volumes.configurations(sampled.x[0][~sampled.colliding[0]])
+    if len(starts) == 0:
+        return 0.0, Rollouts(np.zeros(0, dtype=bool), 0)
+    result = rollout(volumes, starts, simulator, rng, stuck_fraction=settings.stuck_fraction,
+                     stuck_steps=settings.stuck_steps, max_steps=max_steps, past=past)
+    return result.probability, result

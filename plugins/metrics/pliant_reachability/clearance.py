@@ -1,0 +1,101 @@
+"""How close a robot configuration is to the environment: colliding, near contact, or free (thesis 6.4.2).
+
+The thesis approximates C-space proximity to contact by workspace proximity, checking the robot against an
+expanded environment.  Here every surface point of the robot looks up the signed distance of its voxel
+(:attr:`pliant.voxelgrid.VoxelGrid.sdf`, metres, at voxel centres) and whether that voxel is occupied; a
+configuration *collides* when any surface point lies in an occupied voxel or outside the grid (the test the
+kinematic simulator resolves), and its *clearance* is the smallest signed distance over its points.  Rigid
+bodies go through one numba kernel that fuses the transform and the lookups; articulated robots through
+:meth:`~pliant.interfaces.RobotModel.body_points` in chunks.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from pliant.interfaces import RobotModel
+from pliant.voxelgrid import VoxelGrid
+
+#: configurations per chunk on the articulated path (bounds memory: chunk x points x 3 floats)
+CHUNK = 256
+
+
+@numba.njit(cache=True)
+def _rigid_clearance(rot, trans, local, sdf, occupied, shape, lower, resolution):  # pragma: no cover - numba
+    n = rot.shape[0]
+    m = local.shape[0]
+    clearance = np.empty(n)
+    closest = np.empty(n, dtype=np.int64)
+    colliding = np.zeros(n, dtype=np.bool_)
+    nx, ny, nz = shape[0], shape[1], shape[2]
+    for i in range(n):
+        best = np.inf
+        arg = 0
+        hit = False
+        for j in range(m):
+            p0 = rot[i, 0, 0] * local[j, 0] + rot[i, 0, 1] * local[j, 1] + rot[i, 0, 2] * local[j, 2] + trans[i, 0]
+            p1 = rot[i, 1, 0] * local[j, 0] + rot[i, 1, 1] * local[j, 1] + rot[i, 1, 2] * local[j, 2] + trans[i, 1]
+            p2 = rot[i, 2, 0] * local[j, 0] + rot[i, 2, 1] * local[j, 1] + rot[i, 2, 2] * local[j, 2] + trans[i, 2]
+            a = int(np.floor((p0 - lower[0]) / resolution))
+            b = int(np.floor((p1 - lower[1]) / resolution))
+            c = int(np.floor((p2 - lower[2]) / resolution))
+            if a < 0 or b < 0 or c < 0 or a >= nx or b >= ny or c >= nz:
+                hit = True
+                best = -np.inf
+                arg = j
+                break
+            flat = (a * ny + b) * nz + c
+            if occupied[flat]:
+                hit = True
+            d = sdf[flat]
+            if d < best:
+                best = d
+                arg = j
+        clearance[i] = best
+        closest[i] = arg
+        colliding[i] = hit
+    return clearance, closest, colliding
+
+
+class Clearance:
+    """Collision and clearance queries of a robot's surface points against a voxel grid."""
+
+    def __init__(self, robot: RobotModel, grid: VoxelGrid) -> None:
+        self.robot = robot
+        self.grid = grid
+        self.surface = np.asarray(robot.surface_indices(), dtype=np.int64)
+        self.sdf = np.ascontiguousarray(grid.sdf.reshape(-1), dtype=np.float64)
+        self.occupied = np.ascontiguousarray(grid.occupied.reshape(-1))
+        self.shape = np.asarray(grid.shape, dtype=np.int64)
+        self.lower = np.asarray(grid.lower, dtype=np.float64)
+        self.local = None
+
+    def query(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For configurations ``(n, d)``: clearance ``(n,)`` (m; ``-inf`` outside the grid), the index into
+        :attr:`surface` of the closest point ``(n,)``, and whether each collides ``(n,)``."""
+        q = np.atleast_2d(np.asarray(q, dtype=np.float64))
+        if len(q) == 0:
+            return np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)
+        placement = self.robot.rigid_placement(q)
+        if placement is not None:
+            rot, trans, local = placement
+            if self.local is None:
+                self.local = np.ascontiguousarray(local[self.surface])
+            return _rigid_clearance(np.ascontiguousarray(rot), np.ascontiguousarray(trans), self.local, self.sdf,
+                                    self.occupied, self.shape, self.lower, float(self.grid.resolution))
+        out = [self._articulated(q[s:s + CHUNK]) for s in range(0, len(q), CHUNK)]
+        return tuple(np.concatenate(parts) for parts in zip(*out))
+
+    def _articulated(self, q):
+        points = self.robot.body_points(q, self.surface)
+        flat = self.grid.flat_index(points)
+        outside = flat < 0
+        safe = np.where(outside, 0, flat)
+        distance = np.where(outside, -np.inf, self.sdf[safe])
+        colliding = (outside | self.occupied[safe]).any(axis=1)
+        closest = np.argmin(distance, axis=1)
+        return distance[np.arange(len(q)), closest], closest, colliding
+
+    def colliding(self, q: np.ndarray) -> np.ndarray:
+        """Bool ``(n,)``: configurations with a surface point in an occupied voxel or outside the grid."""
+        return self.query(q)[2]
