@@ -1,0 +1,83 @@
+"""Path-quality metrics of thesis ch. 6 against the kinematic simulation baseline, per cell of the thesis's grid.
+
+For each task (se3-peg-tight, se2-through-passage: docs/plugins/reachability.md) and each cell (epsilon_reached,
+alpha): Simulation (baseline) with --simulations runs (default: the thesis's 10,000 / 2,000), then one evaluation of
+each other method; P_exec, its absolute error against the baseline, seconds and simulated control steps (every
+robot counted).  Figures to reach: the reachable-volume metric within 0.05 of the baseline in every cell, <= 2 s
+per path on se3-peg-tight, >= 10x fewer simulated steps than the baseline.  The thesis's own numbers (Tables
+6.1-6.4, 16 threads) are printed beside.
+
+    pliant bench metric [-- --tasks se2-through-passage --simulations 2000 --set contact_horizon=12]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import print_table, write_json
+from pliant_reachability.evaluation import evaluate, task_density
+from pliant_reachability.tasks import METHODS, TASKS, THESIS_P_EXEC, THESIS_SECONDS, cells
+
+
+def _value(text: str):
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tasks", nargs="*", default=list(TASKS), choices=list(TASKS))
+    parser.add_argument("--simulations", type=int, default=None, help="baseline runs (default: the task's)")
+    parser.add_argument("--cells", type=int, default=9, help="first N cells of the grid (default 9)")
+    parser.add_argument("--set", action="append", default=[], help="metric option KEY=VALUE for every method")
+    args = parser.parse_args(argv)
+    options = {}
+    for item in args.set:
+        key, _, value = item.partition("=")
+        options[key] = _value(value)
+    results = []
+    for name in args.tasks:
+        task = TASKS[name]
+        density = task_density(task)
+        rows = []
+        for k, (eps, alpha) in enumerate(cells()[:args.cells]):
+            base = evaluate(name, "simulation", eps, alpha, 1, density, args.simulations, **options)
+            record = {"task": name, "epsilon": eps, "alpha": alpha, "baseline": base}
+            row = [f"{eps:g}/{alpha:g}", f"{base['p_exec']:.3f}", f"{base['seconds']:.1f}"]
+            for method in METHODS[1:]:
+                t0 = time.perf_counter()
+                r = evaluate(name, method, eps, alpha, 0, density, args.simulations, **options)
+                r["wall"] = time.perf_counter() - t0
+                record[method] = r
+                thesis = THESIS_P_EXEC[name].get(method)
+                row.append(f"{r['p_exec']:.3f} ({r['p_exec'] - base['p_exec']:+.3f})"
+                           + (f" [{thesis[k]:.2f}]" if thesis else ""))
+                row.append(f"{r['seconds']:.2f}")
+            steps = record["reachable-volume"]["simulated_steps"]
+            row.append(f"{base['simulated_steps'] / max(steps, 1):.0f}x")
+            rows.append(tuple(row))
+            results.append(record)
+            print(f"{name} {eps:g}/{alpha:g} done", flush=True)
+        header = ("eps/alpha", "baseline", "s")
+        for method in METHODS[1:]:
+            header += (f"{method} (error) [thesis]", "s")
+        runs = task.simulations if args.simulations is None else args.simulations
+        print_table(f"{name}: P_exec against the kinematic baseline ({runs} runs), density {density:.4g}",
+                    header + ("baseline steps / metric steps",), rows)
+        errors = [abs(r["reachable-volume"]["p_exec"] - r["baseline"]["p_exec"]) for r in results if r["task"] == name]
+        print(f"reachable-volume: largest error {max(errors):.3f}, mean {sum(errors) / len(errors):.3f}; "
+              f"thesis seconds (16 threads): {THESIS_SECONDS[name]['reachable-volume']}")
+    write_json("metric", {"options": options, "simulations": args.simulations, "results": results})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

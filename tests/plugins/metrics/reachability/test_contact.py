@@ -1,0 +1,72 @@
+"""Contact characterisation (thesis 6.4.3): projection to contact, sliding vs stuck, and the downstream check."""
+
+import numpy as np
+import pytest
+from pliant.voxelgrid import VoxelGrid
+from pliant_reachability.clearance import Clearance
+from pliant_reachability.contact import BECOMES_STUCK, SLIDING, STUCK, classify, downstream, project_to_contact
+from reachability_helpers import GOAL, START, metric, passage
+
+RES = 0.0025
+
+
+def test_near_configurations_are_projected_into_touching_contact():
+    context = passage()
+    clearance = Clearance(context.robot, VoxelGrid.from_scene(context.scene))
+    # the L below the wall with its top 4-8 mm from the wall's lower face (y = 0.275), beside the passage
+    q = np.array([[0.15, 0.125 - gap, 0.0] for gap in (0.004, 0.006, 0.008)])
+    before, _, _ = clearance.query(q)
+    projected, ok = project_to_contact(q, context.robot, clearance, iterations=6)
+    after, _, colliding = clearance.query(projected)
+    assert ok.all() and not colliding.any()
+    assert np.all(after <= 0.6 * RES) and np.all(before > after)
+    # a flat face onto a flat wall moves along the wall's normal (within 1/25 voxel sideways, 1 mrad)
+    assert np.allclose(projected[:, 0], 0.15, atol=1e-4) and np.allclose(projected[:, 2], 0.0, atol=1e-3)
+
+
+def test_pressing_beside_the_passage_is_stuck_and_sliding_through_it_is_not():
+    context = passage()
+    m = metric(context, epsilon_reached=0.125)
+    volumes = m.volumes(START, GOAL)
+    # 3.75 cm left of the passage, touching the wall: the command's sideways part is an eighth of it
+    blocked = np.array([0.2, 0.1245, 0.0])
+    aligned = np.array([0.2375, 0.2, 0.0])             # in line with the passage, the L's top in it
+    x = volumes.coordinates(np.array([blocked, aligned]))
+    contacts = classify(volumes, x, np.array([0, 0]), context.simulator, np.random.default_rng(0),
+                        stuck_fraction=0.2, stuck_steps=2, horizon=6, theta=0.26, axis=0.0)
+    assert list(contacts.label) == [STUCK, SLIDING]
+    assert contacts.simulated == 2 + 6                    # the stuck one stops after its two steps
+    assert np.isfinite(contacts.stuck_at[0]).all() and np.isnan(contacts.stuck_at[1]).all()
+
+
+def test_downstream_marks_sliding_configurations_beyond_a_stuck_one():
+    m = metric(passage(), epsilon_reached=0.125)
+    volumes = m.volumes(START, GOAL)
+    w = volumes.weights
+    axis = volumes.coordinates(START[None])[0]            # the path runs along -axis to the target
+    lateral = np.array([1.0, 0.0, 0.0]) / w[0]             # 1 weighted unit sideways (x)
+    x = np.array([axis * 0.5 + 0.01 * lateral,              # stuck, 0.01 to the side
+                  axis * 0.5 + 0.02 * lateral,              # sliding, farther on the same side: becomes stuck
+                  axis * 0.5 - 0.02 * lateral,              # sliding, the other side: stays
+                  axis * 0.5 + 0.005 * lateral])            # sliding, nearer the axis: stays
+    label = np.array([STUCK, SLIDING, SLIDING, SLIDING])
+    out = downstream(volumes, x, np.zeros(4, dtype=int), label, theta=0.26, axis=0.0)
+    assert list(out) == [STUCK, BECOMES_STUCK, SLIDING, SLIDING]
+    # a stuck contact of an earlier volume is upstream: it marks nothing; of a later volume it does
+    out = downstream(volumes, x, np.array([0, 1, 1, 1]), label, theta=0.26, axis=0.0)
+    assert list(out) == [STUCK, SLIDING, SLIDING, SLIDING]
+    out = downstream(volumes, x, np.array([1, 0, 0, 0]), label, theta=0.26, axis=0.0)
+    assert list(out) == [STUCK, BECOMES_STUCK, SLIDING, SLIDING]
+
+
+@pytest.mark.parametrize("turned, expected", [(True, 1.0), (False, 0.0)])
+def test_progress_counts_a_turn_carried_out_as_progress(turned, expected):
+    """A wedged peg turning at full speed is not stuck; one whose every motion is blocked is."""
+    m = metric(passage(), epsilon_reached=0.125)
+    volumes = m.volumes(START, GOAL)
+    q = np.array([[0.2375, 0.2, 0.5]])                    # 0.5 rad off: the rotation command is at its cap
+    command = volumes.law.velocity(q, GOAL) * volumes.law.dt
+    after = volumes.coordinates(q)
+    if turned:
+        after[:, 2] += command[:, 2]
+    assert volumes.progress(q, after)[0] == pytest.approx(expected)
