@@ -63,7 +63,7 @@ class ReachabilityOptions:
     image_samples: int = option(16, "Monte-Carlo futures per sample image (eq. 6.10)", minimum=1)
     stuck_steps: int = option(2, "successive control steps without progress that make a robot stuck, in simulated "
                               "executions and in the contact labels (thesis 6.5: 2)", minimum=1)
-    contact_horizon: int = option(6, "control steps each contact is simulated to tell sliding from stuck and "
+    contact_horizon: int = option(12, "control steps each contact is simulated to tell sliding from stuck and "
                                   "becoming stuck", minimum=1)
     step_allowance: float = option(3.0, "simulated executions end after this many times the number of reachable "
                                    "volumes of the pair", minimum=1.0)

@@ -15,3 +15,45 @@ def pliant_register(registrar):
                   description="P_exec from many kinematic-simulator executions (thesis 6.5's Simulation baseline)")
     registrar.add("metric", "simulation-scaled", f"{_MODULE}:ScaledSimulationMetric",
                   description="P_exec from as many executions as the largest reachable volume has samples (6.5)")
+
+
+@hookimpl
+def pliant_add_commands(subparsers):
+    import os
+
+    parser = subparsers.add_parser(
+        "metric-table", help="thesis Tables 6.1-6.4: the path-quality metrics in every cell of the thesis's grid",
+        description="Evaluate every ch. 6 metric --runs times in every cell (epsilon_reached, alpha) of each task; "
+                    "evaluations are written as they finish and resumed on a second call; tables.md, summary.json "
+                    "and a figure per task are written beside them.")
+    parser.add_argument("tasks", nargs="*", default=["se3-peg-tight", "se2-through-passage"],
+                        help="se3-peg-tight and/or se2-through-passage (default both)")
+    parser.add_argument("--runs", type=int, default=30, help="evaluations per method and cell (default 30)")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="evaluations at a time (default: cores)")
+    parser.add_argument("--methods", nargs="*", help="methods to run (default all four)")
+    parser.add_argument("--quick", action="store_true", help="CI-sized: 2 runs, 500 / 300 baseline simulations")
+    parser.add_argument("--fresh", action="store_true", help="forget the evaluations on file for these tasks")
+    parser.add_argument("--output", default="out", help="directory (default out; the tables go in metric-tables/)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a metric option for every method (e.g. contact_horizon=12)")
+    parser.set_defaults(handler=_table_command)
+
+
+def _table_command(args) -> int:
+    from pathlib import Path
+
+    from pliant.options import build_options
+    from pliant.pipeline import parse_override
+
+    from pliant_reachability.metrics import ReachabilityOptions
+    from pliant_reachability.tables import QUICK, run_tables
+
+    options = dict(parse_override(item, "--set") for item in args.set)
+    build_options(ReachabilityOptions, options, source="--set", prefix="metric")     # unknown or bad: an error now
+    runs = QUICK["runs"] if args.quick and args.runs == 30 else args.runs
+    run_tables(args.tasks, runs=runs, jobs=args.jobs, output=Path(args.output), fresh=args.fresh, quick=args.quick,
+               methods=args.methods, options=options)
+    directory = Path(args.output) / ("metric-tables-quick" if args.quick else "metric-tables")
+    print((directory / "tables.md").read_text())
+    print(f"written: {directory}/runs.jsonl, summary.json, tables.md and a figure per task")
+    return 0

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 EPSILONS = (0.125, 0.1875, 0.25)
 ALPHAS = (0.0625, 0.125, 0.25)
 METHODS = ("simulation", "simulation-scaled", "sampling-driven", "reachable-volume")
+GROUND_TRUTH = "ground truth"
 
 
 @dataclass(frozen=True)
@@ -41,10 +42,18 @@ class MetricTask:
     simulator: dict = field(default_factory=dict)
     simulations: int = 10000
     largest_volume_samples: int = 500
+    world: str = "pybullet"
+    world_options: dict = field(default_factory=dict)
 
     def simulator_options(self, alpha: float) -> dict:
         """The kinematic simulator's options in the cell with actuator error ``alpha``."""
         return {**self.simulator, "noise": "floor", "noise_linear": alpha, "noise_angular": alpha / 4}
+
+    def world_settings(self, alpha: float) -> dict:
+        """The ground truth's dynamic simulator options in the cell with actuator error ``alpha``."""
+        keep = ("kp", "velocity_limit", "angular_velocity_limit", "frequency")
+        base = {k: v for k, v in self.simulator.items() if k in keep}
+        return {**base, **self.world_options, "noise": "floor", "noise_linear": alpha, "noise_angular": alpha / 4}
 
 
 _TILT = (0.08715574274765817, 0.0, 0.0, 0.9961946980917455)     # 0.175 rad about x
@@ -54,12 +63,15 @@ TASKS = {
         "se3-peg-tight", "se3-peg-tight",
         ((0.151, 0.151, 0.16, *_TILT), (0.151, 0.151, 0.0625, 0.0, 0.0, 0.0, 1.0)),
         {"kp": 1.0, "velocity_limit": 0.1, "angular_velocity_limit": 0.25, "frequency": 10.0},
-        simulations=10000, largest_volume_samples=500),
+        simulations=10000, largest_volume_samples=500,
+        # the pulling constraint's force for a 25 g peg (the peg-tight-policy pipeline's measurement: 200 N jams it)
+        world="pybullet", world_options={"max_force": 0.2}),
     "se2-through-passage": MetricTask(
         "se2-through-passage", "se2-through-passage",
         ((0.2375, 0.12, 0.0), (0.2375, 0.42, 0.0)),
         {"kp": 1.0, "velocity_limit": 0.1, "angular_velocity_limit": 0.25, "frequency": 10.0},
-        simulations=2000, largest_volume_samples=250),
+        simulations=2000, largest_volume_samples=250,
+        world="pymunk"),
 }
 
 # The thesis's tables, cells in the order (epsilon, alpha) = (0.125, 0.0625), (0.125, 0.125), ... (0.25, 0.25).
