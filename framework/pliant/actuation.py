@@ -6,6 +6,7 @@ Thesis ch. 5 limits rigid bodies by the norm of their translation (m/s) and of t
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -75,6 +76,9 @@ class ControlLaw:
     linear_limit / angular_limit: speed limits (m/s, rad/s) of the translational and rotational parts.
     per_actuator: ``(t,)`` per-actuator limits instead, or ``None``.
     noise: the actuation noise model.
+    noise_draws: ``(q (n, d), velocity (n, t)) -> int``, how many independent noise draws the simulator averages
+        over one step (a simulator that draws noise per microstep, as the kinematic one does), or ``None`` for one
+        draw per step.  The spread of a step's noise shrinks with the square root of the draws.
     """
 
     space: Space
@@ -86,6 +90,7 @@ class ControlLaw:
     angular_limit: float
     per_actuator: np.ndarray | None
     noise: ActuationNoise
+    noise_draws: Callable[[np.ndarray, np.ndarray], int] | None = None
 
     def velocity(self, q: np.ndarray, target: np.ndarray) -> np.ndarray:
         """Commanded tangent velocities ``(n, t)`` (m/s, rad/s) at configurations ``(n, d)`` toward ``target``."""
@@ -96,6 +101,15 @@ class ControlLaw:
     def step(self, q: np.ndarray, target: np.ndarray) -> np.ndarray:
         """Noise-free configurations ``(n, d)`` one control step after ``q`` ``(n, d)``, with no obstacles."""
         return self.space.retract(q, self.velocity(q, target) * self.dt)
+
+    def step_noise(self, rng: np.random.Generator, q: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+        """The tangent displacement ``(n, t)`` the actuation error adds over one free step from ``q`` at
+        ``velocity``: ``dt`` times the mean of the simulator's draws (:attr:`noise_draws`)."""
+        draws = 1 if self.noise_draws is None else max(1, int(self.noise_draws(q, velocity)))
+        total = np.zeros(np.shape(velocity))
+        for _ in range(draws):
+            total += self.noise.sample(rng, velocity)
+        return total / draws * self.dt
 
     def noise_bounds(self, velocity: np.ndarray) -> np.ndarray:
         """Largest tangent displacement ``(n, t)`` the actuation error can add in one step at ``velocity``."""

@@ -44,7 +44,7 @@ class SamplingSettings:
     max_samples: int
     near_distance: float
     projection_iterations: int
-    stuck_fraction: float
+    stuck_distance: float
     theta: float
     axis: float
     image_samples: int
@@ -105,7 +105,7 @@ def sample_motion(volumes: ReachableVolumes, settings: SamplingSettings, robot: 
     t = len(volumes.weights)
     cx = np.concatenate(contact_x) if contact_x else np.zeros((0, t))
     cv = np.concatenate(contact_volume) if contact_volume else np.zeros(0, dtype=np.int64)
-    contacts = classify(volumes, cx, cv, simulator, rng, settings.stuck_fraction, settings.stuck_steps,
+    contacts = classify(volumes, cx, cv, simulator, rng, settings.stuck_distance, settings.stuck_steps,
                         settings.contact_horizon, settings.theta, settings.axis)
     return SampledMotion(volumes, xs, colliding, contacts)
 
@@ -164,8 +164,8 @@ def image_probability(sampled: SampledMotion, settings: SamplingSettings, cleara
 def sampling_driven_probability(sampled: SampledMotion, settings: SamplingSettings, simulator: Simulator,
                                 rng: np.random.Generator, max_steps: int) -> tuple[float, Rollouts | None]:
     """``P_exec`` by the sampling-driven method: 1 when no contact is stuck, else the fraction of ``RV_0``'s free
-    samples that, simulated, get nearer the target than every place a contact's simulation stuck (or reach
-    it) without sticking.
+    samples that, simulated, get nearer the target than every place a contact's simulation stuck, by the expected
+    sample spacing (or reach it), without sticking.
 
     The thesis simulates until the robots "reach ``RV_(s+1)``", the volume after the last one holding a stuck
     sample; but the obstacle-free volumes are boxes that also hold the stuck robots, so "past the stuck
@@ -175,10 +175,89 @@ def sampling_driven_probability(sampled: SampledMotion, settings: SamplingSettin
         return 1.0, None
     volumes = sampled.volumes
     ends = contacts.stuck_at[np.all(np.isfinite(contacts.stuck_at), axis=1)]
+    # nearer than every place a contact stuck, by the expected sample spacing (2 * axis): a robot stuck beside a
+    # sampled one is not past it
     past = float(np.min(volumes.distance_to_target(ends if len(ends) else contacts.x[contacts.stuckish])))
+    past -= 2.0 * settings.axis
     starts = volumes.configurations(sampled.x[0][~sampled.colliding[0]])
     if len(starts) == 0:
         return 0.0, Rollouts(np.zeros(0, dtype=bool), 0)
-    result = rollout(volumes, starts, simulator, rng, stuck_fraction=settings.stuck_fraction,
+    result = rollout(volumes, starts, simulator, rng, stuck_distance=settings.stuck_distance,
                      stuck_steps=settings.stuck_steps, max_steps=max_steps, past=past)
     return result.probability, result
+
+
+@dataclass
+class PropagatedMotion:
+    """The particles of :func:`propagated_probability`: per particle, whether it survived, and the work done."""
+
+    survived: np.ndarray
+    events: int
+    labelled: int
+    simulated: int
+    checked: int
+
+
+def propagated_probability(volumes: ReachableVolumes, settings: SamplingSettings, clearance: Clearance,
+                           simulator: Simulator, rng: np.random.Generator, starts: np.ndarray,
+                           labelled: int, max_steps: int, bisections: int = 5) -> tuple[float, PropagatedMotion]:
+    """``P_exec`` of the motion from particles of the obstacle-free distribution (``distribution = "propagated"``).
+
+    The thesis samples each reachable volume uniformly, which over-weights the volume's rim where robots rarely
+    are (its 6.6 names this the metric's main source of error), and multiplies per-volume means as if the volumes
+    were independent.  Here the samples of ``RV_j`` are instead particles of the controller's obstacle-free
+    distribution at step ``j`` (``starts``, uniform in the start ball, moved one noisy control step at a time with
+    eq. 6.14's noise drawn as the simulator draws it, :meth:`pliant.actuation.ControlLaw.step_noise`; they stay
+    inside the volumes by Theorem 2), and each particle's own path is followed: where
+    its step from a free configuration into a colliding one first meets the contact manifold (bisection on the
+    step, as for the images) is a *contact event*.  Up to ``labelled`` events, chosen at random, are labelled by
+    simulating them until they reach the target, stick, or run out of the executions' step budget
+    (``max_steps``, which counts as stuck: a jammed robot jitters without arriving) with
+    :func:`~.contact.classify` -- the simulation sees a slide that ends stuck, so the thesis's downstream
+    heuristic is not applied;
+    every other event takes the label of the nearest labelled one (the thesis's stuck-region lookup).  Only a
+    particle's first event counts: after it the robot slides or sticks, while the particle, which ignores
+    obstacles, goes on through them.  ``P_exec`` is the fraction of particles whose first event is not stuck.
+    """
+    law, w = volumes.law, volumes.weights
+    q = np.array(starts, dtype=np.float64)
+    n = len(q)
+    free = ~clearance.colliding(q)
+    checked = n
+    met = np.zeros(n, dtype=bool)
+    event_particle, event_x = [], []
+    for _ in range(len(volumes) - 1):
+        velocity = law.velocity(q, volumes.target)
+        step = velocity * law.dt + law.step_noise(rng, q, velocity)
+        q_next = law.space.retract(q, step)
+        colliding = clearance.colliding(q_next)
+        checked += n
+        meets = np.nonzero(free & colliding & ~met)[0]
+        met[meets] = True
+        if len(meets):
+            free_end = volumes.coordinates(q[meets])
+            hit_end = volumes.coordinates(q_next[meets])
+            for _ in range(bisections):
+                middle = 0.5 * (free_end + hit_end)
+                collides = clearance.colliding(volumes.configurations(middle))
+                checked += len(middle)
+                hit_end = np.where(collides[:, None], middle, hit_end)
+                free_end = np.where(collides[:, None], free_end, middle)
+            event_particle.append(meets)
+            event_x.append(free_end)
+        q, free = q_next, ~colliding
+    survived = np.ones(n, dtype=bool)
+    if not event_particle:
+        return 1.0, PropagatedMotion(survived, 0, 0, 0, checked)
+    particle = np.concatenate(event_particle)
+    x = np.concatenate(event_x)
+    chosen = rng.choice(len(x), size=min(labelled, len(x)), replace=False)
+    contacts = classify(volumes, x[chosen], np.zeros(len(chosen), dtype=np.int64), simulator, rng,
+                        settings.stuck_distance, settings.stuck_steps, max_steps, settings.theta, settings.axis,
+                        check_downstream=False, unresolved_stuck=True)
+    stuck = np.zeros(len(x), dtype=bool)
+    for s in range(0, len(x), 2048):                   # nearest labelled event, in weighted coordinates
+        d = np.linalg.norm((x[s:s + 2048, None, :] - contacts.x[None, :, :]) * w, axis=2)
+        stuck[s:s + 2048] = contacts.stuckish[np.argmin(d, axis=1)]
+    survived[particle[stuck]] = False
+    return float(np.mean(survived)), PropagatedMotion(survived, len(x), len(chosen), contacts.simulated, checked)

@@ -10,13 +10,12 @@ clearance ``h/2``), none in an occupied one; at most ``iterations`` steps.  A st
 the thesis does).
 
 Sliding or stuck.  Each contacting configuration is simulated toward the target, one control step at a time,
-for ``horizon`` steps: it is *stuck* when it carries out less than ``stuck_fraction`` of the controller's
-command (:meth:`~.volumes.ReachableVolumes.progress`) in each of its first ``stuck_steps`` steps, *becomes stuck*
-when that happens later within the horizon, else it *slides* -- the same test that ends a simulated execution
-(:mod:`.rollout`), so the metric and the simulation baselines mean the same thing by "stuck".  The thesis
-simulates one step and compares progress toward the target with ``Delta_stuck``, and finds sliding
-configurations that stick later only by the downstream check below; docs/plugins/reachability.md says why
-both are extended here.
+for ``horizon`` steps: it is *stuck* when its first ``stuck_steps`` steps move it less than ``stuck_distance``
+in all (weighted), *becomes stuck* when some later window of ``stuck_steps`` steps does, else it *slides* --
+the test that ends a simulated execution (:mod:`.rollout`, the contact controller's), so that the metric and
+the simulation baselines mean the same thing by "stuck".  The thesis simulates one step and compares progress
+toward the target with ``Delta_stuck``, and finds sliding configurations that stick later only by the
+downstream check below; docs/plugins/reachability.md says why both are extended here.
 
 Downstream.  A robot may slide for a while and then stick.  With ``r(q)`` the rejection of the motion
 ``q -> b`` from the path's direction ``a -> b`` (weighted coordinates), a sliding ``q_s`` *becomes stuck* when
@@ -33,6 +32,7 @@ import numpy as np
 from pliant.interfaces import RobotModel, Simulator
 
 from pliant_reachability.clearance import Clearance
+from pliant_reachability.rollout import StuckWindow
 from pliant_reachability.volumes import ReachableVolumes
 
 SLIDING, STUCK, BECOMES_STUCK = 0, 1, 2
@@ -107,32 +107,36 @@ def project_to_contact(q: np.ndarray, robot: RobotModel, clearance: Clearance, i
 
 
 def classify(volumes: ReachableVolumes, x: np.ndarray, volume: np.ndarray, simulator: Simulator,
-             rng: np.random.Generator, stuck_fraction: float, stuck_steps: int, horizon: int, theta: float,
-             axis: float) -> Contacts:
-    """Label contacting coordinates ``(k, t)`` sliding / stuck / becoming stuck (thesis 6.4.3)."""
+             rng: np.random.Generator, stuck_distance: float, stuck_steps: int, horizon: int, theta: float,
+             axis: float, check_downstream: bool = True, unresolved_stuck: bool = False) -> Contacts:
+    """Label contacting coordinates ``(k, t)`` sliding / stuck / becoming stuck (thesis 6.4.3); without
+    ``check_downstream`` only the simulation labels them; with ``unresolved_stuck`` a contact that neither reached
+    the target nor stuck within the horizon (a robot jammed and jittering) becomes stuck instead of sliding."""
     label = np.zeros(len(x), dtype=np.int64)
     stuck_at = np.full(x.shape, np.nan)
     if len(x) == 0:
         return Contacts(x, volume, label, 0, stuck_at)
     q = volumes.configurations(x)
-    stalled = np.zeros(len(x), dtype=np.int64)
     active = np.ones(len(x), dtype=bool)
+    window = StuckWindow(len(x), stuck_steps, stuck_distance)
     simulated = 0
     for step in range(1, max(horizon, stuck_steps) + 1):
         idx = np.nonzero(active)[0]
         if len(idx) == 0:
             break
-        before = q[idx].copy()
+        before = volumes.coordinates(q[idx])
         q[idx] = simulator.simulate(q[idx], volumes.target, rng, volumes.law.dt).final
         simulated += len(idx)
         after = volumes.coordinates(q[idx])
-        stalled[idx] = np.where(volumes.progress(before, after) < stuck_fraction, stalled[idx] + 1, 0)
         reached = volumes.distance_to_target(after) <= volumes.epsilon
-        stuck = (stalled[idx] >= stuck_steps) & ~reached
+        stuck = window.add(idx, np.linalg.norm((after - before) * volumes.weights, axis=1)) & ~reached
         label[idx[stuck]] = STUCK if step == stuck_steps else BECOMES_STUCK
         stuck_at[idx[stuck]] = after[stuck]
         active[idx[stuck | reached]] = False
-    label = downstream(volumes, x, volume, label, theta, axis)
+    if unresolved_stuck:
+        label[active] = BECOMES_STUCK
+    if check_downstream:
+        label = downstream(volumes, x, volume, label, theta, axis)
     return Contacts(x, volume, label, simulated, stuck_at)
 
 

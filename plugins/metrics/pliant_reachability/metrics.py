@@ -29,6 +29,7 @@ from pliant.voxelgrid import VoxelGrid
 from pliant_reachability.assess import (
     SamplingSettings,
     image_probability,
+    propagated_probability,
     sample_counts,
     sample_motion,
     sampling_driven_probability,
@@ -56,13 +57,19 @@ class ReachabilityOptions:
     near_distance: float = option(3.0, "near contact: a surface point within this many voxels of an obstacle "
                                   "(voxel-centre signed distance)", minimum=0.0)
     projection_iterations: int = option(6, "steps of the projection to contact (eq. 6.9)", minimum=1)
-    stuck_fraction: float = option(0.2, "a step makes no progress when the robot carries out less than this fraction "
-                                   "of the controller's command (translation or rotation)", minimum=0.0, maximum=1.0)
+    stuck_distance: float = option(0.01, "stuck: the robot's motion over stuck_steps control steps is shorter than "
+                                   "this (weighted units; the contact controller's test and default)", minimum=0.0)
     theta: float = option(0.26, "downstream check: largest angle (rad) between rejections", minimum=0.0,
                           maximum=3.1416)
+    distribution: str = option("propagated", "reachable-volume: samples of each volume uniform in its box ('uniform', "
+                               "the thesis) or particles of the obstacle-free controller distribution ('propagated')",
+                               choices=("uniform", "propagated"))
+    particles: int = option(2000, "propagated: particles per waypoint pair", minimum=1)
+    labelled: int = option(300, "propagated: contact events labelled by simulation; the others take the nearest "
+                           "one's label", minimum=1)
     image_samples: int = option(16, "Monte-Carlo futures per sample image (eq. 6.10)", minimum=1)
-    stuck_steps: int = option(2, "successive control steps without progress that make a robot stuck, in simulated "
-                              "executions and in the contact labels (thesis 6.5: 2)", minimum=1)
+    stuck_steps: int = option(5, "the window of control steps of the stuck test, in simulated executions and in the "
+                              "contact labels (the contact controller's default; thesis 6.5: 2 steps)", minimum=1)
     contact_horizon: int = option(12, "control steps each contact is simulated to tell sliding from stuck and "
                                   "becoming stuck", minimum=1)
     step_allowance: float = option(3.0, "simulated executions end after this many times the number of reachable "
@@ -104,7 +111,7 @@ class ReachabilityMetric(PathMetric):
     def settings(self, volumes: ReachableVolumes) -> SamplingSettings:
         o = self.options
         return SamplingSettings(self.density(volumes), o.max_samples, o.near_distance, o.projection_iterations,
-                                o.stuck_fraction, o.theta, 0.5 * self.density(volumes) ** (-1.0 / len(self.weights)),
+                                o.stuck_distance, o.theta, 0.5 * self.density(volumes) ** (-1.0 / len(self.weights)),
                                 o.image_samples, o.stuck_steps, o.contact_horizon)
 
     def max_steps(self, volumes: ReachableVolumes) -> int:
@@ -131,12 +138,16 @@ class ReachabilityMetric(PathMetric):
         raise NotImplementedError
 
     def starts(self, volumes: ReachableVolumes, rng: np.random.Generator, n: int) -> np.ndarray:
-        """``n`` collision-free configurations uniform in the start ball (rejection; at most 20 rounds)."""
+        """``n`` configurations uniform in the start ball that neither collide nor touch (no surface point in a
+        voxel next to an obstacle, so that a dynamic simulator's finer geometry also starts free); rejection, at
+        most 20 rounds."""
         found = []
         count = 0
+        touching = 0.6 * self.clearance.grid.resolution
         for _ in range(20):
             q = volumes.sample_start_ball(rng, max(n - count, 1) * 2)
-            q = q[~self.clearance.colliding(q)][:n - count]
+            distance, _, colliding = self.clearance.query(q)
+            q = q[~colliding & (distance > touching)][:n - count]
             found.append(q)
             count += len(q)
             if count >= n:
@@ -152,6 +163,14 @@ class ReachableVolumeMetric(ReachabilityMetric):
 
     def pair(self, volumes, rng, totals):
         settings = self.settings(volumes)
+        if self.options.distribution == "propagated":
+            starts = self.starts(volumes, rng, self.options.particles)
+            p, motion = propagated_probability(volumes, settings, self.clearance, self.simulator, rng, starts,
+                                               self.options.labelled, self.max_steps(volumes))
+            totals["samples"] += len(starts) * len(volumes)
+            totals["contacts"] += motion.events
+            totals["simulated_steps"] += motion.simulated
+            return p
         sampled = sample_motion(volumes, settings, self.robot, self.clearance, self.simulator, rng)
         totals["samples"] += sampled.sample_count
         totals["contacts"] += len(sampled.contacts.x)
@@ -184,7 +203,7 @@ class SimulationMetric(ReachabilityMetric):
     def pair(self, volumes, rng, totals):
         starts = self.starts(volumes, rng, self.executions(volumes))
         o = self.options
-        result = rollout(volumes, starts, self.simulator, rng, stuck_fraction=o.stuck_fraction,
+        result = rollout(volumes, starts, self.simulator, rng, stuck_distance=o.stuck_distance,
                          stuck_steps=o.stuck_steps, max_steps=self.max_steps(volumes))
         totals["samples"] += len(starts)
         totals["simulated_steps"] += result.steps

@@ -10,7 +10,8 @@ Volumes.  ``RV_0`` is the ``epsilon_reached`` ball around ``a`` (where the robot
 target), bounded by the box of half-widths ``epsilon / w_d``.  Each further volume is the box bounding one
 control step of every configuration of the previous one (eq. 6.1-6.2): the controller's noise-free step
 (:class:`pliant.actuation.ControlLaw`, which caps the command's norm like the simulator does) evaluated at the
-box's corners, the centres of its faces and its centre, widened per dimension by the largest displacement
+box's corners, the centres of its faces, its centre and its point nearest the target (which, within one step
+of the target, lands on it), widened per dimension by the largest displacement
 the actuation error can add in one step (eq. 6.7-6.8 with ``F`` of eq. 6.14).  For a per-dimension
 proportional controller these points give eq. 6.3-6.8's bounds exactly; with the norm cap they are a close
 approximation.  The sequence ends with the first volume whose every evaluated point lies within
@@ -34,7 +35,8 @@ def tangent_weights(law: ControlLaw, translation_weight: float, rotation_weight:
 
 
 def _box_points(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """The corners, face centres and centre of a box, ``(2^t + 2t + 1, t)``."""
+    """The corners, face centres and centre of a box and its point nearest the target (the origin),
+    ``(2^t + 2t + 2, t)``."""
     t = len(lower)
     centre = 0.5 * (lower + upper)
     corners = np.array(list(itertools.product((0, 1), repeat=t)), dtype=np.float64)
@@ -43,7 +45,7 @@ def _box_points(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     for d in range(t):
         faces[2 * d, d] = lower[d]
         faces[2 * d + 1, d] = upper[d]
-    points += [faces, centre[None]]
+    points += [faces, centre[None], np.clip(np.zeros(t), lower, upper)[None]]
     return np.concatenate(points)
 
 
@@ -87,36 +89,9 @@ class ReachableVolumes:
         """Weighted distance ``(n,)`` of coordinates ``(n, t)`` to the target."""
         return np.linalg.norm(np.atleast_2d(x) * self.weights, axis=1)
 
-    def progress(self, q_before: np.ndarray, x_after: np.ndarray) -> np.ndarray:
-        """How much of one control step's command a robot carried out, ``(n,)``.
-
-        Motions are measured in each actuator group's own speed limit per step (translation and rotation of a
-        rigid body, by the norm; each joint with per-actuator limits): progress is the largest group motion made
-        over the largest group motion commanded by the noise-free controller.  A peg wedged in a hole that
-        turns at its full angular speed while its translation is blocked is not stuck (1.0), however small the
-        rotation is in weighted units; a body pressed against a wall that creeps sideways at a tenth of its
-        speed while correcting a tiny rotation is (about 0.1).
-        """
-        law = self.law
-        q_before = np.atleast_2d(q_before)
-        command = law.velocity(q_before, self.target) * law.dt
-        motion = np.atleast_2d(x_after) - self.coordinates(q_before)
-        if law.per_actuator is not None:
-            scale = law.per_actuator * law.dt
-            made = np.max(np.abs(motion) / scale, axis=1)
-            commanded = np.max(np.abs(command) / scale, axis=1)
-        else:
-            made = np.zeros(len(q_before))
-            commanded = np.zeros(len(q_before))
-            for group, limit in ((~law.angular, law.linear_limit), (law.angular, law.angular_limit)):
-                if group.any():
-                    made = np.maximum(made, np.linalg.norm(motion[:, group], axis=1) / (limit * law.dt))
-                    commanded = np.maximum(commanded, np.linalg.norm(command[:, group], axis=1) / (limit * law.dt))
-        return np.where(commanded > 1e-12, made / np.maximum(commanded, 1e-300), 1.0)
-
     def contains(self, index: int, x: np.ndarray) -> np.ndarray:
-        """Bool ``(n,)``: which coordinates lie in volume ``index``'s box."""
-        return np.all((x >= self.lower[index]) & (x <= self.upper[index]), axis=1)
+        """Bool ``(n,)``: which coordinates lie in volume ``index``'s box (to within 1e-9, rounding)."""
+        return np.all((x >= self.lower[index] - 1e-9) & (x <= self.upper[index] + 1e-9), axis=1)
 
     def sample_start_ball(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """``n`` configurations uniform in the ``epsilon`` ball around ``a`` (weighted tangent of ``a``)."""

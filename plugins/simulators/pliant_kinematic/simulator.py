@@ -172,7 +172,8 @@ class KinematicSimulator(Simulator):
         """The P law of :meth:`simulate` (eq. 8.1-8.2; ``kd`` recorded), its limits and noise."""
         o = self.options
         return ControlLaw(self.space, o.kp, o.kd, self.dt, self.angular, o.velocity_limit, o.angular_velocity_limit,
-                          self.limits if self.per_actuator else None, self.noise)
+                          self.limits if self.per_actuator else None, self.noise,
+                          lambda q, velocity: self.microsteps(q, velocity, self.dt))
 
     # --- simulation ---------------------------------------------------------------------------
 
@@ -246,20 +247,7 @@ class KinematicSimulator(Simulator):
     def _advance(self, q, velocity, dt, rng):
         """Apply ``velocity`` ``(n, t)`` for ``dt`` seconds in microsteps; returns (q, touched, microsteps)."""
         n = len(q)
-        delta = velocity * dt
-        surface = self.surface
-        # the farthest any surface point can move this step, noise included, sets the microstep count
-        bound = delta + np.where(delta >= 0, 1.0, -1.0) * self.noise.limits(velocity) * dt
-        if self.reach_radius is not None:
-            # a rigid body's points move at most |translation| + |rotation| * (farthest point's radius)
-            linear = np.linalg.norm(bound[:, ~self.angular], axis=1)
-            angular = np.linalg.norm(bound[:, self.angular], axis=1) if self.angular.any() else 0.0
-            travel = float(np.max(linear + angular * self.reach_radius))
-        else:
-            p0 = self.robot.body_points(q, surface)
-            p1 = self.robot.body_points(self.space.retract(q, bound), surface)
-            travel = float(np.max(np.linalg.norm(p1 - p0, axis=2))) if p0.size else 0.0
-        micro = max(1, math.ceil(travel / (self.options.step_fraction * self.grid.resolution)))
+        micro = self.microsteps(q, velocity, dt)
         scale = np.ones(n)
         halvings = np.zeros(n, dtype=int)
         self._broad_phase = None          # distances are measured afresh each control step
@@ -275,6 +263,22 @@ class KinematicSimulator(Simulator):
                 halvings[failed] += 1
                 scale[failed] = np.where(halvings[failed] > self.options.max_halvings, 0.0, scale[failed] * 0.5)
         return q, touched, micro
+
+    def microsteps(self, q: np.ndarray, velocity: np.ndarray, dt: float) -> int:
+        """Microsteps of one step of ``dt`` s at ``velocity`` ``(n, t)`` from ``q`` ``(n, d)``: enough that no surface
+        point of any particle moves more than ``step_fraction`` of a voxel, noise included (one count per batch)."""
+        delta = velocity * dt
+        bound = delta + np.where(delta >= 0, 1.0, -1.0) * self.noise.limits(velocity) * dt
+        if self.reach_radius is not None:
+            # a rigid body's points move at most |translation| + |rotation| * (farthest point's radius)
+            linear = np.linalg.norm(bound[:, ~self.angular], axis=1)
+            angular = np.linalg.norm(bound[:, self.angular], axis=1) if self.angular.any() else 0.0
+            travel = float(np.max(linear + angular * self.reach_radius))
+        else:
+            p0 = self.robot.body_points(q, self.surface)
+            p1 = self.robot.body_points(self.space.retract(q, bound), self.surface)
+            travel = float(np.max(np.linalg.norm(p1 - p0, axis=2))) if p0.size else 0.0
+        return max(1, math.ceil(travel / (self.options.step_fraction * self.grid.resolution)))
 
     def _microstep(self, q, step):
         """One microstep with RESOLVECOLLISIONS; returns (q, converged, touched) per particle."""
