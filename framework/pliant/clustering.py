@@ -266,6 +266,15 @@ def _segments_free(a: np.ndarray, b: np.ndarray, context: ClusteringContext) -> 
     return ~padded[flat].reshape(len(a), -1).any(axis=1)
 
 
+def ac_connected(a: np.ndarray, b: np.ndarray, context: ClusteringContext) -> np.ndarray:
+    """Bool ``(n,)``: configurations ``a[i]`` and ``b[i]`` (``(n, d)`` each) are AC-connected, the segments between
+    their corresponding actuation centres free (thesis 5.3.3; used by the path metric's reachability check, 6.6.2)."""
+    a, b = np.atleast_2d(a), np.atleast_2d(b)
+    if len(a) == 0:
+        return np.zeros(0, dtype=bool)
+    return _segments_free(actuation_centres(a, context), actuation_centres(b, context), context)
+
+
 def ac_distances(q: np.ndarray, context: ClusteringContext, pairs: tuple[np.ndarray, np.ndarray] | None = None
                  ) -> np.ndarray:
     """``(n, n)`` AC distances: 0 when the segments between corresponding actuation centres are free, else 1."""

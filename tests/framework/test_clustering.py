@@ -256,3 +256,14 @@ def test_bad_input_names_the_field_and_value():
             call()
         assert isinstance(info.value, PliantError)
         assert info.value.field == field and value in str(info.value), str(info.value)
+
+
+def test_ac_connected_pairs_configurations_one_to_one():
+    from pliant.clustering import ac_connected
+
+    cc = maze()
+    # the middle and right passages are 0.5 m of wall apart; within one passage the segment is free
+    a = np.array([MIDDLE, MIDDLE, RIGHT])
+    b = np.array([RIGHT, (4.5, 5.0, 0.0), RIGHT])
+    assert ac_connected(a, b, cc).tolist() == [False, True, True]
+    assert ac_connected(a[:0], b[:0], cc).shape == (0,)

@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from pliant.clustering import ClusteringContext, ac_connected
 from pliant.interfaces import RobotModel, Simulator
 from pliant.noise import truncated_normal
 
@@ -82,9 +83,24 @@ def sample_counts(volumes: ReachableVolumes, density: float, max_samples: int) -
     return np.clip(np.round(density * np.prod(sides, axis=1)), 1, max_samples).astype(np.int64)
 
 
+def reachable_from(x: np.ndarray, previous: np.ndarray, volumes: ReachableVolumes, context: ClusteringContext
+                   ) -> np.ndarray:
+    """Bool ``(n,)``: the samples ``x`` whose nearest sample of the previous volume (weighted) is AC-connected to them
+    (thesis 6.6.2 with the clustering of 5.3.3, :func:`pliant.clustering.ac_connected`)."""
+    if len(previous) == 0 or len(x) == 0:
+        return np.zeros(len(x), dtype=bool)
+    nearest = np.empty(len(x), dtype=np.int64)
+    for s in range(0, len(x), 1024):
+        d = np.linalg.norm((x[s:s + 1024, None, :] - previous[None, :, :]) * volumes.weights, axis=2)
+        nearest[s:s + 1024] = np.argmin(d, axis=1)
+    return ac_connected(volumes.configurations(x), volumes.configurations(previous[nearest]), context)
+
+
 def sample_motion(volumes: ReachableVolumes, settings: SamplingSettings, robot: RobotModel, clearance: Clearance,
-                  simulator: Simulator, rng: np.random.Generator) -> SampledMotion:
-    """Sample, sort and label (thesis 6.4.2-6.4.3); see the module docstring."""
+                  simulator: Simulator, rng: np.random.Generator,
+                  reachability: ClusteringContext | None = None) -> SampledMotion:
+    """Sample, sort and label (thesis 6.4.2-6.4.3); see the module docstring.  With ``reachability``, samples not
+    reachable from the previous volume's (:func:`reachable_from`) are set aside with the colliding ones."""
     counts = sample_counts(volumes, settings.density, settings.max_samples)
     xs, colliding, contact_x, contact_volume = [], [], [], []
     near_limit = settings.near_distance * clearance.grid.resolution
@@ -92,6 +108,8 @@ def sample_motion(volumes: ReachableVolumes, settings: SamplingSettings, robot: 
         x = volumes.sample(i, rng, int(n))
         q = volumes.configurations(x)
         dist, _, col = clearance.query(q)
+        if reachability is not None and i > 0:
+            col = col | ~reachable_from(x, xs[-1][~colliding[-1]], volumes, reachability)
         xs.append(x)
         colliding.append(col)
         near = np.nonzero(~col & (dist <= near_limit))[0]

@@ -20,6 +20,7 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
+from pliant.clustering import ClusteringContext
 from pliant.errors import ConfigError, DimensionError, PlanningError
 from pliant.interfaces import PathMetric, PlanningProblem
 from pliant.options import option
@@ -64,6 +65,9 @@ class ReachabilityOptions:
     distribution: str = option("propagated", "reachable-volume: samples of each volume uniform in its box ('uniform', "
                                "the thesis) or particles of the obstacle-free controller distribution ('propagated')",
                                choices=("uniform", "propagated"))
+    reachability: str = option("none", "uniform: set aside samples not reachable from the previous volume's, by the "
+                               "clustering of thesis 5.3.3 ('ac': the nearest previous sample's actuation centre "
+                               "connects by a free segment; thesis 6.6.2)", choices=("none", "ac"))
     particles: int = option(2000, "propagated: particles per waypoint pair", minimum=1)
     labelled: int = option(300, "propagated: contact events labelled by simulation; the others take the nearest "
                            "one's label", minimum=1)
@@ -96,7 +100,10 @@ class ReachabilityMetric(PathMetric):
                                 f"'kinematic'); {type(self.simulator).__name__} has none", field="simulator")
         self.law = law
         self.weights = tangent_weights(law, self.options.translation_weight, self.options.rotation_weight)
-        self.clearance = Clearance(self.robot, VoxelGrid.from_scene(self.require("scene")))
+        grid = VoxelGrid.from_scene(self.require("scene"))
+        self.clearance = Clearance(self.robot, grid)
+        self.clustering = ClusteringContext.from_context(context, grid=grid) \
+            if self.options.reachability == "ac" else None
 
     def volumes(self, a: np.ndarray, b: np.ndarray) -> ReachableVolumes:
         """The reachable volumes of the motion ``a -> b``."""
@@ -171,7 +178,7 @@ class ReachableVolumeMetric(ReachabilityMetric):
             totals["contacts"] += motion.events
             totals["simulated_steps"] += motion.simulated
             return p
-        sampled = sample_motion(volumes, settings, self.robot, self.clearance, self.simulator, rng)
+        sampled = sample_motion(volumes, settings, self.robot, self.clearance, self.simulator, rng, self.clustering)
         totals["samples"] += sampled.sample_count
         totals["contacts"] += len(sampled.contacts.x)
         totals["simulated_steps"] += sampled.contacts.simulated
@@ -184,7 +191,7 @@ class SamplingDrivenMetric(ReachabilityMetric):
 
     def pair(self, volumes, rng, totals):
         settings = self.settings(volumes)
-        sampled = sample_motion(volumes, settings, self.robot, self.clearance, self.simulator, rng)
+        sampled = sample_motion(volumes, settings, self.robot, self.clearance, self.simulator, rng, self.clustering)
         totals["samples"] += sampled.sample_count
         totals["contacts"] += len(sampled.contacts.x)
         totals["simulated_steps"] += sampled.contacts.simulated

@@ -66,3 +66,19 @@ def test_downstream_marks_sliding_configurations_beyond_a_stuck_one():
     assert list(out) == [STUCK, SLIDING, SLIDING, SLIDING]
     out = downstream(volumes, x, np.array([1, 0, 0, 0]), label, theta=0.26, axis=0.0)
     assert list(out) == [STUCK, BECOMES_STUCK, SLIDING, SLIDING]
+
+
+def test_reachability_sets_aside_samples_behind_a_wall():
+    """Thesis 6.6.2: a sample whose nearest previous sample lies across the wall is not reachable from it."""
+    from pliant.clustering import ClusteringContext
+    from pliant_reachability.assess import reachable_from
+
+    context = passage()
+    m = metric(context)
+    volumes = m.volumes(START, GOAL)
+    clustering = ClusteringContext.from_context(context)
+    previous = volumes.coordinates(np.array([[0.1, 0.2, 0.0]]))                 # below the wall, left of the gap
+    x = volumes.coordinates(np.array([[0.1, 0.4, 0.0],                          # straight above, across the wall
+                                      [0.2375, 0.2, 0.0]]))                     # beside it, in free space
+    assert list(reachable_from(x, previous, volumes, clustering)) == [False, True]
+    assert list(reachable_from(x, previous[:0], volumes, clustering)) == [False, False]
