@@ -145,24 +145,30 @@ class ReachabilityMetric(PathMetric):
         raise NotImplementedError
 
     def starts(self, volumes: ReachableVolumes, rng: np.random.Generator, n: int) -> np.ndarray:
-        """``n`` configurations uniform in the start ball that neither collide nor touch (no surface point in a
-        voxel next to an obstacle, so that a dynamic simulator's finer geometry also starts free); rejection, at
-        most 20 rounds."""
-        found = []
-        count = 0
+        """``n`` configurations uniform in the start ball's free part: preferably ones that do not touch (no surface
+        point in a voxel next to an obstacle, so that a dynamic simulator's finer geometry also starts free), else,
+        where the ball lies in a passage narrower than that, free ones that touch.  Rejection sampling with a
+        budget of ``100 n`` (at least a million) draws; none free is an error."""
         touching = 0.6 * self.clearance.grid.resolution
-        for _ in range(20):
-            q = volumes.sample_start_ball(rng, max(n - count, 1) * 2)
+        kept, fallback = [], []
+        count, drawn, budget = 0, 0, max(100 * n, 10**6)
+        while count < n and drawn < budget:
+            batch = min(max(4 * (n - count), 4096), budget - drawn)
+            q = volumes.sample_start_ball(rng, batch)
+            drawn += batch
             distance, _, colliding = self.clearance.query(q)
-            q = q[~colliding & (distance > touching)][:n - count]
-            found.append(q)
-            count += len(q)
-            if count >= n:
-                break
+            good = q[~colliding & (distance > touching)][:n - count]
+            kept.append(good)
+            count += len(good)
+            if sum(len(f) for f in fallback) < n:
+                fallback.append(q[~colliding & (distance <= touching)])
         if count == 0:
-            raise PlanningError("the epsilon_reached ball around a waypoint lies inside obstacles",
-                                field="path", value=volumes.start.tolist())
-        return np.concatenate(found)
+            q = np.concatenate(fallback) if fallback else np.zeros((0, len(volumes.start)))
+            if len(q) == 0:
+                raise PlanningError("the epsilon_reached ball around a waypoint lies inside obstacles",
+                                    field="path", value=volumes.start.tolist())
+            return q[:n]
+        return np.concatenate(kept)
 
 
 class ReachableVolumeMetric(ReachabilityMetric):

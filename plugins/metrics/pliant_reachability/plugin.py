@@ -38,6 +38,19 @@ def pliant_add_commands(subparsers):
                         help="a metric option for every method (e.g. contact_horizon=12)")
     parser.set_defaults(handler=_table_command)
 
+    parser = subparsers.add_parser(
+        "metric-select", help="plan candidate paths, score them with the metric, execute the best and the worst",
+        description="Run the pipeline's planner with seeds 0..N-1, score every path with the pipeline's metric, "
+                    "execute the best and the worst (or all) in the pipeline's execution world, and report whether "
+                    "the metric's ranking matched execution success.")
+    parser.add_argument("pipeline", help="a pipeline with a planner, a metric, a controller and an execution world")
+    parser.add_argument("--candidates", type=int, default=8, help="candidate paths (default 8)")
+    parser.add_argument("--executions", type=int, default=30, help="executions per executed candidate (default 30)")
+    parser.add_argument("--all", action="store_true", help="execute every candidate, not only the best and worst")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="pipeline override")
+    parser.add_argument("--output", default="out", help="directory (default out)")
+    parser.set_defaults(handler=_select_command)
+
 
 def _table_command(args) -> int:
     from pathlib import Path
@@ -56,4 +69,13 @@ def _table_command(args) -> int:
     directory = Path(args.output) / ("metric-tables-quick" if args.quick else "metric-tables")
     print((directory / "tables.md").read_text())
     print(f"written: {directory}/runs.jsonl, summary.json, tables.md and a figure per task")
+    return 0
+
+
+def _select_command(args) -> int:
+    from pliant_reachability.selection import render, select
+
+    report = select(args.pipeline, candidates=args.candidates, executions=args.executions, execute_all=args.all,
+                    overrides=args.set, output=args.output)
+    print(render(report))
     return 0

@@ -1,0 +1,104 @@
+"""``pliant metric-select``: does the metric change decisions?  Plan several candidate paths, score each with the
+pipeline's metric, execute the best and the worst (or all) in the pipeline's execution world, and report whether
+the metric's ranking matched execution success (issue: "a metric is only worth its cost if it changes decisions").
+
+Candidates are the pipeline's planner run with seeds ``0 .. candidates - 1``; the metric scores each with its own
+seeded generator; executions start at the path's first waypoint and follow it with the pipeline's controller.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+from pliant.errors import ConfigError, PipelineError
+from pliant.files import write_json, write_text
+
+
+def select(pipeline_name: str, *, candidates: int, executions: int, execute_all: bool = False,
+           overrides: list[str] | None = None, output: Path | None = None, echo=print) -> dict:
+    """Run the selection experiment; returns (and writes, as ``selection.json`` and ``selection.md``) its report."""
+    from pliant.execution import execute
+    from pliant.interfaces import PlanningProblem
+    from pliant.pipeline import Pipeline
+    from pliant.validation import safe_name
+
+    for key, value in (("--candidates", candidates), ("--executions", executions)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ConfigError("must be a positive integer", field=key, value=value)
+    pipeline = Pipeline.from_file(pipeline_name, overrides or [])
+    for kind in ("planner", "metric", "controller"):
+        if kind not in pipeline.components:
+            raise PipelineError(f"metric-select needs a [{kind}] in the pipeline", source=pipeline.source,
+                                field=kind)
+    directory = Path(output or "out") / f"{safe_name(pipeline.name)}-select"
+    directory.mkdir(parents=True, exist_ok=True)
+    context = pipeline.build()
+    world = pipeline.execution_world(context)
+    planner, metric = context.extras["planner"], context.extras["metric"]
+    problem = PlanningProblem.from_context(context)
+    settings = pipeline.execution
+    rows = []
+    for seed in range(candidates):
+        t0 = time.perf_counter()
+        result = planner.plan(problem, np.random.default_rng(seed))
+        plan_seconds = time.perf_counter() - t0
+        if result.path is None:
+            echo(f"candidate {seed}: no path ({result.status.value})")
+            rows.append({"seed": seed, "path": None})
+            continue
+        t0 = time.perf_counter()
+        scores = metric.evaluate(result.path, problem, np.random.default_rng(10_000 + seed))
+        rows.append({"seed": seed, "path": result.path.to_dict(), "waypoints": len(result.path),
+                     "length": float(problem.space.path_length(result.path.configurations)),
+                     "plan_seconds": plan_seconds, "metric_seconds": time.perf_counter() - t0, **scores})
+        echo(f"candidate {seed}: {len(result.path)} waypoints, P_exec {scores['p_exec']:.3f}")
+    scored = sorted((r for r in rows if r.get("path")), key=lambda r: r["p_exec"])
+    if len(scored) < 2:
+        raise PipelineError("fewer than two candidates found a path: nothing to choose between",
+                            source=pipeline.source, field="planner", value=len(scored))
+    chosen = scored if execute_all else [scored[0], scored[-1]]
+    from pliant.results import Path as PlannedPath
+
+    for row in chosen:
+        path = PlannedPath.from_dict(row["path"])
+        outcomes = []
+        for k in range(executions):
+            record = execute(world, context.controller, path, np.random.default_rng(20_000 + 1000 * row["seed"] + k),
+                             period=settings["period"], time_limit=settings["time_limit"],
+                             world_name=pipeline.world_spec().name)
+            outcomes.append(record.outcome == "reached")
+        row["executed"] = executions
+        row["success"] = float(np.mean(outcomes))
+        echo(f"candidate {row['seed']} (P_exec {row['p_exec']:.3f}): {sum(outcomes)}/{executions} executions reached")
+    best, worst = scored[-1], scored[0]
+    executed = [r for r in scored if "success" in r]
+    ranks = None
+    if len(executed) >= 3:
+        from scipy.stats import spearmanr
+
+        ranks = float(spearmanr([r["p_exec"] for r in executed], [r["success"] for r in executed]).statistic)
+    report = {"pipeline": pipeline.name, "world": pipeline.world_spec().name, "candidates": rows,
+              "best": best["seed"], "worst": worst["seed"],
+              "best_success": best["success"], "worst_success": worst["success"],
+              "ranking_matched": bool(best["success"] >= worst["success"]), "spearman": ranks}
+    write_json(directory / "selection.json", report)
+    write_text(directory / "selection.md", render(report))
+    return report
+
+
+def render(report: dict) -> str:
+    lines = [f"# {report['pipeline']}: candidates scored by the metric, executed in {report['world']}", "",
+             "| seed | waypoints | length | metric P_exec | executions | success |", "|---|---|---|---|---|---|"]
+    for r in sorted((r for r in report["candidates"] if r.get("path")), key=lambda r: -r["p_exec"]):
+        success = f"{r['success']:.2f}" if "success" in r else "-"
+        lines.append(f"| {r['seed']} | {r['waypoints']} | {r['length']:.3f} | {r['p_exec']:.3f} | "
+                     f"{r.get('executed', '-')} | {success} |")
+    lines += ["", f"best by the metric: seed {report['best']}, success {report['best_success']:.2f}; worst: seed "
+              f"{report['worst']}, success {report['worst_success']:.2f}; ranking matched: "
+              f"{'yes' if report['ranking_matched'] else 'no'}"]
+    if report["spearman"] is not None:
+        lines.append(f"Spearman rank correlation of metric and success over the executed candidates: "
+                     f"{report['spearman']:.2f}")
+    return "\n".join(lines) + "\n"
