@@ -6,7 +6,6 @@ import pytest
 from pliant.errors import ConfigError, DimensionError, PlanningError, PliantError
 from pliant.interfaces import Context, PlanningProblem
 from pliant.results import Path
-from pliant.testing.conformance import check_component
 from reachability_helpers import metric, noisy_passage
 
 METHODS = ("reachable-volume", "sampling-driven", "simulation", "simulation-scaled")
@@ -42,11 +41,6 @@ def test_a_path_multiplies_its_pairs():
     first, second = scores("simulation", [a, b]), scores("simulation", [b, c])
     assert whole["volumes"] == first["volumes"] + second["volumes"]
     assert 0.0 <= whole["p_exec"] <= 1.0
-
-
-@pytest.mark.parametrize("name", METHODS)
-def test_the_contract(name):
-    assert check_component("metric", name)
 
 
 def test_bad_paths_and_simulators_are_clear_errors():
