@@ -370,3 +370,27 @@ def test_a_tilted_robot_face_slides_over_a_wall_corner_into_the_corridor(fused):
                        np.random.default_rng(0), 8.0)
     assert out.final[0, 1] > 7.5 and out.in_contact[0]
     assert not ContactModel(sim.grid).colliding(maze().robot.body_points(out.final)).any()
+
+
+def test_control_law_predicts_a_free_step_and_its_noise():
+    """Simulator.control_law(): its noise-free step is simulate's in free space; step_noise matches its spread."""
+    ctx = Context(scene=load_scene("se3-peg-in-hole"))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    quiet = registry.create("simulator", "kinematic", ctx, kp=0.5, angular_velocity_limit=0.25)
+    q = np.array([pose(3.0, 4.0, 6.2), pose(4.0, 3.0, 6.5)])          # well above the block
+    target = pose(3.5, 3.5, 6.0)
+    law = quiet.control_law()
+    assert law.dt == pytest.approx(0.1) and law.kp == 0.5
+    simulated = quiet.simulate(q, target, np.random.default_rng(0), 0.1).final
+    assert np.allclose(law.step(q, target), simulated, atol=1e-9)
+    noisy = registry.create("simulator", "kinematic", ctx, kp=0.5, noise="bounded", noise_linear=0.2,
+                            noise_angular=0.05)
+    law = noisy.control_law()
+    rng = np.random.default_rng(1)
+    starts = np.repeat(q[:1], 400, axis=0)
+    velocity = law.velocity(starts, target)
+    predicted = law.step_noise(rng, starts, velocity)
+    moved = noisy.space.difference(noisy.simulate(starts, target, rng, 0.1).final, starts) - velocity * law.dt
+    assert np.all(np.abs(predicted) <= law.noise_bounds(velocity) + 1e-12)
+    # the same spread (the simulator averages one draw per microstep; so does step_noise)
+    assert np.std(predicted[:, 0]) == pytest.approx(np.std(moved[:, 0]), rel=0.25)
