@@ -9,7 +9,8 @@ per path on se3-peg-tight, >= 10x fewer simulated steps than the baseline.  The 
 
     pliant bench metric [-- --tasks se2-through-passage --simulations 10000 --jobs 2 --set particles=4000]
 
-With --jobs 2 two cells run at once, so the seconds are those of a loaded machine (each evaluation on one core).
+With --jobs 2 two cells run at once, so the table's seconds are those of a loaded machine; the proposed metric is
+timed again alone afterwards (its line under each table).
 """
 
 from __future__ import annotations
@@ -81,6 +82,13 @@ def main(argv=None) -> int:
                 records.append(record)
                 print(f"{name} {record['epsilon']:g}/{record['alpha']:g}: " + "  ".join(_row(record)[1:]), flush=True)
             records.sort(key=lambda r: r["cell"])
+            # the proposed metric timed again here, one cell at a time on an otherwise idle machine (after a warm-up
+            # that compiles its kernels), so its seconds are not those of a loaded machine
+            evaluate(name, "reachable-volume", *cells()[0], 99, density, args.simulations, **options)
+            for r in records:
+                again = evaluate(name, "reachable-volume", r["epsilon"], r["alpha"], 0, density, args.simulations,
+                                 **options)
+                r["reachable-volume"]["seconds_idle"] = again["seconds"]
             results += records
             header = ("eps/alpha", "baseline", "s")
             for method in METHODS[1:]:
@@ -89,9 +97,9 @@ def main(argv=None) -> int:
             print_table(f"{name}: P_exec against the kinematic baseline ({runs} runs), density {density:.4g}",
                         header + ("baseline steps / metric steps",), [_row(r) for r in records])
             errors = [abs(r["reachable-volume"]["p_exec"] - r["baseline"]["p_exec"]) for r in records]
-            seconds = [r["reachable-volume"]["seconds"] for r in records]
+            seconds = [r["reachable-volume"]["seconds_idle"] for r in records]
             print(f"reachable-volume: largest error {max(errors):.3f}, mean {sum(errors) / len(errors):.3f}; "
-                  f"seconds {min(seconds):.2f}-{max(seconds):.2f} (thesis, 16 threads: "
+                  f"seconds alone on the machine {min(seconds):.2f}-{max(seconds):.2f} (thesis, 16 threads: "
                   f"{min(THESIS_SECONDS[name]['reachable-volume'])}-{max(THESIS_SECONDS[name]['reachable-volume'])})")
     write_json("metric", {"options": options, "simulations": args.simulations, "jobs": args.jobs,
                           "results": results})

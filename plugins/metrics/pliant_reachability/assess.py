@@ -229,8 +229,9 @@ def propagated_probability(volumes: ReachableVolumes, settings: SamplingSettings
     inside the volumes by Theorem 2), and each particle's own path is followed: where
     its step from a free configuration into a colliding one first meets the contact manifold (bisection on the
     step, as for the images) is a *contact event*.  Up to ``labelled`` events, chosen at random, are labelled by
-    simulating them until they reach the target, stick, or run out of the executions' step budget
-    (``max_steps``, which counts as stuck: a jammed robot jitters without arriving) with
+    simulating them until they reach the target, stick, or run out of what is left of an execution's step
+    budget (``max_steps`` less the steps before the event; running out counts as stuck: a jammed robot jitters
+    without arriving) with
     :func:`~.contact.classify` -- the simulation sees a slide that ends stuck, so the thesis's downstream
     heuristic is not applied;
     every other event takes the label of the nearest labelled one (the thesis's stuck-region lookup).  Only a
@@ -240,16 +241,27 @@ def propagated_probability(volumes: ReachableVolumes, settings: SamplingSettings
     law, w = volumes.law, volumes.weights
     q = np.array(starts, dtype=np.float64)
     n = len(q)
-    free = ~clearance.colliding(q)
+    distance, _, colliding = clearance.query(q)
+    free = ~colliding
     checked = n
+    # rigid bodies: a lower bound on each particle's clearance skips the check while it cannot have hit anything
+    rigid = clearance.reach is not None
+    bound = clearance.lower_bound(q, distance) if rigid else np.zeros(n)
     met = np.zeros(n, dtype=bool)
-    event_particle, event_x = [], []
-    for _ in range(len(volumes) - 1):
+    event_particle, event_x, event_step = [], [], []
+    for step_index in range(len(volumes) - 1):
         velocity = law.velocity(q, volumes.target)
         step = velocity * law.dt + law.step_noise(rng, q, velocity)
         q_next = law.space.retract(q, step)
-        colliding = clearance.colliding(q_next)
-        checked += n
+        if rigid:
+            bound -= np.linalg.norm(step[:, ~law.angular], axis=1) + \
+                np.linalg.norm(step[:, law.angular], axis=1) * clearance.reach
+        check = np.nonzero(bound <= 0.0)[0] if rigid else np.arange(n)
+        colliding = np.zeros(n, dtype=bool)
+        distance, _, colliding[check] = clearance.query(q_next[check])
+        if rigid:
+            bound[check] = clearance.lower_bound(q_next[check], distance)
+        checked += len(check)
         meets = np.nonzero(free & colliding & ~met)[0]
         met[meets] = True
         if len(meets):
@@ -263,6 +275,7 @@ def propagated_probability(volumes: ReachableVolumes, settings: SamplingSettings
                 free_end = np.where(collides[:, None], free_end, middle)
             event_particle.append(meets)
             event_x.append(free_end)
+            event_step.append(np.full(len(meets), step_index))
         q, free = q_next, ~colliding
     survived = np.ones(n, dtype=bool)
     if not event_particle:
@@ -270,9 +283,11 @@ def propagated_probability(volumes: ReachableVolumes, settings: SamplingSettings
     particle = np.concatenate(event_particle)
     x = np.concatenate(event_x)
     chosen = rng.choice(len(x), size=min(labelled, len(x)), replace=False)
+    # each labelled event simulated for what is left of an execution's step budget when it happened
+    budgets = np.maximum(max_steps - np.concatenate(event_step)[chosen], settings.stuck_steps)
     contacts = classify(volumes, x[chosen], np.zeros(len(chosen), dtype=np.int64), simulator, rng,
                         settings.stuck_distance, settings.stuck_steps, max_steps, settings.theta, settings.axis,
-                        check_downstream=False, unresolved_stuck=True)
+                        check_downstream=False, unresolved_stuck=True, budgets=budgets)
     stuck = np.zeros(len(x), dtype=bool)
     for s in range(0, len(x), 2048):                   # nearest labelled event, in weighted coordinates
         d = np.linalg.norm((x[s:s + 2048, None, :] - contacts.x[None, :, :]) * w, axis=2)

@@ -5,7 +5,8 @@ expanded environment.  Here every surface point of the robot looks up the signed
 (:attr:`pliant.voxelgrid.VoxelGrid.sdf`, metres, at voxel centres) and whether that voxel is occupied; a
 configuration *collides* when any surface point lies in an occupied voxel or outside the grid (the test the
 kinematic simulator resolves), and its *clearance* is the smallest signed distance over its points.  Rigid
-bodies go through one numba kernel that fuses the transform and the lookups; articulated robots through
+bodies go through one numba kernel that fuses the transform and the lookups (split over ``threads`` threads for
+large batches; it releases the GIL); articulated robots through
 :meth:`~pliant.interfaces.RobotModel.body_points` in chunks.
 """
 
@@ -18,9 +19,11 @@ from pliant.voxelgrid import VoxelGrid
 
 #: configurations per chunk on the articulated path (bounds memory: chunk x points x 3 floats)
 CHUNK = 256
+#: rigid queries of at least this many configurations are split over the threads (the kernel releases the GIL)
+THREADED = 1024
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _rigid_clearance(rot, trans, local, sdf, occupied, shape, lower, resolution):  # pragma: no cover - numba
     n = rot.shape[0]
     m = local.shape[0]
@@ -60,15 +63,20 @@ def _rigid_clearance(rot, trans, local, sdf, occupied, shape, lower, resolution)
 class Clearance:
     """Collision and clearance queries of a robot's surface points against a voxel grid."""
 
-    def __init__(self, robot: RobotModel, grid: VoxelGrid) -> None:
+    def __init__(self, robot: RobotModel, grid: VoxelGrid, threads: int = 1) -> None:
         self.robot = robot
+        self.threads = max(1, int(threads))
         self.grid = grid
         self.surface = np.asarray(robot.surface_indices(), dtype=np.int64)
         self.sdf = np.ascontiguousarray(grid.sdf.reshape(-1), dtype=np.float64)
         self.occupied = np.ascontiguousarray(grid.occupied.reshape(-1))
         self.shape = np.asarray(grid.shape, dtype=np.int64)
         self.lower = np.asarray(grid.lower, dtype=np.float64)
-        self.local = None
+        # a rigid body's surface points in its frame (they do not depend on the configuration), and their reach
+        placement = robot.rigid_placement(robot.space.sample(np.random.default_rng(0), 1))
+        self.local = None if placement is None else np.ascontiguousarray(placement[2][self.surface])
+        self.reach = None if self.local is None else \
+            (float(np.max(np.linalg.norm(self.local, axis=1))) if len(self.local) else 0.0)
 
     def query(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For configurations ``(n, d)``: clearance ``(n,)`` (m; ``-inf`` outside the grid), the index into
@@ -78,13 +86,21 @@ class Clearance:
             return np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)
         placement = self.robot.rigid_placement(q)
         if placement is not None:
-            rot, trans, local = placement
-            if self.local is None:
-                self.local = np.ascontiguousarray(local[self.surface])
-            return _rigid_clearance(np.ascontiguousarray(rot), np.ascontiguousarray(trans), self.local, self.sdf,
-                                    self.occupied, self.shape, self.lower, float(self.grid.resolution))
+            rot, trans = np.ascontiguousarray(placement[0]), np.ascontiguousarray(placement[1])
+            if self.threads == 1 or len(q) < THREADED:
+                return self._rigid(rot, trans)
+            from concurrent.futures import ThreadPoolExecutor
+
+            parts = np.array_split(np.arange(len(q)), self.threads)
+            with ThreadPoolExecutor(self.threads) as pool:
+                out = list(pool.map(lambda rows: self._rigid(rot[rows], trans[rows]), parts))
+            return tuple(np.concatenate(values) for values in zip(*out))
         out = [self._articulated(q[s:s + CHUNK]) for s in range(0, len(q), CHUNK)]
         return tuple(np.concatenate(parts) for parts in zip(*out))
+
+    def _rigid(self, rot, trans):
+        return _rigid_clearance(np.ascontiguousarray(rot), np.ascontiguousarray(trans), self.local, self.sdf,
+                                self.occupied, self.shape, self.lower, float(self.grid.resolution))
 
     def _articulated(self, q):
         points = self.robot.body_points(q, self.surface)
@@ -95,6 +111,22 @@ class Clearance:
         colliding = (outside | self.occupied[safe]).any(axis=1)
         closest = np.argmin(distance, axis=1)
         return distance[np.arange(len(q)), closest], closest, colliding
+
+    def lower_bound(self, q: np.ndarray, clearance: np.ndarray) -> np.ndarray:
+        """A lower bound ``(n,)`` (m) on how far any surface point of rigid configurations ``q`` ``(n, d)`` can move
+        before it enters an occupied voxel or leaves the grid, from their :meth:`query` clearance.
+
+        A point anywhere in a voxel whose centre has signed distance ``s`` is at least ``s - (sqrt(3)/2) h`` from
+        occupied space (one voxel ``h`` is used); the grid's faces (along the axes the grid has more than one voxel)
+        are at least the frame origin's distance to them minus :attr:`reach`.
+        """
+        placement = self.robot.rigid_placement(np.atleast_2d(q))
+        origin = placement[1]
+        upper = self.lower + self.shape * self.grid.resolution
+        axes = self.shape > 1
+        faces = np.minimum(origin - self.lower, upper - origin)[:, axes]
+        boundary = (np.min(faces, axis=1) if faces.size else np.full(len(origin), np.inf)) - self.reach
+        return np.minimum(clearance - self.grid.resolution, boundary)
 
     def colliding(self, q: np.ndarray) -> np.ndarray:
         """Bool ``(n,)``: configurations with a surface point in an occupied voxel or outside the grid."""

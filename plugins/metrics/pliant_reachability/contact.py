@@ -108,10 +108,12 @@ def project_to_contact(q: np.ndarray, robot: RobotModel, clearance: Clearance, i
 
 def classify(volumes: ReachableVolumes, x: np.ndarray, volume: np.ndarray, simulator: Simulator,
              rng: np.random.Generator, stuck_distance: float, stuck_steps: int, horizon: int, theta: float,
-             axis: float, check_downstream: bool = True, unresolved_stuck: bool = False) -> Contacts:
+             axis: float, check_downstream: bool = True, unresolved_stuck: bool = False,
+             budgets: np.ndarray | None = None) -> Contacts:
     """Label contacting coordinates ``(k, t)`` sliding / stuck / becoming stuck (thesis 6.4.3); without
     ``check_downstream`` only the simulation labels them; with ``unresolved_stuck`` a contact that neither reached
-    the target nor stuck within the horizon (a robot jammed and jittering) becomes stuck instead of sliding."""
+    the target nor stuck within the horizon (a robot jammed and jittering) becomes stuck instead of sliding;
+    ``budgets`` ``(k,)`` gives each contact its own horizon (at most ``horizon``)."""
     label = np.zeros(len(x), dtype=np.int64)
     stuck_at = np.full(x.shape, np.nan)
     if len(x) == 0:
@@ -133,6 +135,11 @@ def classify(volumes: ReachableVolumes, x: np.ndarray, volume: np.ndarray, simul
         label[idx[stuck]] = STUCK if step == stuck_steps else BECOMES_STUCK
         stuck_at[idx[stuck]] = after[stuck]
         active[idx[stuck | reached]] = False
+        if budgets is not None:
+            spent = idx[(budgets[idx] <= step) & ~stuck & ~reached]
+            if unresolved_stuck:
+                label[spent] = BECOMES_STUCK
+            active[spent] = False
     if unresolved_stuck:
         label[active] = BECOMES_STUCK
     if check_downstream:

@@ -68,9 +68,10 @@ class ReachabilityOptions:
     reachability: str = option("none", "uniform: set aside samples not reachable from the previous volume's, by the "
                                "clustering of thesis 5.3.3 ('ac': the nearest previous sample's actuation centre "
                                "connects by a free segment; thesis 6.6.2)", choices=("none", "ac"))
-    particles: int = option(2000, "propagated: particles per waypoint pair", minimum=1)
-    labelled: int = option(300, "propagated: contact events labelled by simulation; the others take the nearest "
+    particles: int = option(1500, "propagated: particles per waypoint pair", minimum=1)
+    labelled: int = option(200, "propagated: contact events labelled by simulation; the others take the nearest "
                            "one's label", minimum=1)
+    threads: int = option(2, "threads for the batched clearance queries (the kernel releases the GIL)", minimum=1)
     image_samples: int = option(16, "Monte-Carlo futures per sample image (eq. 6.10)", minimum=1)
     stuck_steps: int = option(5, "the window of control steps of the stuck test, in simulated executions and in the "
                               "contact labels (the contact controller's default; thesis 6.5: 2 steps)", minimum=1)
@@ -101,7 +102,7 @@ class ReachabilityMetric(PathMetric):
         self.law = law
         self.weights = tangent_weights(law, self.options.translation_weight, self.options.rotation_weight)
         grid = VoxelGrid.from_scene(self.require("scene"))
-        self.clearance = Clearance(self.robot, grid)
+        self.clearance = Clearance(self.robot, grid, self.options.threads)
         self.clustering = ClusteringContext.from_context(context, grid=grid) \
             if self.options.reachability == "ac" else None
 
