@@ -3,7 +3,9 @@ pipeline's metric, execute the best and the worst (or all) in the pipeline's exe
 the metric's ranking matched execution success (issue: "a metric is only worth its cost if it changes decisions").
 
 Candidates are the pipeline's planner run with seeds ``0 .. candidates - 1``; the metric scores each with its own
-seeded generator; executions start at the path's first waypoint and follow it with the pipeline's controller.
+seeded generator; executions start where the metric assumes the robot is when the path begins (for the ch. 6
+metrics: anywhere free within ``epsilon_reached`` of the first waypoint) and follow the path with the pipeline's
+controller.
 """
 
 from __future__ import annotations
@@ -64,10 +66,13 @@ def select(pipeline_name: str, *, candidates: int, executions: int, execute_all:
     for row in chosen:
         path = PlannedPath.from_dict(row["path"])
         outcomes = []
+        rng = np.random.default_rng(20_000 + row["seed"])
+        starts = _starts(metric, path, rng, executions)
         for k in range(executions):
-            record = execute(world, context.controller, path, np.random.default_rng(20_000 + 1000 * row["seed"] + k),
-                             period=settings["period"], time_limit=settings["time_limit"],
-                             world_name=pipeline.world_spec().name)
+            waypoints = path.configurations.copy()
+            waypoints[0] = starts[k]
+            record = execute(world, context.controller, PlannedPath(waypoints), rng, period=settings["period"],
+                             time_limit=settings["time_limit"], world_name=pipeline.world_spec().name)
             outcomes.append(record.outcome == "reached")
         row["executed"] = executions
         row["success"] = float(np.mean(outcomes))
@@ -86,6 +91,16 @@ def select(pipeline_name: str, *, candidates: int, executions: int, execute_all:
     write_json(directory / "selection.json", report)
     write_text(directory / "selection.md", render(report))
     return report
+
+
+def _starts(metric, path, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Where the executions start: as the metric assumes, uniformly in the free part of the ``epsilon_reached``
+    ball around the first waypoint (the ch. 6 metrics); exactly at it for a metric without a start distribution."""
+    volumes = getattr(metric, "volumes", None)
+    starts = getattr(metric, "starts", None)
+    if callable(volumes) and callable(starts):
+        return starts(volumes(path.configurations[0], path.configurations[1]), rng, n)
+    return np.repeat(path.configurations[:1], n, axis=0)
 
 
 def render(report: dict) -> str:
