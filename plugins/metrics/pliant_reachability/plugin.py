@@ -42,7 +42,8 @@ def pliant_add_commands(subparsers):
         "metric-select", help="plan candidate paths, score them with the metric, execute the best and the worst",
         description="Run the pipeline's planner with seeds 0..N-1, score every path with the pipeline's metric, "
                     "execute the best and the worst (or all) in the pipeline's execution world, and report whether "
-                    "the metric's ranking matched execution success.")
+                    "the metric's choice matched execution success (verdict: matched, reversed, metric does not "
+                    "separate, execution does not separate).")
     parser.add_argument("pipeline", help="a pipeline with a planner, a metric, a controller and an execution world")
     parser.add_argument("--candidates", type=int, default=8, help="candidate paths (default 8)")
     parser.add_argument("--executions", type=int, default=30, help="executions per executed candidate (default 30)")

@@ -73,24 +73,43 @@ def select(pipeline_name: str, *, candidates: int, executions: int, execute_all:
             waypoints[0] = starts[k]
             record = execute(world, context.controller, PlannedPath(waypoints), rng, period=settings["period"],
                              time_limit=settings["time_limit"], world_name=pipeline.world_spec().name)
-            outcomes.append(record.outcome == "reached")
+            outcomes.append(record.outcome)
         row["executed"] = executions
-        row["success"] = float(np.mean(outcomes))
-        echo(f"candidate {row['seed']} (P_exec {row['p_exec']:.3f}): {sum(outcomes)}/{executions} executions reached")
+        row["outcomes"] = {o: outcomes.count(o) for o in sorted(set(outcomes))}
+        row["success"] = outcomes.count("reached") / executions
+        echo(f"candidate {row['seed']} (P_exec {row['p_exec']:.3f}): {outcomes.count('reached')}/{executions} "
+             f"executions reached ({', '.join(f'{k} {v}' for k, v in row['outcomes'].items())})")
     best, worst = scored[-1], scored[0]
     executed = [r for r in scored if "success" in r]
     ranks = None
-    if len(executed) >= 3:
+    metric_scores, successes = ([r[key] for r in executed] for key in ("p_exec", "success"))
+    if len(executed) >= 3 and np.ptp(metric_scores) > 0 and np.ptp(successes) > 0:
         from scipy.stats import spearmanr
 
-        ranks = float(spearmanr([r["p_exec"] for r in executed], [r["success"] for r in executed]).statistic)
+        ranks = float(spearmanr(metric_scores, successes).statistic)
     report = {"pipeline": pipeline.name, "world": pipeline.world_spec().name, "candidates": rows,
               "best": best["seed"], "worst": worst["seed"],
               "best_success": best["success"], "worst_success": worst["success"],
-              "ranking_matched": bool(best["success"] >= worst["success"]), "spearman": ranks}
+              "verdict": verdict(best, worst), "spearman": ranks}
     write_json(directory / "selection.json", report)
     write_text(directory / "selection.md", render(report))
     return report
+
+
+#: the metric must rate the best candidate this much above the worst before its choice counts as a decision
+#: (the issue's accuracy tolerance: the metric is only trusted to +-0.05 of the simulation it estimates)
+SEPARATION = 0.05
+
+
+def verdict(best: dict, worst: dict) -> str:
+    """Did the metric's choice matter?  ``"metric does not separate"`` when it rates best and worst within
+    :data:`SEPARATION`; ``"execution does not separate"`` when both succeeded equally often; else ``"matched"``
+    (the metric's best succeeded more often) or ``"reversed"``."""
+    if best["p_exec"] - worst["p_exec"] <= SEPARATION:
+        return "metric does not separate"
+    if best["success"] == worst["success"]:
+        return "execution does not separate"
+    return "matched" if best["success"] > worst["success"] else "reversed"
 
 
 def _starts(metric, path, rng: np.random.Generator, n: int) -> np.ndarray:
@@ -105,15 +124,19 @@ def _starts(metric, path, rng: np.random.Generator, n: int) -> np.ndarray:
 
 def render(report: dict) -> str:
     lines = [f"# {report['pipeline']}: candidates scored by the metric, executed in {report['world']}", "",
-             "| seed | waypoints | length | metric P_exec | executions | success |", "|---|---|---|---|---|---|"]
+             "| seed | waypoints | length | metric P_exec | executions | success | outcomes |",
+             "|---|---|---|---|---|---|---|"]
     for r in sorted((r for r in report["candidates"] if r.get("path")), key=lambda r: -r["p_exec"]):
         success = f"{r['success']:.2f}" if "success" in r else "-"
         lines.append(f"| {r['seed']} | {r['waypoints']} | {r['length']:.3f} | {r['p_exec']:.3f} | "
-                     f"{r.get('executed', '-')} | {success} |")
+                     f"{r.get('executed', '-')} | {success} | "
+                     f"{', '.join(f'{k} {v}' for k, v in r.get('outcomes', {}).items()) or '-'} |")
     lines += ["", f"best by the metric: seed {report['best']}, success {report['best_success']:.2f}; worst: seed "
-              f"{report['worst']}, success {report['worst_success']:.2f}; ranking matched: "
-              f"{'yes' if report['ranking_matched'] else 'no'}"]
+              f"{report['worst']}, success {report['worst_success']:.2f}; verdict: {report['verdict']}"]
     if report["spearman"] is not None:
         lines.append(f"Spearman rank correlation of metric and success over the executed candidates: "
                      f"{report['spearman']:.2f}")
+    else:
+        lines.append("Spearman rank correlation: undefined (fewer than three executed candidates, or the metric "
+                     "or the success rate is the same for all)")
     return "\n".join(lines) + "\n"
