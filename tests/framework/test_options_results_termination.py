@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import os
 import signal
 from dataclasses import dataclass
 
@@ -95,7 +94,7 @@ def test_termination_rules():
 def test_ctrl_c_sets_interrupted_inside_watch():
     t = Termination()
     with t.watch():
-        os.kill(os.getpid(), signal.SIGINT)
+        signal.raise_signal(signal.SIGINT)
         assert t.interrupted and t.should_stop(0)
     with pytest.raises(KeyboardInterrupt):   # the previous handler is restored afterwards
-        os.kill(os.getpid(), signal.SIGINT)
+        signal.raise_signal(signal.SIGINT)

@@ -4,7 +4,6 @@ anytime termination (iterations, callback, Ctrl-C) and determinism."""
 from __future__ import annotations
 
 import itertools
-import os
 import signal
 
 import numpy as np
@@ -77,7 +76,7 @@ def test_anytime_run_keeps_the_cheapest_solution_and_ctrl_c_returns_it():
     def interrupt_later(iteration, best):           # Ctrl-C 200 iterations after the first solution
         seen.append(best)
         if len([b for b in seen if np.isfinite(b)]) == 200:
-            os.kill(os.getpid(), signal.SIGINT)
+            signal.raise_signal(signal.SIGINT)
         return False
 
     result = planner.plan(problem, np.random.default_rng(2), Termination(callback=interrupt_later))

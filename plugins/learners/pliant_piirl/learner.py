@@ -1,0 +1,155 @@
+"""The learner components ``piirl`` and ``active-piirl`` (thesis ch. 4).
+
+``piirl``: ``fit(demonstrations)`` improves each demonstration with the local optimiser, draws sample paths
+around it, reads every path's per-object deformation and solves eq. 4.1 for the sensitivities.
+
+``active-piirl``: ``fit(None)`` runs the whole loop unattended: Algorithm 2 chooses the object pairs, Algorithm 3
+generates a task for each, the simulated expert (who alone reads the scene's sensitivities, as the ground truth)
+demonstrates it, and ``piirl`` recovers the sensitivities from the demonstrations collected.
+``fit(demonstrations)`` skips the asking and learns from the given ones.
+
+Both need a rigid robot with a tip (``tip``, body frame, m): the probe of the ``hollow-cube`` scene by default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+from pliant.errors import ConfigError
+from pliant.interfaces import Learner
+from pliant.options import option
+
+from pliant_piirl.demonstration import Demonstration, load_demonstrations
+from pliant_piirl.expert import ExpertOptions, SimulatedExpert
+from pliant_piirl.piirl import RecoveryOptions, recover
+from pliant_piirl.sampling import PathSampler, SampleOptions
+from pliant_piirl.tasks import TaskOptions, TaskSpace, rotation_onto
+
+
+def _merged(name: str, doc: str, *parts: type, extra: list | None = None) -> type:
+    fields, seen = [], set()
+    for part in parts:
+        for f in dataclasses.fields(part):
+            if f.name not in seen:
+                seen.add(f.name)
+                fields.append((f.name, f.type, dataclasses.field(default=f.default, metadata=f.metadata)))
+    cls = dataclasses.make_dataclass(name, (extra or []) + fields, frozen=True)
+    cls.__doc__ = doc
+    cls.__module__ = __name__
+    return cls
+
+
+def _part(options, cls: type):
+    return cls(**{f.name: getattr(options, f.name) for f in dataclasses.fields(cls)})
+
+
+_TIP = [("tip", tuple[float, float, float],
+         option((0.0, 0.0, -0.06), "the robot point that must touch the target, in the body frame (m)"))]
+
+PiirlOptions = _merged("PiirlOptions", "Options of the ``piirl`` learner: samples (sampling), eq. 4.1 (recovery).",
+                       SampleOptions, RecoveryOptions, extra=_TIP)
+ActivePiirlOptions = _merged(
+    "ActivePiirlOptions", "Options of the ``active-piirl`` learner: those of ``piirl``, task generation and the "
+    "simulated expert (the funnel openings are also the expert's search range).",
+    SampleOptions, RecoveryOptions, TaskOptions, ExpertOptions, extra=_TIP + [
+        ("max_demonstrations", int | None, option(None, "most demonstrations to ask for (default: every pair)",
+                                                  minimum=1))])
+
+
+class PiirlLearner(Learner):
+    """PIIRL sensitivity recovery (thesis 4.3.1 and 4.3.3, eq. 4.1) from demonstrations in the bound scene.
+
+    ``fit(data, rng)``: ``data`` is a list of :class:`Demonstration` or a demonstrations file.  Returns
+    ``sensitivities`` ``{object: S}`` (dimensionless, within [lower, upper]: only ratios are meaningful),
+    ``objective``, ``used`` (demonstrations that carried information), ``replaced`` (local optimiser
+    replacements per demonstration), ``demonstrations`` (the improved ones), ``seconds``.
+    """
+
+    Options = PiirlOptions
+
+    def bind(self, context) -> None:
+        super().bind(context)
+        from pliant_piirl.features import DeformationFeatures
+
+        self.scene = self.require("scene")
+        self.features = DeformationFeatures(self.scene)
+        if self.features.robot.rigid_placement(self.scene.start[None]) is None:
+            raise ConfigError("PIIRL's sample paths need a rigid robot with a tip", field="robot",
+                              value=self.scene.robot.kind)
+        self.sampler = PathSampler(self.features, self.options.tip, _part(self.options, SampleOptions))
+
+    def fit(self, data, rng: np.random.Generator) -> dict:
+        started = time.perf_counter()
+        demonstrations = self._demonstrations(data)
+        improved, replaced, demo_features, sample_features = [], [], [], []
+        for demonstration in demonstrations:
+            better, count = self.sampler.improve(demonstration, rng)
+            samples = self.sampler.draw(better, rng)
+            improved.append(better)
+            replaced.append(count)
+            demo_features.append(self.features.of_path(better.path))
+            sample_features.append(self.features.of_paths(samples) if samples else
+                                   np.zeros((0, len(self.features.names))))
+        fitted_at = time.perf_counter()
+        result = recover(np.array(demo_features).reshape(len(demonstrations), -1), sample_features,
+                         _part(self.options, RecoveryOptions))
+        names = self.features.names
+        return {"sensitivities": dict(zip(names, map(float, result["sensitivities"]))),
+                "objective": result["objective"], "used": result["used"], "iterations": result["iterations"],
+                "message": result["message"], "replaced": replaced, "demonstrations": improved,
+                "features": {"names": names, "demonstrations": np.array(demo_features).tolist()},
+                "seconds": time.perf_counter() - started, "recovery_seconds": time.perf_counter() - fitted_at}
+
+    def _demonstrations(self, data) -> list[Demonstration]:
+        if isinstance(data, (str, bytes)) or hasattr(data, "__fspath__"):
+            scene, data = load_demonstrations(data, dim=len(self.scene.start))
+            if scene != self.scene.name:
+                raise ConfigError(f"the demonstrations were shown in scene {scene!r}, not {self.scene.name!r}",
+                                  field="scene", value=scene)
+        if not isinstance(data, (list, tuple)) or not data or not all(isinstance(d, Demonstration) for d in data):
+            raise ConfigError("must be a non-empty list of demonstrations or a demonstrations file",
+                              field="learner.data", value=type(data).__name__)
+        return list(data)
+
+
+class ActivePiirlLearner(PiirlLearner):
+    """The whole ch. 4 loop, unattended: Algorithm 2 + Algorithm 3 + the simulated expert + PIIRL.
+
+    ``fit(None, rng)`` returns what ``piirl`` returns plus ``asked`` (the object pairs, in order), ``preferences``
+    (``[less, more]`` sensitive per demonstration, or None), ``ranking`` (least sensitive first) and
+    ``demonstrations_asked``.
+    """
+
+    Options = ActivePiirlOptions
+
+    def bind(self, context) -> None:
+        super().bind(context)
+        from pliant_piirl.features import true_sensitivities
+
+        self.tasks = TaskSpace(self.scene, _part(self.options, TaskOptions))
+        expert_options = _part(self.options, ExpertOptions)
+        self.expert = SimulatedExpert(self.features, true_sensitivities(self.scene), self.options.tip, expert_options)
+
+    def fit(self, data, rng: np.random.Generator) -> dict:
+        if data is not None:
+            return super().fit(data, rng)
+        from pliant_piirl.active import collect_demonstrations
+
+        started = time.perf_counter()
+        shown: list[Demonstration] = []
+
+        def collect(first: str, second: str) -> dict[str, float]:
+            task = self.tasks.generate_task(first, second, rng, np.asarray(self.options.tip), rotation_onto)
+            demonstration = self.expert.demonstrate(task, rng)
+            shown.append(demonstration)
+            return dict(zip(self.features.names, self.features.of_path(demonstration.path)))
+
+        asked = collect_demonstrations(self.tasks.adjacency(), collect, rng, self.options.max_demonstrations)
+        result = super().fit(shown, rng)
+        result.update({"asked": [list(p) for p in asked.asked],
+                       "preferences": [list(p) if p else None for p in asked.preferences],
+                       "ranking": asked.graph.ranking(), "demonstrations_asked": len(shown),
+                       "seconds": time.perf_counter() - started})
+        return result

@@ -1,0 +1,191 @@
+"""Where to ask for demonstrations: object adjacency and Algorithm 3's task generation (thesis 4.3.2).
+
+- :func:`adjacency`: objects ``i`` and ``j`` are adjacent when some free point lies within ``distance`` of both
+  (a probe passing between them can touch both).  Computed on the voxel grid with Euclidean distance transforms.
+- :func:`edge_points`: the medial axis between two adjacent objects: free voxel centres equally far (within one
+  voxel) from both, within ``distance`` of each and at least ``edge_isolation`` from every other object (near a
+  corner a point lies between three objects, and the task would not ask about the pair).
+  GETEDGEPOINTBETWEENOBJECTS picks one at random.
+- :func:`inside`: the chapter's footnote: from a point, climb the distance field away from the objects to its
+  local maximum; the point is "inside" the environment when that maximum is not on the grid's boundary.
+- :func:`generate_task` (Algorithm 3): the target is sampled ``T_range`` (a depth range, m) from the edge point,
+  inside, and at least ``T_clearance`` from every object (the text's "at least"; the listing's ``<`` is read as
+  a typo, since a target inside an object could not be touched without deforming it); then the collision planes.
+- :func:`funnel_planes` (GENERATECOLLISIONPLANES): four half-spaces around the axis from the target out through
+  the edge point.  Across the gap between the two objects they open at ``across_angle`` from a half-width
+  ``across_width`` at the target, so the probe can press into either object; along the edge they open at
+  ``along_angle`` from ``along_width``, which keeps the probe away from the other objects.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pliant.errors import ConfigError, PlanningError
+from pliant.options import option
+from pliant.voxelgrid import VoxelGrid
+from scipy import ndimage
+
+from pliant_piirl.demonstration import DemonstrationTask
+
+
+@dataclass(frozen=True)
+class TaskOptions:
+    """Options of task generation (Algorithm 3) and of the funnel (lengths in m, angles in rad)."""
+
+    adjacency_distance: float = option(0.012, "objects are adjacent when a free point lies this close to both (m)",
+                                       minimum=1e-9)
+    edge_isolation: float = option(0.03, "edge points lie at least this far from every other object (m), so that a "
+                                   "task asks about its two objects only", minimum=0.0)
+    depth_range: tuple[float, float] = option((0.03, 0.05), "T_range: the target's distance from the edge point "
+                                              "(m, lower and upper)")
+    clearance: float = option(0.02, "T_clearance: the target's least distance from every object (m)", minimum=0.0)
+    start_distance: float = option(0.05, "the probe starts with its tip this far out from the edge point (m)",
+                                   minimum=0.0)
+    across_width: float = option(0.02, "funnel half-width across the gap at the target (m)", minimum=1e-9)
+    across_angle: float = option(0.6, "funnel opening across the gap (rad)", minimum=0.0, maximum=1.5)
+    along_width: float = option(0.012, "funnel half-width along the edge at the target (m)", minimum=1e-9)
+    along_angle: float = option(0.15, "funnel opening along the edge (rad)", minimum=0.0, maximum=1.5)
+    attempts: int = option(10_000, "most target samples before giving up", minimum=1)
+
+
+class TaskSpace:
+    """The distance fields of a scene's objects and what Algorithms 2 and 3 ask of them."""
+
+    def __init__(self, scene, options: TaskOptions | None = None) -> None:
+        self.scene, self.options = scene, options or TaskOptions()
+        lo, hi = self.options.depth_range
+        if not 0 <= lo <= hi:
+            raise ConfigError("must be two lengths, lower <= upper", field="depth_range", value=[lo, hi])
+        self.grid = VoxelGrid.from_scene(scene)
+        self.names = list(self.grid.object_names)
+        res = self.grid.resolution
+        self._each = [ndimage.distance_transform_edt(self.grid.object_id != i) * res for i in range(len(self.names))]
+        self.clearance_field = ndimage.distance_transform_edt(~self.grid.occupied) * res
+
+    # --- Algorithm 2's graph -----------------------------------------------------------------------------------
+
+    def adjacency(self) -> dict[str, set[str]]:
+        """``{object: set of adjacent objects}`` (see the module docstring)."""
+        near = [d <= self.options.adjacency_distance for d in self._each]
+        free = ~self.grid.occupied
+        return {a: {b for j, b in enumerate(self.names) if j != i and np.any(near[i] & near[j] & free)}
+                for i, a in enumerate(self.names)}
+
+    def edge_points(self, first: str, second: str) -> np.ndarray:
+        """Free points ``(n, 3)`` on the medial axis between two objects, within the adjacency distance of both."""
+        i, j = self._index(first), self._index(second)
+        di, dj = self._each[i], self._each[j]
+        res = self.grid.resolution
+        near = np.maximum(di, dj) <= self.options.adjacency_distance
+        mask = (~self.grid.occupied) & (np.abs(di - dj) <= res) & near
+        for k, other in enumerate(self._each):
+            if k not in (i, j):
+                mask &= other >= self.options.edge_isolation
+        return self.grid.centres(np.argwhere(mask))
+
+    # --- Algorithm 3 -------------------------------------------------------------------------------------------
+
+    def inside(self, point: np.ndarray) -> bool:
+        """The footnote's test: steepest ascent of the clearance field from ``point`` ends away from the bounds."""
+        field = self.clearance_field
+        index = np.clip(np.floor((np.asarray(point) - self.grid.lower) / self.grid.resolution).astype(int), 0,
+                        np.array(field.shape) - 1)
+        offsets = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)])
+        shape = np.array(field.shape)
+        for _ in range(int(shape.sum()) * 2):
+            around = np.clip(index + offsets, 0, shape - 1)
+            values = field[tuple(around.T)]
+            best = int(np.argmax(values))
+            if values[best] <= field[tuple(index)]:
+                break
+            index = around[best]
+        return bool(np.all(index > 0) and np.all(index < shape - 1))
+
+    def clearance(self, point: np.ndarray) -> float:
+        """Distance (m) from ``point`` to the nearest object, from the grid's distance field."""
+        index = np.floor((np.asarray(point) - self.grid.lower) / self.grid.resolution).astype(int)
+        if np.any(index < 0) or np.any(index >= np.array(self.clearance_field.shape)):
+            return 0.0
+        return float(self.clearance_field[tuple(index)])
+
+    def generate_task(self, first: str, second: str, rng: np.random.Generator, tip_offset: np.ndarray,
+                      rotation_of) -> DemonstrationTask:
+        """Algorithm 3 for the pair: edge point, target, collision planes, and the probe's start configuration.
+
+        ``tip_offset``: the tip in the probe's body frame (m); ``rotation_of(axis)``: a unit quaternion
+        (x, y, z, w) turning the body z axis onto ``axis``.  The probe starts outside, on the funnel's axis, its
+        tip :attr:`TaskOptions.start_distance` beyond the edge point, pointing at the target.
+        """
+        edges = self.edge_points(first, second)
+        if len(edges) == 0:
+            raise PlanningError(f"objects {first!r} and {second!r} are not adjacent: no edge point between them",
+                                field="objects", value=[first, second])
+        o = self.options
+        for _ in range(o.attempts):
+            edge = edges[rng.integers(len(edges))]
+            direction = rng.normal(size=3)
+            direction /= np.linalg.norm(direction)
+            target = edge + direction * rng.uniform(*o.depth_range)
+            if self.clearance(target) >= o.clearance and self.inside(target):
+                break
+        else:
+            raise PlanningError(f"no target inside the environment within {o.depth_range} m of the edge between "
+                                f"{first!r} and {second!r} and {o.clearance} m from every object after {o.attempts} "
+                                "samples", field="depth_range", value=list(o.depth_range))
+        axis = edge - target
+        axis /= np.linalg.norm(axis)
+        planes = self.funnel_planes(first, second, edge, target)
+        orientation = np.asarray(rotation_of(axis), dtype=np.float64)
+        tip = edge + axis * o.start_distance
+        start = np.concatenate([tip - _rotate(orientation, tip_offset), orientation])
+        return DemonstrationTask(start, target, planes, (first, second), edge)
+
+    def funnel_planes(self, first: str, second: str, edge: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """GENERATECOLLISIONPLANES: four rows ``(n, offset)``, ``n . x <= offset`` (see the module docstring)."""
+        o = self.options
+        axis = edge - target
+        axis /= np.linalg.norm(axis)
+        across = self._centre_near(first, edge) - self._centre_near(second, edge)
+        across -= axis * (across @ axis)
+        if np.linalg.norm(across) < 1e-12:
+            across = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+        across /= np.linalg.norm(across)
+        along = np.cross(axis, across)
+        rows = []
+        for side, width, angle in ((across, o.across_width, o.across_angle), (along, o.along_width, o.along_angle)):
+            for sign in (1.0, -1.0):
+                normal = sign * side * np.cos(angle) - axis * np.sin(angle)
+                rows.append(np.r_[normal, normal @ (target + sign * side * width)])
+        return np.array(rows)
+
+    def _centre_near(self, name: str, point: np.ndarray) -> np.ndarray:
+        i = self._index(name)
+        cells = np.argwhere(self.grid.object_id == i)
+        centres = self.grid.centres(cells)
+        near = np.linalg.norm(centres - point, axis=1) <= self.options.adjacency_distance * 2
+        return centres[near].mean(axis=0) if near.any() else centres.mean(axis=0)
+
+    def _index(self, name: str) -> int:
+        if name not in self.names:
+            raise ConfigError(f"no object of that name (the scene has {self.names})", field="objects", value=name)
+        return self.names.index(name)
+
+
+def _rotate(quaternion: np.ndarray, vector: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_quat(quaternion).apply(vector)
+
+
+def rotation_onto(axis: np.ndarray) -> np.ndarray:
+    """The unit quaternion (x, y, z, w) of the shortest rotation taking the z axis onto unit vector ``axis``."""
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.asarray(axis, dtype=np.float64) / np.linalg.norm(axis)
+    c = float(z @ axis)
+    if c < -1 + 1e-12:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    v = np.cross(z, axis)
+    q = np.r_[v, 1.0 + c]
+    return q / np.linalg.norm(q)
