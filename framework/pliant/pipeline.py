@@ -66,6 +66,7 @@ class RunRecord:
     result: the planner's result (``None`` if the pipeline has no planner).
     metrics: the metric's named scores of the path.
     files: every file the run wrote.
+    learned: what the learner fitted (``None`` without a learner).
     """
 
     pipeline: Pipeline
@@ -77,6 +78,7 @@ class RunRecord:
     timings: dict[str, float]
     files: list[Path] = field(default_factory=list)
     execution: ExecutionRecord | None = None
+    learned: dict | None = None
 
     def summary_rows(self) -> list[tuple[str, str]]:
         """``(quantity, value)`` rows for the report table."""
@@ -96,6 +98,11 @@ class RunRecord:
                     rows.append((key, f"{value:.6g}" if isinstance(value, (float, np.floating)) else str(value)))
         for key, value in sorted(self.metrics.items()):
             rows.append((f"metric {key}", f"{value:.6g}"))
+        for key, value in (self.learned or {}).items():
+            scalars = value.items() if isinstance(value, dict) else [("", value)]
+            for name, x in scalars:
+                if isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool):
+                    rows.append((f"learned {key} {name}".rstrip(), f"{x:.6g}"))
         if self.execution is not None:
             e = self.execution
             rows += [("execution", e.outcome), ("execution world", e.world),
@@ -287,7 +294,13 @@ class Pipeline:
             world = self.execution_world(context)
         timings["build"] = time.perf_counter() - t0
         rng = np.random.default_rng(self.seed)
-        result, problem, metrics = None, None, {}
+        result, problem, metrics, learned = None, None, {}, None
+        learner = context.extras.get("learner")
+        if learner is not None:
+            t0 = time.perf_counter()
+            log.info("learning with %s on %s", self.components["learner"].name, context.scene.name)
+            learned = learner.fit(None, rng)        # the learner's own options say where its data come from
+            timings["learn"] = time.perf_counter() - t0
         planner = context.extras.get("planner")
         if planner is not None:
             problem = PlanningProblem.from_context(context)
@@ -315,7 +328,8 @@ class Pipeline:
                     execution = execute(world, context.controller, result.path, rng, period=settings["period"],
                                         time_limit=settings["time_limit"], on_step=on_step, world_name=name)
             timings["execute"] = time.perf_counter() - t0
-        record = RunRecord(self, context, result, problem, metrics, self.output, timings, execution=execution)
+        record = RunRecord(self, context, result, problem, metrics, self.output, timings, execution=execution,
+                           learned=learned)
         if write:
             self.write_report(record)
         return record
@@ -400,6 +414,9 @@ class Pipeline:
         write_json(out / "run.json", {"pipeline": self.to_dict(), "metrics": record.metrics,
                                       "timings": record.timings}, default=str)
         record.files.append(out / "run.json")
+        if record.learned is not None:
+            write_json(out / "learned.json", record.learned, default=str)
+            record.files.append(out / "learned.json")
         if record.execution is not None:
             write_json(out / "execution.json", record.execution.to_dict(), indent=None)
             record.files.append(out / "execution.json")

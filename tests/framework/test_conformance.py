@@ -11,7 +11,7 @@ from pliant.registry import default_registry
 from pliant.spaces import RealVectorSpace
 from pliant.testing import ConformanceFailure, check_component, check_space
 
-CHECKED_KINDS = ("robot", "cost", "planner", "simulator", "controller", "metric", "driver")
+CHECKED_KINDS = ("robot", "cost", "planner", "simulator", "controller", "metric", "learner", "driver")
 
 
 def _builtins():

@@ -5,7 +5,10 @@ around it, reads every path's per-object deformation and solves eq. 4.1 for the 
 
 ``active-piirl``: ``fit(None)`` runs the whole loop unattended: Algorithm 2 chooses the object pairs, Algorithm 3
 generates a task for each, the simulated expert (who alone reads the scene's sensitivities, as the ground truth)
-demonstrates it, and ``piirl`` recovers the sensitivities from the demonstrations collected.
+demonstrates it, and ``piirl`` recovers the sensitivities from the demonstrations collected.  Algorithm 2 reads a
+demonstration's preference as the chapter does ("the preferentially deformed object receives a lower ranking"):
+of the pair, the object the demonstration deformed more than the straight insertion along the funnel's axis
+would have is the less sensitive.
 ``fit(demonstrations)`` skips the asking and learns from the given ones.
 
 Both need a rigid robot with a tip (``tip``, body frame, m): the probe of the ``hollow-cube`` scene by default.
@@ -22,7 +25,7 @@ from pliant.interfaces import Learner
 from pliant.options import option
 
 from pliant_piirl.demonstration import Demonstration, load_demonstrations
-from pliant_piirl.expert import ExpertOptions, SimulatedExpert
+from pliant_piirl.expert import ExpertOptions, SimulatedExpert, funnel_frame
 from pliant_piirl.piirl import RecoveryOptions, recover
 from pliant_piirl.sampling import PathSampler, SampleOptions
 from pliant_piirl.tasks import TaskOptions, TaskSpace, rotation_onto
@@ -46,7 +49,9 @@ def _part(options, cls: type):
 
 
 _TIP = [("tip", tuple[float, float, float],
-         option((0.0, 0.0, -0.06), "the robot point that must touch the target, in the body frame (m)"))]
+         option((0.0, 0.0, -0.06), "the robot point that must touch the target, in the body frame (m)")),
+        ("demonstrations", str | None,
+         option(None, "a demonstrations file to learn from when fit() is given no data (pipelines)"))]
 
 PiirlOptions = _merged("PiirlOptions", "Options of the ``piirl`` learner: samples (sampling), eq. 4.1 (recovery).",
                        SampleOptions, RecoveryOptions, extra=_TIP)
@@ -64,10 +69,14 @@ class PiirlLearner(Learner):
     ``fit(data, rng)``: ``data`` is a list of :class:`Demonstration` or a demonstrations file.  Returns
     ``sensitivities`` ``{object: S}`` (dimensionless, within [lower, upper]: only ratios are meaningful),
     ``objective``, ``used`` (demonstrations that carried information), ``replaced`` (local optimiser
-    replacements per demonstration), ``demonstrations`` (the improved ones), ``seconds``.
+    replacements per demonstration), ``demonstrations`` (the improved ones, as dicts of the file format) and
+    ``features`` (their per-object deformation).  Wall times of the last fit are in :attr:`timing`.
     """
 
     Options = PiirlOptions
+    example_scene = "hollow-cube"
+    example_options = {"samples": 10, "rounds": 1}
+    example_data = staticmethod(lambda: example_demonstrations())
 
     def bind(self, context) -> None:
         super().bind(context)
@@ -81,6 +90,7 @@ class PiirlLearner(Learner):
         self.sampler = PathSampler(self.features, self.options.tip, _part(self.options, SampleOptions))
 
     def fit(self, data, rng: np.random.Generator) -> dict:
+        """See the class docstring; ``data`` None reads the ``demonstrations`` option's file."""
         started = time.perf_counter()
         demonstrations = self._demonstrations(data)
         improved, replaced, demo_features, sample_features = [], [], [], []
@@ -96,13 +106,16 @@ class PiirlLearner(Learner):
         result = recover(np.array(demo_features).reshape(len(demonstrations), -1), sample_features,
                          _part(self.options, RecoveryOptions))
         names = self.features.names
+        self.timing = {"seconds": time.perf_counter() - started, "recovery_seconds": time.perf_counter() - fitted_at}
         return {"sensitivities": dict(zip(names, map(float, result["sensitivities"]))),
                 "objective": result["objective"], "used": result["used"], "iterations": result["iterations"],
-                "message": result["message"], "replaced": replaced, "demonstrations": improved,
-                "features": {"names": names, "demonstrations": np.array(demo_features).tolist()},
-                "seconds": time.perf_counter() - started, "recovery_seconds": time.perf_counter() - fitted_at}
+                "message": result["message"], "replaced": replaced,
+                "demonstrations": [d.to_dict() for d in improved],
+                "features": {"names": names, "demonstrations": np.array(demo_features).tolist()}}
 
     def _demonstrations(self, data) -> list[Demonstration]:
+        if data is None and self.options.demonstrations is not None:
+            data = self.options.demonstrations
         if isinstance(data, (str, bytes)) or hasattr(data, "__fspath__"):
             scene, data = load_demonstrations(data, dim=len(self.scene.start))
             if scene != self.scene.name:
@@ -114,6 +127,21 @@ class PiirlLearner(Learner):
         return list(data)
 
 
+def example_demonstrations(pairs=(("L1", "M1"), ("M1", "H1")), seed: int = 0) -> list[Demonstration]:
+    """Two simulated-expert demonstrations in ``hollow-cube`` (coarse search): the conformance kit's data."""
+    import pliant
+
+    from pliant_piirl.features import DeformationFeatures, true_sensitivities
+
+    scene = pliant.load_scene("hollow-cube")
+    features = DeformationFeatures(scene)
+    tip = np.array([0.0, 0.0, -0.06])
+    expert = SimulatedExpert(features, true_sensitivities(scene), tip, ExpertOptions(grid=7, refine=1))
+    tasks = TaskSpace(scene)
+    rng = np.random.default_rng(seed)
+    return [expert.demonstrate(tasks.generate_task(a, b, rng, tip, rotation_onto), rng) for a, b in pairs]
+
+
 class ActivePiirlLearner(PiirlLearner):
     """The whole ch. 4 loop, unattended: Algorithm 2 + Algorithm 3 + the simulated expert + PIIRL.
 
@@ -123,6 +151,7 @@ class ActivePiirlLearner(PiirlLearner):
     """
 
     Options = ActivePiirlOptions
+    example_options = {"samples": 10, "rounds": 1, "grid": 7, "refine": 1}
 
     def bind(self, context) -> None:
         super().bind(context)
@@ -133,7 +162,7 @@ class ActivePiirlLearner(PiirlLearner):
         self.expert = SimulatedExpert(self.features, true_sensitivities(self.scene), self.options.tip, expert_options)
 
     def fit(self, data, rng: np.random.Generator) -> dict:
-        if data is not None:
+        if data is not None or self.options.demonstrations is not None:
             return super().fit(data, rng)
         from pliant_piirl.active import collect_demonstrations
 
@@ -141,15 +170,18 @@ class ActivePiirlLearner(PiirlLearner):
         shown: list[Demonstration] = []
 
         def collect(first: str, second: str) -> dict[str, float]:
+            # "preferentially deformed": deformed more than the straight insertion along the funnel's axis would
             task = self.tasks.generate_task(first, second, rng, np.asarray(self.options.tip), rotation_onto)
             demonstration = self.expert.demonstrate(task, rng)
             shown.append(demonstration)
-            return dict(zip(self.features.names, self.features.of_path(demonstration.path)))
+            neutral = self.expert.path(task, (0.0, 0.0), funnel_frame(task))
+            change = self.features.of_path(demonstration.path) - self.features.of_path(neutral)
+            return dict(zip(self.features.names, change))
 
         asked = collect_demonstrations(self.tasks.adjacency(), collect, rng, self.options.max_demonstrations)
         result = super().fit(shown, rng)
         result.update({"asked": [list(p) for p in asked.asked],
                        "preferences": [list(p) if p else None for p in asked.preferences],
-                       "ranking": asked.graph.ranking(), "demonstrations_asked": len(shown),
-                       "seconds": time.perf_counter() - started})
+                       "ranking": asked.graph.ranking(), "demonstrations_asked": len(shown)})
+        self.timing["seconds"] = time.perf_counter() - started
         return result

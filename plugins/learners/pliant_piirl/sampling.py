@@ -38,8 +38,8 @@ class SampleOptions:
 
 def smooth_covariance(k: int) -> np.ndarray:
     """``R^-1`` ``(k, k)`` for ``k`` waypoints, start clamped and end free, scaled to a largest variance of 1."""
-    a = np.zeros((k + 1, k))
-    for r in range(k + 1):                          # acceleration rows over [0 (ghost), 0 (start), x_1, ..., x_{k-1}]
+    a = np.zeros((k, k))
+    for r in range(k):          # accelerations over [0 (ghost), 0 (start), x_1, ..., x_{k-1}]; none past the end
         for c, w in ((r - 2, 1.0), (r - 1, -2.0), (r, 1.0)):
             if 1 <= c < k:
                 a[r, c] = w

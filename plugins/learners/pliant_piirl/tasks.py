@@ -11,6 +11,10 @@
 - :func:`generate_task` (Algorithm 3): the target is sampled ``T_range`` (a depth range, m) from the edge point,
   inside, and at least ``T_clearance`` from every object (the text's "at least"; the listing's ``<`` is read as
   a typo, since a target inside an object could not be touched without deforming it); then the collision planes.
+  One addition, documented as ``medial_tolerance``: the target also lies on the medial surface of the pair (as
+  far from one object as from the other).  Off it, the geometry alone can make the cheapest insertion deform the
+  more sensitive object more (it is nearer the tip), and the demonstration would not say which object the
+  demonstrator prefers.
 - :func:`funnel_planes` (GENERATECOLLISIONPLANES): four half-spaces around the axis from the target out through
   the edge point.  Across the gap between the two objects they open at ``across_angle`` from a half-width
   ``across_width`` at the target, so the probe can press into either object; along the edge they open at
@@ -41,6 +45,8 @@ class TaskOptions:
     depth_range: tuple[float, float] = option((0.03, 0.05), "T_range: the target's distance from the edge point "
                                               "(m, lower and upper)")
     clearance: float = option(0.02, "T_clearance: the target's least distance from every object (m)", minimum=0.0)
+    medial_tolerance: float = option(0.004, "the target is as far from one object of the pair as from the other, "
+                                     "within this (m; inf: anywhere, as Algorithm 3's listing)", minimum=0.0)
     start_distance: float = option(0.05, "the probe starts with its tip this far out from the edge point (m)",
                                    minimum=0.0)
     across_width: float = option(0.02, "funnel half-width across the gap at the target (m)", minimum=1e-9)
@@ -103,6 +109,18 @@ class TaskSpace:
             index = around[best]
         return bool(np.all(index > 0) and np.all(index < shape - 1))
 
+    def medial(self, first: str, second: str, point: np.ndarray) -> bool:
+        """Whether ``point`` is as far from one object as from the other, within :attr:`TaskOptions.medial_tolerance`
+        (always true when the tolerance is infinite)."""
+        tolerance = self.options.medial_tolerance
+        if not np.isfinite(tolerance):
+            return True
+        index = np.floor((np.asarray(point) - self.grid.lower) / self.grid.resolution).astype(int)
+        if np.any(index < 0) or np.any(index >= np.array(self.clearance_field.shape)):
+            return False
+        i, j = self._index(first), self._index(second)
+        return bool(abs(self._each[i][tuple(index)] - self._each[j][tuple(index)]) <= tolerance)
+
     def clearance(self, point: np.ndarray) -> float:
         """Distance (m) from ``point`` to the nearest object, from the grid's distance field."""
         index = np.floor((np.asarray(point) - self.grid.lower) / self.grid.resolution).astype(int)
@@ -128,7 +146,7 @@ class TaskSpace:
             direction = rng.normal(size=3)
             direction /= np.linalg.norm(direction)
             target = edge + direction * rng.uniform(*o.depth_range)
-            if self.clearance(target) >= o.clearance and self.inside(target):
+            if self.clearance(target) >= o.clearance and self.medial(first, second, target) and self.inside(target):
                 break
         else:
             raise PlanningError(f"no target inside the environment within {o.depth_range} m of the edge between "

@@ -1,0 +1,118 @@
+"""Tasks, the simulated expert and the sample paths on the real hollow-cube scene (thesis 4.4.1)."""
+
+import numpy as np
+import pliant
+import pytest
+from pliant.errors import ConfigError, PlanningError
+from pliant_piirl.expert import ExpertOptions, SimulatedExpert, funnel_frame
+from pliant_piirl.features import DeformationFeatures, true_sensitivities, unit_sensitivity_scene
+from pliant_piirl.sampling import PathSampler, SampleOptions, smooth_covariance
+from pliant_piirl.tasks import TaskSpace, rotation_onto
+
+TIP = np.array([0.0, 0.0, -0.06])
+CENTRE = np.full(3, 0.202)
+
+
+@pytest.fixture(scope="module")
+def cube():
+    scene = pliant.load_scene("hollow-cube")
+    return scene, TaskSpace(scene), DeformationFeatures(scene)
+
+
+def test_every_face_is_adjacent_to_the_four_faces_it_meets(cube):
+    _, tasks, _ = cube
+    opposite = {"L1": "L2", "L2": "L1", "M1": "M2", "M2": "M1", "H1": "H2", "H2": "H1"}
+    adjacency = tasks.adjacency()
+    for name, neighbours in adjacency.items():
+        assert neighbours == set(opposite) - {name, opposite[name]}
+
+
+def test_edge_points_are_equidistant_and_inside_is_the_hollow(cube):
+    _, tasks, _ = cube
+    points = tasks.edge_points("L1", "M1")
+    assert len(points) > 0
+    # L1 is the +x face, M1 the +y face: their edge runs along z at x = y = 0.202 + ~0.075
+    assert np.allclose(points[:, 0] - CENTRE[0], points[:, 1] - CENTRE[1], atol=0.005)
+    assert np.all(np.abs(points[:, 2] - CENTRE[2]) < 0.062)
+    assert tasks.inside(CENTRE) and not tasks.inside(CENTRE + [0.15, 0.0, 0.0])
+    with pytest.raises(PlanningError, match="not adjacent"):
+        tasks.generate_task("L1", "L2", np.random.default_rng(0), TIP, rotation_onto)
+    with pytest.raises(ConfigError, match="no object"):
+        tasks.edge_points("L1", "Q9")
+
+
+@pytest.mark.parametrize("pair", [("L1", "M1"), ("M2", "H2"), ("H1", "L2")])
+def test_a_generated_task_is_inside_clear_and_its_funnel_holds_start_and_target(cube, pair):
+    _, tasks, features = cube
+    task = tasks.generate_task(*pair, np.random.default_rng(4), TIP, rotation_onto)
+    o = tasks.options
+    assert tasks.inside(task.target) and tasks.clearance(task.target) >= o.clearance
+    assert o.depth_range[0] - 1e-9 <= np.linalg.norm(task.target - task.edge) <= o.depth_range[1] + 1e-9
+    assert task.allows(task.target[None])[0]
+    start_points = features.robot.body_points(task.start[None])[0]
+    assert task.allows(start_points).all()
+    assert features.of_path(np.array([task.start, task.start])).sum() == 0          # the probe starts free
+    rot, pos, _ = features.robot.rigid_placement(task.start[None])
+    assert np.linalg.norm(rot[0] @ TIP + pos[0] - task.edge) == pytest.approx(o.start_distance)
+
+
+def test_features_count_robot_points_per_object_and_the_learner_never_sees_sensitivities(cube):
+    scene, _, features = cube
+    assert all(o.material.sensitivity == 1.0 for o in unit_sensitivity_scene(scene).objects)
+    assert true_sensitivities(scene) == {"L1": 0.2, "L2": 0.2, "M1": 0.4, "M2": 0.4, "H1": 0.8, "H2": 0.8}
+    # the probe lying inside the +x face (L1) along y: every body point in L1 whose lattice cell lies in it
+    inside = np.r_[0.276, 0.202, 0.202, rotation_onto([0.0, 1.0, 0.0])]
+    v = features.of_path(np.array([inside, inside]))
+    assert v[features.names.index("L1")] > 0 and v.sum() == v[features.names.index("L1")]
+    # two identical waypoints are measured as two configurations: twice one state
+    one = features.cost.breakdown(inside[None])[0]
+    assert np.allclose(v, 2 * one)
+
+
+@pytest.fixture(scope="module")
+def demonstration(cube):
+    scene, tasks, features = cube
+    expert = SimulatedExpert(features, true_sensitivities(scene), TIP, ExpertOptions(grid=11, refine=1, noise=0.0))
+    task = tasks.generate_task("L1", "M1", np.random.default_rng(1), TIP, rotation_onto)
+    return expert, task, expert.demonstrate(task, np.random.default_rng(0))
+
+
+def test_the_expert_shows_its_optimum_which_prefers_the_less_sensitive_face(cube, demonstration):
+    scene, _, features = cube
+    expert, task, shown = demonstration
+    weights = features.sensitivity_vector(true_sensitivities(scene))
+    cost = features.of_path(shown.path) @ weights
+    frame = funnel_frame(task)
+    for tilt in ([0.0, 0.0], [0.3, 0.0], [-0.3, 0.0], [0.1, 0.05]):
+        other = expert.path(task, tilt, frame)
+        if expert.valid(task, [other])[0]:
+            assert cost <= features.of_path(other) @ weights + 1e-9
+    v = dict(zip(features.names, features.of_path(shown.path)))
+    assert v["L1"] > v["M1"]
+    rot, pos, _ = features.robot.rigid_placement(shown.path[-1:])
+    assert np.allclose(rot[0] @ TIP + pos[0], task.target)                          # the tip touches the target
+    assert np.array_equal(shown.path[0], task.start) and expert.valid(task, [shown.path])[0]
+
+
+def test_smooth_noise_is_clamped_at_the_start_and_largest_at_the_end():
+    cov = smooth_covariance(10)
+    assert np.allclose(cov, cov.T) and np.all(np.linalg.eigvalsh(cov) >= -1e-12)
+    assert cov[0, 0] == 0 and cov.diagonal().max() == pytest.approx(1.0)
+    assert np.all(np.diff(cov.diagonal()) >= 0)
+
+
+def test_samples_do_the_same_task_and_the_local_optimiser_only_improves(cube, demonstration):
+    _, _, features = cube
+    _, task, shown = demonstration
+    sampler = PathSampler(features, TIP, SampleOptions(samples=20, rounds=2))
+    samples = sampler.draw(shown, np.random.default_rng(2))
+    assert len(samples) == 20
+    for s in samples:
+        assert np.array_equal(s[0], shown.path[0]) and len(s) == sampler.options.waypoints
+        rot, pos, _ = features.robot.rigid_placement(s[-1:])
+        assert np.allclose(rot[0] @ TIP + pos[0], task.target, atol=1e-9)
+        assert task.allows(features.robot.body_points(features.states(s))).all()
+    assert not all(np.allclose(samples[0], s) for s in samples[1:])
+    better, replaced = sampler.improve(shown, np.random.default_rng(3))
+    assert np.all(features.of_path(better.path) <= features.of_path(shown.path) + 1e-9)
+    assert (replaced == 0) == (better is shown)

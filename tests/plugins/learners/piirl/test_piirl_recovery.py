@@ -1,0 +1,79 @@
+"""Eq. 4.1: known answers on small cases, its gradient against finite differences, its invariances, bad input."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from pliant.errors import ConfigError
+from pliant_piirl.piirl import RecoveryOptions, recover
+
+
+def test_an_object_the_demonstration_avoids_gets_the_upper_bound_and_the_deformed_one_the_lower():
+    # the demonstration deforms object 0 only; its samples also deform object 1
+    demos = np.array([[1.0, 0.0]])
+    samples = [np.array([[1.0, 1.0], [2.0, 0.5], [1.5, 2.0]])]
+    s = recover(demos, samples)["sensitivities"]
+    assert s[0] == pytest.approx(0.1) and s[1] == pytest.approx(1000.0)
+
+
+def test_a_chain_of_preferences_is_ordered():
+    # demo 1 prefers a over b, demo 2 prefers b over c: a < b < c
+    demos = np.array([[2.0, 0.5, 0.0], [0.0, 2.0, 0.5]])
+    samples = [np.array([[1.0, 2.0, 0.0], [1.5, 1.0, 0.0]]), np.array([[0.0, 1.0, 2.0], [0.0, 1.5, 1.0]])]
+    s = recover(demos, samples)["sensitivities"]
+    assert s[0] < s[1] < s[2]
+
+
+def objective(s, demos, samples):
+    scale = max(demos.max(), max(x.max() for x in samples))
+    return sum((s @ v / scale) / (s @ w.sum(axis=0) / scale) for v, w in zip(demos, samples))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10_000))
+def test_the_solution_is_no_worse_than_any_point_of_a_random_search(seed):
+    rng = np.random.default_rng(seed)
+    demos = rng.uniform(0, 1, (3, 4))
+    samples = [rng.uniform(0, 2, (5, 4)) for _ in range(3)]
+    result = recover(demos, samples)
+    assert result["objective"] == pytest.approx(objective(result["sensitivities"], demos, samples), rel=1e-9)
+    trials = rng.uniform(0.1, 1000, (2000, 4))
+    best = min(objective(s, demos, samples) for s in trials)
+    assert result["objective"] <= best + 1e-9
+    assert np.all(result["sensitivities"] >= 0.1 - 1e-12) and np.all(result["sensitivities"] <= 1000 + 1e-9)
+
+
+def test_the_gradient_matches_finite_differences():
+    from scipy.optimize import check_grad
+
+    rng = np.random.default_rng(1)
+    demos, samples = rng.uniform(0, 1, (4, 3)), [rng.uniform(0, 2, (6, 3)) for _ in range(4)]
+    scale = max(demos.max(), max(x.max() for x in samples))
+    v, w = demos / scale, np.array([x.sum(axis=0) for x in samples]) / scale
+
+    def f(s):
+        return float(np.sum((v @ s) / (w @ s)))
+
+    def g(s):
+        a, b = v @ s, w @ s
+        return (v / b[:, None] - (a / b**2)[:, None] * w).sum(axis=0)
+
+    for s in rng.uniform(0.1, 1000, (5, 3)):
+        assert check_grad(f, g, s, epsilon=1e-6 * s.mean()) < 1e-6 * np.linalg.norm(g(s)) + 1e-12
+
+
+def test_scaling_the_features_changes_nothing_and_empty_demonstrations_are_left_out():
+    demos = np.array([[1.0, 0.2], [0.0, 0.0]])
+    samples = [np.array([[1.0, 1.0], [0.5, 2.0]]), np.array([[1.0, 1.0]])]
+    a, b = recover(demos, samples), recover(demos * 37.0, [s * 37.0 for s in samples])
+    assert np.allclose(a["sensitivities"], b["sensitivities"]) and a["used"] == [0]
+
+
+def test_nothing_to_learn_from_says_so_and_bad_input_is_an_error():
+    assert recover(np.zeros((1, 2)), [np.ones((2, 2))])["message"] == "no informative demonstration"
+    with pytest.raises(ConfigError, match="non-negative"):
+        recover(np.array([[1.0, -1.0]]), [np.ones((2, 2))])
+    with pytest.raises(ConfigError, match="one sample set"):
+        recover(np.ones((2, 2)), [np.ones((2, 2))])
+    with pytest.raises(ConfigError, match="lower <= initial"):
+        recover(np.ones((1, 2)), [np.ones((2, 2))], RecoveryOptions(lower=5.0, initial=1.0))
