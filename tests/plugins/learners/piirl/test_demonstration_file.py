@@ -7,8 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pliant.errors import ConfigError
-from pliant_piirl.demonstration import (Demonstration, DemonstrationTask, load_demonstrations,
-                                        save_demonstrations)
+from pliant_piirl.demonstration import Demonstration, DemonstrationTask, load_demonstrations, save_demonstrations
 
 finite = st.floats(-10, 10, allow_nan=False)
 
