@@ -97,7 +97,9 @@ def _trial(trial: int, mode: str, options: dict) -> dict:
             "preferences": result.get("preferences"), "sensitivities": learned, "order_correct": bool(order),
             "true_cost": (demonstrated @ np.array([truth[n] for n in names])).tolist(),
             "features": result["features"], "replaced": result["replaced"], "used": result["used"],
-            "recovery_seconds": learner.timing["recovery_seconds"], "fit_seconds": learner.timing["seconds"],
+            "demonstrations_shown": result["demonstrations"],
+            "recovery_seconds": learner.timing["recovery_seconds"],
+            "samples_seconds": learner.timing["samples_seconds"],
             "seconds": time.perf_counter() - started}
 
 
@@ -114,9 +116,16 @@ def summarise(records: list[dict], mode: str) -> dict:
             "sensitivities": {n: {"mean": float(np.mean(v)), "std": float(np.std(v))} for n, v in values.items()},
             "recovery_seconds": {"mean": float(np.mean([r["recovery_seconds"] for r in records])) if records else None,
                                  "max": float(np.max([r["recovery_seconds"] for r in records])) if records else None},
+            "samples_seconds": _stats(records, "samples_seconds"),
             "trial_seconds": {"mean": float(np.mean([r["seconds"] for r in records])) if records else None,
                               "max": float(np.max([r["seconds"] for r in records])) if records else None},
             "thesis": THESIS_ACTIVE if mode == "active" else {"sensitivities": THESIS_ALL_PAIRS}}
+
+
+def _stats(records: list[dict], key: str) -> dict:
+    values = [r[key] for r in records if key in r]
+    return {"mean": float(np.mean(values)) if values else float("nan"),
+            "max": float(np.max(values)) if values else float("nan")}
 
 
 def render(summary: dict) -> str:
@@ -133,11 +142,12 @@ def render(summary: dict) -> str:
         ref = summary["thesis"]["sensitivities"].get(name)
         shown = (f"{ref[0]:.4g} [{ref[1]:.3g}]" if isinstance(ref, tuple | list) else f"{ref:.5g}") if ref else "-"
         lines.append(f"| {name} | {stats['mean']:.4g} [{stats['std']:.3g}] | {shown} |")
-    rs, ts = summary["recovery_seconds"], summary["trial_seconds"]
+    rs, ss, ts = summary["recovery_seconds"], summary["samples_seconds"], summary["trial_seconds"]
     if rs["mean"] is not None:
-        lines += ["", f"Eq. 4.1's solve: {rs['mean'] * 1000:.1f} ms mean, {rs['max'] * 1000:.1f} ms at most.  Whole "
-                  f"trial (asking, demonstrating, sampling, features, solve): {ts['mean']:.0f} s mean, "
-                  f"{ts['max']:.0f} s at most, one core."]
+        lines += ["", f"Eq. 4.1's solve: {rs['mean'] * 1000:.1f} ms mean, {rs['max'] * 1000:.1f} ms at most.  Local "
+                  f"optimiser, sample paths and their features: {ss['mean']:.1f} s mean.  Whole trial (asking, "
+                  f"demonstrating, sampling, solving): {ts['mean']:.0f} s mean, {ts['max']:.0f} s at most, one core "
+                  "per trial."]
     return "\n".join(lines) + "\n"
 
 
@@ -146,3 +156,154 @@ def write_summary(directory: Path, records: list[dict], mode: str) -> dict:
     write_json(directory / "summary.json", summary)
     write_text(directory / "report.md", render(summary))
     return summary
+
+
+#: thesis Table 4.1: per task, the demonstrated cost per class (L, M, H) and the 30-minute plans' mean [std]
+THESIS_TABLE_41 = [
+    ((5.61, 0.0, 0.0), ((12.14, 4.68), (0.0, 0.0), (0.0, 0.0))),
+    ((7.14, 0.0, 0.0), ((12.35, 2.7), (0.0, 0.0), (0.0, 0.0))),
+    ((4.87, 0.0, 0.0), ((10.65, 3.71), (0.16, 0.82), (0.0, 0.0))),
+    ((5.30, 0.0, 0.0), ((10.27, 2.75), (0.07, 0.38), (0.01, 0.03))),
+    ((7.69, 0.0, 0.0), ((13.65, 4.18), (0.0, 0.0), (0.1, 0.53))),
+    ((7.92, 0.0, 0.0), ((10.73, 2.09), (0.0, 0.0), (0.0, 0.01))),
+    ((7.27, 0.0, 0.0), ((11.86, 2.93), (0.1, 0.54), (0.0, 0.0))),
+    ((9.55, 0.0, 0.0), ((13.48, 3.52), (0.34, 1.47), (0.0, 0.0))),
+    ((0.0, 35.59, 0.0), ((0.02, 0.13), (32.55, 9.13), (0.0, 0.01))),
+    ((0.0, 20.38, 0.0), ((0.9, 1.63), (21.8, 8.44), (0.0, 0.01))),
+    ((0.0, 18.67, 0.0), ((0.02, 0.08), (23.79, 5.62), (0.29, 1.29))),
+    ((0.0, 17.17, 0.0), ((9.58, 1.95), (0.1, 0.32), (0.07, 0.25))),
+]
+TABLE_QUICK = {"tasks": 3, "plans": 1, "max_time": 10.0, "options": QUICK["options"]}
+#: an object counts as deformed by a path when it takes more than this share of the path's deformation
+DEFORMED_SHARE = 0.1
+
+
+def run_table41(*, plans: int, max_time: float, jobs: int, output: Path, quick: bool = False, fresh: bool = False,
+                options: dict | None = None, echo=print) -> dict:
+    """Table 4.1: learn from all 12 pairs (trial 0 of ``--all-pairs``), then plan every task ``plans`` times with
+    RRT* for ``max_time`` s with the recovered sensitivities and compare with the demonstration in true costs."""
+    for key, value in (("--plans", plans), ("--jobs", jobs)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ConfigError("must be a positive integer", field=key, value=value)
+    if not (isinstance(max_time, (int, float)) and np.isfinite(max_time) and max_time > 0):
+        raise ConfigError("must be a positive number of seconds", field="--max-time", value=max_time)
+    options = {**(QUICK["options"] if quick else {}), **(options or {})}
+    directory = Path(output) / f"learn-table-4.1{'-quick' if quick else ''}"
+    log, records = open_log(directory, "--output", echo)
+    learned_file = directory / "learned.json"
+    check_settings(directory, {"options": options, "plans": plans, "max_time": max_time}, ["options", "max_time"],
+                   replace=fresh or not records)
+    if fresh or not learned_file.exists():
+        from pliant.files import rewrite_jsonl
+
+        records.clear()
+        rewrite_jsonl(log, records)
+        echo("learning from every adjacent pair (the demonstrations of Table 4.1) ...")
+        learned = _trial(0, "all-pairs", options)
+        write_json(learned_file, learned)
+    import json
+
+    learned = json.loads(learned_file.read_text())
+    tasks = range(min(TABLE_QUICK["tasks"], len(learned["features"]["demonstrations"])) if quick else
+                  len(learned["features"]["demonstrations"]))
+    done = {(r["task"], r["plan"]) for r in records}
+    todo = [(str(learned_file), task, plan, max_time) for task in tasks for plan in range(plans)
+            if (task, plan) not in done]
+    echo(f"table 4.1: {len(records)} plans on file, {len(todo)} to go, {jobs} at a time, {max_time:g} s each")
+
+    def describe(r: dict) -> str:
+        return (f"task {r['task']} {r['objects']} plan {r['plan']}: {r['status']}, planned cost "
+                f"{r['planned_cost']:.1f} against the demonstration's {r['demonstrated_cost']:.1f}")
+
+    def finish() -> dict:
+        return write_table41(directory, learned, records)
+
+    run_tasks(_plan41, todo, jobs=jobs, log=log, records=records, describe=describe, on_interrupt=finish, echo=echo)
+    return finish()
+
+
+def _plan41(learned_file: str, task: int, plan: int, max_time: float) -> dict:
+    import json
+
+    import pliant
+
+    from pliant_piirl.demonstration import Demonstration
+    from pliant_piirl.features import DeformationFeatures, true_sensitivities
+    from pliant_piirl.verification import compare, plan_task
+
+    learned = json.loads(Path(learned_file).read_text())
+    scene = pliant.load_scene(SCENE)
+    features = DeformationFeatures(scene)
+    demonstration = Demonstration.from_dict(learned["demonstrations_shown"][task])
+    started = time.perf_counter()
+    result, path = plan_task(scene, learned["sensitivities"], demonstration, (0.0, 0.0, -0.06),
+                             np.random.default_rng(1000 * task + plan), max_time=max_time)
+    if path is None and result.path is not None:
+        path = result.path.configurations
+    row = compare(features, true_sensitivities(scene), demonstration, path)
+    return {"task": task, "plan": plan, "objects": list(demonstration.task.objects), "status": result.status.value,
+            "seconds": time.perf_counter() - started, **row}
+
+
+def _class_costs(deformation: dict[str, float], truth: dict[str, float]) -> dict[str, float]:
+    out = {"L": 0.0, "M": 0.0, "H": 0.0}
+    for name, v in deformation.items():
+        out[name[0]] = out.get(name[0], 0.0) + v * truth[name]
+    return out
+
+
+def _deformed(costs: dict[str, float]) -> set[str]:
+    total = sum(costs.values())
+    return {k for k, v in costs.items() if total > 0 and v > DEFORMED_SHARE * total}
+
+
+def write_table41(directory: Path, learned: dict, records: list[dict]) -> dict:
+    import pliant
+
+    from pliant_piirl.features import true_sensitivities
+
+    truth = true_sensitivities(pliant.load_scene(SCENE))
+    rows = []
+    for task in sorted({r["task"] for r in records}):
+        mine = [r for r in records if r["task"] == task]
+        shown = _class_costs(mine[0]["demonstrated"], truth)
+        planned = [_class_costs(r["planned"], truth) for r in mine if r["planned_cost"] == r["planned_cost"]]
+        rows.append({"task": task, "objects": mine[0]["objects"], "demonstrated": shown,
+                     "planned": {k: [p[k] for p in planned] for k in "LMH"}, "plans": len(mine),
+                     "solved": len(planned),
+                     "same_objects": sum(_deformed(p) == _deformed(shown) for p in planned),
+                     "no_costlier": sum(sum(p.values()) <= sum(shown.values()) for p in planned)})
+    summary = {"sensitivities": learned["sensitivities"], "rows": rows,
+               "tasks_same_objects": sum(r["solved"] > 0 and r["same_objects"] * 2 > r["solved"] for r in rows),
+               "tasks_no_costlier": sum(r["solved"] > 0 and r["no_costlier"] * 2 > r["solved"] for r in rows),
+               "tasks": len(rows), "deformed_share": DEFORMED_SHARE}
+    write_json(directory / "summary.json", summary)
+    write_text(directory / "table-4.1.md", render_table41(summary))
+    return summary
+
+
+def render_table41(summary: dict) -> str:
+    """Table 4.1 as Markdown: ours (true-cost per class, planned mean [std]) and the thesis's in parentheses."""
+    values = ", ".join(f"{k} {v:.4g}" for k, v in summary["sensitivities"].items())
+    lines = [f"# Table 4.1 on {SCENE}: demonstrated and planned deformation cost per class", "",
+             f"Recovered from the 12 demonstrations: {values}.", "",
+             "| task | pair | demonstrated L | M | H | planned L | M | H | same objects | no costlier |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in summary["rows"]:
+        k = r["task"]
+        thesis = THESIS_TABLE_41[k] if k < len(THESIS_TABLE_41) else None
+        shown = [f"{r['demonstrated'][c]:.1f}" + (f" ({thesis[0][i]:g})" if thesis else "") for i, c in
+                 enumerate("LMH")]
+        planned = []
+        for i, c in enumerate("LMH"):
+            v = r["planned"][c]
+            cell = f"{np.mean(v):.1f} [{np.std(v):.1f}]" if v else "-"
+            planned.append(cell + (f" ({thesis[1][i][0]:g} [{thesis[1][i][1]:g}])" if thesis else ""))
+        lines.append(f"| {k + 1} | {'-'.join(r['objects'])} | {' | '.join(shown)} | {' | '.join(planned)} | "
+                     f"{r['same_objects']}/{r['solved']} | {r['no_costlier']}/{r['solved']} |")
+    lines += ["", f"Tasks where most plans deform the same classes as the demonstration (a class counts when it "
+              f"takes more than {summary['deformed_share']:.0%} of the path's true cost): "
+              f"{summary['tasks_same_objects']} of {summary['tasks']}; where most plans cost no more than the "
+              f"demonstration: {summary['tasks_no_costlier']} of {summary['tasks']}.  Thesis values in parentheses "
+              "(its tasks are its own; costs are in its units, volume change times true sensitivity)."]
+    return "\n".join(lines) + "\n"

@@ -70,7 +70,9 @@ class PiirlLearner(Learner):
     ``sensitivities`` ``{object: S}`` (dimensionless, within [lower, upper]: only ratios are meaningful),
     ``objective``, ``used`` (demonstrations that carried information), ``replaced`` (local optimiser
     replacements per demonstration), ``demonstrations`` (the improved ones, as dicts of the file format) and
-    ``features`` (their per-object deformation).  Wall times of the last fit are in :attr:`timing`.
+    ``features`` (their per-object deformation).  Wall times of the last fit are in :attr:`timing` (s): ``seconds``
+(all of it), ``samples_seconds`` (local optimiser, sample paths and their features) and ``recovery_seconds``
+(eq. 4.1's solve).
     """
 
     Options = PiirlOptions
@@ -106,7 +108,8 @@ class PiirlLearner(Learner):
         result = recover(np.array(demo_features).reshape(len(demonstrations), -1), sample_features,
                          _part(self.options, RecoveryOptions))
         names = self.features.names
-        self.timing = {"seconds": time.perf_counter() - started, "recovery_seconds": time.perf_counter() - fitted_at}
+        self.timing = {"seconds": time.perf_counter() - started, "samples_seconds": fitted_at - started,
+                       "recovery_seconds": time.perf_counter() - fitted_at}
         return {"sensitivities": dict(zip(names, map(float, result["sensitivities"]))),
                 "objective": result["objective"], "used": result["used"], "iterations": result["iterations"],
                 "message": result["message"], "replaced": replaced,

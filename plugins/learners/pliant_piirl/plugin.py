@@ -45,3 +45,39 @@ def _active_command(args) -> int:
                          quick=args.quick, fresh=args.fresh, options=options)
     print(render(summary))
     return 0
+
+
+@hookimpl(specname="pliant_add_commands")
+def add_table_command(subparsers):
+    import os
+
+    parser = subparsers.add_parser(
+        "learn-table", help="thesis Table 4.1: plan every demonstration task with the recovered sensitivities",
+        description="Learn from all 12 adjacent pairs of the hollow cube, then plan each task --plans times with "
+                    "RRT* (puncture check on, the task's funnel) for --max-time s with the recovered sensitivities, "
+                    "and compare planned and demonstrated deformation in the true sensitivities.  Resumable.")
+    parser.add_argument("--plans", type=int, default=3, help="RRT* runs per task (default 3; thesis 30 and 15)")
+    parser.add_argument("--max-time", type=float, default=60.0, help="seconds per plan (default 60; thesis 30 and "
+                        "60 minutes)")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="plans at a time (default: cores)")
+    parser.add_argument("--quick", action="store_true", help="CI-sized: 3 tasks, 1 plan of 10 s, a coarser expert")
+    parser.add_argument("--fresh", action="store_true", help="learn again and forget the plans on file")
+    parser.add_argument("--output", default="out", help="directory (default out)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="an active-piirl option")
+    parser.set_defaults(handler=_table_command)
+
+
+def _table_command(args) -> int:
+    from pathlib import Path
+
+    from pliant.pipeline import parse_override
+
+    from pliant_piirl.experiments import TABLE_QUICK, render_table41, run_table41
+
+    options = dict(parse_override(item, "--set") for item in args.set)
+    plans = TABLE_QUICK["plans"] if args.quick and args.plans == 3 else args.plans
+    max_time = TABLE_QUICK["max_time"] if args.quick and args.max_time == 60.0 else args.max_time
+    summary = run_table41(plans=plans, max_time=max_time, jobs=args.jobs, output=Path(args.output),
+                          quick=args.quick, fresh=args.fresh, options=options)
+    print(render_table41(summary))
+    return 0

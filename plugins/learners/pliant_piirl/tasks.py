@@ -9,8 +9,10 @@
 - :func:`inside`: the chapter's footnote: from a point, climb the distance field away from the objects to its
   local maximum; the point is "inside" the environment when that maximum is not on the grid's boundary.
 - :func:`generate_task` (Algorithm 3): the target is sampled ``T_range`` (a depth range, m) from the edge point,
-  inside, and at least ``T_clearance`` from every object (the text's "at least"; the listing's ``<`` is read as
-  a typo, since a target inside an object could not be touched without deforming it); then the collision planes.
+  in a direction within ``target_cone`` of the way into the environment there (away from both objects; an
+  oblique axis would start the probe against a third object), inside, and at least ``T_clearance`` from every
+  object (the text's "at least"; the listing's ``<`` is read as a typo, since a target inside an object could not
+  be touched without deforming it); then the collision planes.
   One addition, documented as ``medial_tolerance``: the target also lies on the medial surface of the pair (as
   far from one object as from the other).  Off it, the geometry alone can make the cheapest insertion deform the
   more sensitive object more (it is nearer the tip), and the demonstration would not say which object the
@@ -44,6 +46,9 @@ class TaskOptions:
                                    "task asks about its two objects only", minimum=0.0)
     depth_range: tuple[float, float] = option((0.03, 0.05), "T_range: the target's distance from the edge point "
                                               "(m, lower and upper)")
+    target_cone: float = option(0.5, "the target is sampled within this angle of the direction away from both "
+                                "objects at the edge point (rad; pi: any direction, as Algorithm 3's listing)",
+                                minimum=0.0, maximum=float(np.pi))
     clearance: float = option(0.02, "T_clearance: the target's least distance from every object (m)", minimum=0.0)
     medial_tolerance: float = option(0.004, "the target is as far from one object of the pair as from the other, "
                                      "within this (m; inf: anywhere, as Algorithm 3's listing)", minimum=0.0)
@@ -141,10 +146,10 @@ class TaskSpace:
             raise PlanningError(f"objects {first!r} and {second!r} are not adjacent: no edge point between them",
                                 field="objects", value=[first, second])
         o = self.options
+        i, j = self._index(first), self._index(second)
         for _ in range(o.attempts):
             edge = edges[rng.integers(len(edges))]
-            direction = rng.normal(size=3)
-            direction /= np.linalg.norm(direction)
+            direction = self._within_cone(self._inward(i, j, edge), o.target_cone, rng)
             target = edge + direction * rng.uniform(*o.depth_range)
             if self.clearance(target) >= o.clearance and self.medial(first, second, target) and self.inside(target):
                 break
@@ -159,6 +164,31 @@ class TaskSpace:
         tip = edge + axis * o.start_distance
         start = np.concatenate([tip - _rotate(orientation, tip_offset), orientation])
         return DemonstrationTask(start, target, planes, (first, second), edge)
+
+    def _inward(self, i: int, j: int, point: np.ndarray) -> np.ndarray:
+        """Unit vector at ``point`` away from both objects: the sum of their distance fields' gradients."""
+        index = np.clip(np.floor((point - self.grid.lower) / self.grid.resolution).astype(int), 1,
+                        np.array(self.clearance_field.shape) - 2)
+        g = np.zeros(3)
+        for field in (self._each[i], self._each[j]):
+            for axis in range(3):
+                up, down = index.copy(), index.copy()
+                up[axis] += 1
+                down[axis] -= 1
+                g[axis] += field[tuple(up)] - field[tuple(down)]
+        norm = np.linalg.norm(g)
+        return g / norm if norm > 0 else np.array([0.0, 0.0, 1.0])
+
+    @staticmethod
+    def _within_cone(axis: np.ndarray, half_angle: float, rng: np.random.Generator) -> np.ndarray:
+        """A unit vector drawn uniformly (by solid angle) within ``half_angle`` rad of unit vector ``axis``."""
+        cos_t = rng.uniform(np.cos(half_angle), 1.0)
+        phi = rng.uniform(0.0, 2 * np.pi)
+        u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+        u /= np.linalg.norm(u)
+        v = np.cross(axis, u)
+        sin_t = np.sqrt(1.0 - cos_t**2)
+        return cos_t * axis + sin_t * (np.cos(phi) * u + np.sin(phi) * v)
 
     def funnel_planes(self, first: str, second: str, edge: np.ndarray, target: np.ndarray) -> np.ndarray:
         """GENERATECOLLISIONPLANES: four rows ``(n, offset)``, ``n . x <= offset`` (see the module docstring)."""

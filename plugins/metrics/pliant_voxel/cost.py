@@ -17,7 +17,13 @@ from pliant.options import option
 from pliant.voxelgrid import FREE, VoxelGrid
 
 from pliant_voxel.formula import compress_table, cost_tables
-from pliant_voxel.kernels import point_costs, rigid_state_costs, state_costs, trilinear_with_gradient
+from pliant_voxel.kernels import (
+    point_costs,
+    rigid_state_breakdown,
+    rigid_state_costs,
+    state_costs,
+    trilinear_with_gradient,
+)
 
 
 @dataclass(frozen=True)
@@ -97,10 +103,18 @@ class VoxelDeformationCost(CostModel):
 
     def breakdown(self, q):
         q = self._batch(q)
+        k = len(self.grid.object_names)
+        placement = self.robot.rigid_placement(q)
+        if placement is not None:                   # the fused kernel: no (n, m, 3) temporaries
+            rot, pos, local = placement
+            columns = self._local_layout(local)[0]
+            out = np.zeros((len(q), k))
+            rigid_state_breakdown(np.ascontiguousarray(rot), np.ascontiguousarray(pos), columns, self._lower,
+                                  self._inv_res, self._shape, self.classes, self.table, self._object_of_voxel, out)
+            return out
         pts, costs = self._points_and_costs(q)
         flat = self.grid.flat_index(pts)
         obj = self._object_of_voxel[np.where(flat < 0, len(self._object_of_voxel) - 1, flat)]
-        k = len(self.grid.object_names)
         out = np.zeros((len(q), k))
         rows = np.repeat(np.arange(len(q)), pts.shape[1])
         hit = obj.reshape(-1) >= 0

@@ -159,3 +159,39 @@ def trilinear_with_gradient(field_, lower, resolution, points, value, gradient):
             gradient[a, i, 0] = gx / resolution if lx else 0.0
             gradient[a, i, 1] = gy / resolution if ly else 0.0
             gradient[a, i, 2] = gz / resolution if lz else 0.0
+
+
+@numba.njit(cache=True, nogil=True)
+def rigid_state_breakdown(rotations, positions, local, lower, inv_res, shape, classes, table, object_of_voxel, out):
+    """Per-object cost of rigid-body configurations: ``out[a, o]`` += the cost of every point of configuration
+    ``a`` inside object ``o`` (``out`` ``(n, k)``, zeroed by the caller); a row is NaN when any point's cost is
+    not finite (outside the grid, a rigid collision, a forbidden object), as :meth:`VoxelDeformationCost.breakdown`
+    defines it.  ``table`` ``(c, N + 1)``: cost of class ``c`` in flat voxel ``v`` (column ``N``: outside);
+    ``object_of_voxel`` ``(N + 1,)``: the object of each flat voxel, -1 for free space and outside.  The body
+    points are placed on the fly, world = ``R @ p + t``, as in :func:`rigid_state_costs`."""
+    n, m = positions.shape[0], local.shape[1]
+    nx, ny, nz = shape[0], shape[1], shape[2]
+    outside = table.shape[1] - 1
+    for a in range(n):
+        r = rotations[a]
+        mx, my, mz = positions[a, 0] - lower[0], positions[a, 1] - lower[1], positions[a, 2] - lower[2]
+        bad = False
+        for i in range(m):
+            px, py, pz = local[0, i], local[1, i], local[2, i]
+            ix = int(np.floor((r[0, 0] * px + r[0, 1] * py + r[0, 2] * pz + mx) * inv_res))
+            iy = int(np.floor((r[1, 0] * px + r[1, 1] * py + r[1, 2] * pz + my) * inv_res))
+            iz = int(np.floor((r[2, 0] * px + r[2, 1] * py + r[2, 2] * pz + mz) * inv_res))
+            if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
+                v = (ix * ny + iy) * nz + iz
+            else:
+                v = outside
+            cost = table[classes[i], v]
+            if not np.isfinite(cost):
+                bad = True
+                break
+            o = object_of_voxel[v]
+            if o >= 0:
+                out[a, o] += cost
+        if bad:
+            for o in range(out.shape[1]):
+                out[a, o] = np.nan

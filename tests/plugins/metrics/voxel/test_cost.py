@@ -157,6 +157,28 @@ def test_breakdown_separates_objects_and_sums_to_cost(scene_context):
     assert b[3].sum() == 0                              # inside the opening
 
 
+@pytest.mark.parametrize("name", ["multi-cost", "cube-wall", "hollow-cube"])
+def test_the_rigid_breakdown_kernel_matches_a_per_point_reference(scene_context, name):
+    ctx = scene_context(name, "voxel")
+    q = ctx.space.sample(np.random.default_rng(3), 400)
+    fast = ctx.cost.breakdown(q)
+    # reference: every body point's cost from point_costs, added to the object of its voxel
+    pts, costs = ctx.robot.body_points(q), ctx.cost.point_costs(q)
+    flat = ctx.cost.grid.flat_index(pts)
+    ids = np.where(flat >= 0, ctx.cost.grid.object_id.reshape(-1)[np.maximum(flat, 0)], -1)
+    reference = np.zeros_like(fast)
+    for a in range(len(q)):
+        if not np.all(np.isfinite(costs[a])):
+            reference[a] = np.nan
+            continue
+        for o in range(fast.shape[1]):
+            reference[a, o] = costs[a][ids[a] == o].sum()
+    assert np.allclose(fast, reference, equal_nan=True)
+    finite = np.isfinite(fast).all(axis=1)
+    assert finite.any() and (fast[finite] > 0).any()                   # the sample meets objects and free space
+    assert np.allclose(fast[finite].sum(axis=1), ctx.cost.cost(q[finite]))
+
+
 def _soft_maze() -> Context:
     import tomllib
 

@@ -1,0 +1,96 @@
+"""Recovered parameter verification (thesis 4.3.4): plan each demonstration task with RRT* and compare.
+
+The task is planned in the scene with the *recovered* sensitivities by the registered ``rrtstar`` planner (looked
+up by name through the registry: plugins do not import each other) with the puncture and cut check on, the
+task-space goal "the tip touches the target" and the task's collision planes as a validity constraint, as in the
+chapter; then the path is shortcut (:mod:`pliant.shortcut`, cost-aware, every shortcut checked for punctures and
+cuts along the whole path), the post-processing step of sampling planners.  The chapter planned for 30 and 60
+minutes per task; the time budget here is an option.  The planned path and the demonstration are then both
+measured in the scene's *true* sensitivities: the deformation of each object and the cost ``S . V``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from pliant_piirl.demonstration import Demonstration
+
+
+def scene_with(scene, sensitivities: dict[str, float]):
+    """``scene`` with the given per-object sensitivities (deformabilities kept)."""
+    objects = [dataclasses.replace(o, material=dataclasses.replace(o.material,
+                                                                  sensitivity=float(sensitivities[o.name])))
+               for o in scene.objects]
+    return dataclasses.replace(scene, objects=objects)
+
+
+def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstration, tip, rng: np.random.Generator,
+              *, max_time: float, shortcut_iterations: int = 300, planner_options: dict | None = None):
+    """RRT* (puncture check on) for ``demonstration``'s task in ``scene`` with ``sensitivities``; the planner's
+    result and its path after cost-aware shortcutting (``None`` without a path or with no iterations)."""
+    import pliant
+    from pliant.interfaces import Context, PlanningProblem
+
+    context = Context(scene=scene_with(scene, sensitivities))
+    context.robot = pliant.registry.create("robot", "rigid", context)
+    context.cost = pliant.registry.create("cost", "voxel", context)
+    task = demonstration.task
+    options = {"target": tuple(task.target), "tip": tuple(tip), "puncture_check": True, "max_time": max_time,
+               "progress": False, "max_step": 0.02, "target_tolerance": 0.004, **(planner_options or {})}
+    planner = pliant.registry.create("planner", "rrtstar", context, **options)
+    robot = context.robot
+
+    def inside_funnel(q: np.ndarray) -> np.ndarray:
+        return task.allows(robot.body_points(q)).all(axis=1)
+
+    problem = PlanningProblem(space=context.space, start=task.start, goal=task.start, cost=context.cost, robot=robot,
+                              scene=context.scene, validity=inside_funnel)
+    result = planner.plan(problem, rng)
+    if result.path is None or shortcut_iterations == 0:
+        return result, None
+    from pliant.shortcut import shortcut
+    from pliant.topology import PunctureChecker, arc_margin
+    from pliant.voxelgrid import VoxelGrid
+
+    checker = PunctureChecker(VoxelGrid.from_scene(context.scene), robot.body_points,
+                              arc_margin=arc_margin(context.scene, context.space))
+    path, _ = shortcut(problem, result.path.configurations, rng, step=scene.resolution / 2,
+                       iterations=shortcut_iterations, check=lambda q: checker.check(q)[0])
+    return result, path
+
+
+def compare(features, truth: dict[str, float], demonstration: Demonstration, planned_path, *,
+            deformed: float = 0.0) -> dict:
+    """Per object the demonstrated and planned deformation, the objects each deforms, and both true costs."""
+    weights = features.sensitivity_vector(truth)
+    shown = features.of_path(demonstration.path)
+    planned = features.of_path(planned_path) if planned_path is not None else np.full(len(shown), np.nan)
+    names = features.names
+    return {"demonstrated": dict(zip(names, shown.tolist())), "planned": dict(zip(names, planned.tolist())),
+            "demonstrated_objects": [n for n, v in zip(names, shown) if v > deformed],
+            "planned_objects": [n for n, v in zip(names, planned) if v > deformed],
+            "demonstrated_cost": float(shown @ weights), "planned_cost": float(planned @ weights)}
+
+
+def verify(scene, features, learned: dict[str, float], demonstrations: list[Demonstration], tip,
+           rng: np.random.Generator, *, max_time: float, shortcut_iterations: int = 300, echo=print) -> list[dict]:
+    """:func:`plan_task` and :func:`compare` for every demonstration; one row each."""
+    from pliant_piirl.features import true_sensitivities
+
+    truth = true_sensitivities(scene)
+    rows = []
+    for k, demonstration in enumerate(demonstrations):
+        started = time.perf_counter()
+        result, path = plan_task(scene, learned, demonstration, tip, rng, max_time=max_time,
+                                 shortcut_iterations=shortcut_iterations)
+        if path is None and result.path is not None:
+            path = result.path.configurations
+        row = {"task": k, "objects": list(demonstration.task.objects), "status": result.status.value,
+               "seconds": time.perf_counter() - started, **compare(features, truth, demonstration, path)}
+        rows.append(row)
+        echo(f"task {k} {row['objects']}: {row['status']}, demonstrated {row['demonstrated_objects']} cost "
+             f"{row['demonstrated_cost']:.1f}, planned {row['planned_objects']} cost {row['planned_cost']:.1f}")
+    return rows
