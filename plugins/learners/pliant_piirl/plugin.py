@@ -81,3 +81,51 @@ def _table_command(args) -> int:
                           quick=args.quick, fresh=args.fresh, options=options)
     print(render_table41(summary))
     return 0
+
+
+@hookimpl(specname="pliant_add_commands")
+def add_import_command(subparsers):
+    parser = subparsers.add_parser(
+        "import-demonstration", help="add a demonstration recorded in a ROS bag to a demonstrations file",
+        description="Read a pose (PoseStamped, Pose, TransformStamped) or joint_states topic of a ROS 1 or ROS 2 bag "
+                    "as a path, make it a demonstration of the task given by --target (and --plane), and add it "
+                    "to --output (created if missing; it must be of the same scene).")
+    parser.add_argument("bag", help="a ROS 1 .bag file or a ROS 2 bag folder")
+    parser.add_argument("--topic", required=True, help="the topic holding the motion")
+    parser.add_argument("--scene", required=True, help="the scene the demonstration was shown in")
+    parser.add_argument("--target", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),
+                        help="the point the tip had to touch (m)")
+    parser.add_argument("--plane", type=float, nargs=4, action="append", default=[],
+                        metavar=("NX", "NY", "NZ", "OFFSET"), help="a collision plane n . x <= offset (unit n, m)")
+    parser.add_argument("--joints", nargs="*", help="joint names in configuration order (JointState topics)")
+    parser.add_argument("--min-step", type=float, default=0.0, help="drop configurations closer than this to the "
+                        "last kept one (default 0: keep all)")
+    parser.add_argument("--output", required=True, help="the demonstrations file (JSON)")
+    parser.set_defaults(handler=_import_command)
+
+
+def _import_command(args) -> int:
+    from pathlib import Path
+
+    import numpy as np
+    from pliant.errors import ConfigError
+
+    from pliant_piirl.demonstration import DemonstrationTask, load_demonstrations, save_demonstrations
+    from pliant_piirl.rosbag import import_demonstration
+
+    planes = np.array(args.plane, dtype=np.float64).reshape(-1, 4)
+    DemonstrationTask.from_dict({"start": [0.0], "target": list(args.target), "planes": planes.tolist()},
+                                field_name="--plane")          # unit normals, finite numbers: checked now
+    output = Path(args.output)
+    existing = []
+    if output.exists():
+        scene, existing = load_demonstrations(output)
+        if scene != args.scene:
+            raise ConfigError(f"holds demonstrations of scene {scene!r}, not {args.scene!r}", field="--output",
+                              value=str(output))
+    demonstration = import_demonstration(args.bag, args.topic, args.target, planes=planes, joints=args.joints,
+                                         min_step=args.min_step)
+    save_demonstrations(output, [*existing, demonstration], args.scene)
+    print(f"{output}: {len(existing) + 1} demonstration(s); added {len(demonstration.path)} configurations from "
+          f"{args.bag} {args.topic}")
+    return 0
