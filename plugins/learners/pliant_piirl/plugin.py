@@ -129,3 +129,63 @@ def _import_command(args) -> int:
     print(f"{output}: {len(existing) + 1} demonstration(s); added {len(demonstration.path)} configurations from "
           f"{args.bag} {args.topic}")
     return 0
+
+
+@hookimpl(specname="pliant_add_commands")
+def add_capture_command(subparsers):
+    parser = subparsers.add_parser(
+        "capture", help="record a demonstration: drive the probe with the keyboard in a browser page (loopback)",
+        description="Generate a task for an object pair (Algorithm 3) or read one, serve the capture page on "
+                    "loopback and add the demonstration to --output when Enter is pressed with the tip on the "
+                    "target.  --keys plays a key sequence instead (headless).")
+    parser.add_argument("scene", help="the scene (a rigid probe with its tip at body (0, 0, -0.06))")
+    parser.add_argument("--pair", nargs=2, metavar=("OBJECT", "OBJECT"), help="the adjacent objects to ask about")
+    parser.add_argument("--task", help="a demonstrations file whose first task to demonstrate (instead of --pair)")
+    parser.add_argument("--seed", type=int, default=0, help="the task generator's seed (default 0)")
+    parser.add_argument("--output", required=True, help="the demonstrations file to add to")
+    parser.add_argument("--keys", help="play these keys instead of serving the page, then save")
+    parser.add_argument("--host", default="127.0.0.1", help="address to serve on (default loopback only)")
+    parser.add_argument("--port", type=int, default=0, help="port (default: any free one)")
+    parser.set_defaults(handler=_capture_command)
+
+
+def _capture_command(args) -> int:
+    import numpy as np
+    import pliant
+    from pliant.errors import ConfigError
+
+    from pliant_piirl.capture import CaptureSession
+    from pliant_piirl.capture_server import CaptureServer
+    from pliant_piirl.demonstration import load_demonstrations
+    from pliant_piirl.features import DeformationFeatures
+    from pliant_piirl.tasks import TaskSpace, rotation_onto
+
+    if (args.pair is None) == (args.task is None):
+        raise ConfigError("give exactly one of --pair and --task", field="--pair", value=args.pair)
+    scene = pliant.load_scene(args.scene)
+    tip = np.array([0.0, 0.0, -0.06])
+    if args.task:
+        _, demonstrations = load_demonstrations(args.task, dim=len(scene.start))
+        if not demonstrations:
+            raise ConfigError("holds no task", field="--task", value=args.task)
+        task = demonstrations[0].task
+    else:
+        task = TaskSpace(scene).generate_task(*args.pair, np.random.default_rng(args.seed), tip, rotation_onto)
+    session = CaptureSession(DeformationFeatures(scene), task, tip)
+    server = CaptureServer(session, args.output, scene.name, host=args.host, port=args.port)
+    if args.keys is not None:
+        state = session.play(args.keys)
+        print(f"{state['steps']} steps ({state['refused']} refused); tip {state['distance'] * 1000:.1f} mm from the "
+              "target")
+        print(f"saved to {server.save()}")
+        server.httpd.server_close()
+        return 0
+    print(f"capture page: {server.url}  (Ctrl-C to stop)")
+    try:
+        server.httpd.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.httpd.server_close()
+    print(f"saved to {server.saved}" if server.saved else "nothing saved")
+    return 0
