@@ -109,7 +109,7 @@ def test_the_page_is_served_on_loopback_and_drives_the_session(cube, tmp_path):
 
 def test_the_headless_command_plays_keys_and_saves(cube, tmp_path):
     features, task = cube                            # the command generates the same task: pair L1 M1, seed 0
-    presses = int(round(CaptureSession(features, task, TIP).state()["distance"] / 0.002))
+    presses = round(CaptureSession(features, task, TIP).state()["distance"] / 0.002)
     out = tmp_path / "demos.json"
     done = subprocess.run([sys.executable, "-m", "pliant.cli", "capture", "hollow-cube", "--pair", "L1", "M1",
                            "--keys", "i" * presses, "--output", str(out)], capture_output=True, text=True, timeout=300)
