@@ -10,7 +10,8 @@ and the path that was shown for it.  Files hold a list of demonstrations::
                          "path": [[...], ...], "source": "simulated-expert"}]}
 
 Planes are half-spaces ``n . x <= offset`` (``n`` a unit normal, metres) that every point of the probe must
-satisfy; ``objects`` and ``edge`` (the pair the task was generated for and its edge point) are optional.
+satisfy; ``objects`` and ``edge`` (the pair the task was generated for and its edge point) are optional, and so is
+``goal``, a goal configuration for tasks that end at one.
 """
 
 from __future__ import annotations
@@ -34,13 +35,16 @@ MAX_WAYPOINTS = 100_000
 @dataclass(frozen=True, eq=False)
 class DemonstrationTask:
     """Start configuration ``(d,)``, target point ``(3,)`` (m), collision planes ``(p, 4)`` rows ``(n, offset)``
-    meaning ``n . x <= offset``; ``objects``: the object pair the task asks about; ``edge``: its edge point (m)."""
+    meaning ``n . x <= offset``; ``objects``: the object pair the task asks about; ``edge``: its edge point (m);
+    ``goal``: a goal configuration ``(d,)`` for tasks that end at one (the planar environment) rather than with
+    a tip on the target (the target is then the goal's position)."""
 
     start: np.ndarray
     target: np.ndarray
     planes: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
     objects: tuple[str, ...] = ()
     edge: np.ndarray | None = None
+    goal: np.ndarray | None = None
 
     def allows(self, points: np.ndarray, tolerance: float = 1e-9) -> np.ndarray:
         """Whether points ``(..., 3)`` lie inside every collision plane; bool ``(...)``."""
@@ -54,6 +58,8 @@ class DemonstrationTask:
                 "objects": list(self.objects)}
         if self.edge is not None:
             data["edge"] = self.edge.tolist()
+        if self.goal is not None:
+            data["goal"] = self.goal.tolist()
         return data
 
     @classmethod
@@ -61,7 +67,7 @@ class DemonstrationTask:
         """Validated: every field named in the error."""
         if not isinstance(data, dict):
             raise ConfigError("must be a table", source=source, field=field_name, value=data)
-        unknown = set(data) - {"start", "target", "planes", "objects", "edge"}
+        unknown = set(data) - {"start", "target", "planes", "objects", "edge", "goal"}
         if unknown:
             raise ConfigError(f"unknown key(s) {sorted(unknown)}", source=source, field=field_name, value=data)
         start = _vector(data, "start", dim, source, field_name)
@@ -76,7 +82,8 @@ class DemonstrationTask:
             raise ConfigError("must be a list of object names", source=source, field=f"{field_name}.objects",
                               value=objects)
         edge = _vector(data, "edge", 3, source, field_name) if "edge" in data else None
-        return cls(start, target, planes, tuple(objects), edge)
+        goal = _vector(data, "goal", len(start), source, field_name) if "goal" in data else None
+        return cls(start, target, planes, tuple(objects), edge, goal)
 
 
 @dataclass(frozen=True, eq=False)

@@ -85,10 +85,10 @@ class PiirlLearner(Learner):
         from pliant_piirl.features import DeformationFeatures
 
         self.scene = self.require("scene")
-        self.features = DeformationFeatures(self.scene)
-        if self.features.robot.rigid_placement(self.scene.start[None]) is None:
+        if self.require("robot").rigid_placement(self.scene.start[None]) is None:
             raise ConfigError("PIIRL's sample paths need a rigid robot with a tip", field="robot",
                               value=self.scene.robot.kind)
+        self.features = DeformationFeatures(self.scene)
         self.sampler = PathSampler(self.features, self.options.tip, _part(self.options, SampleOptions))
 
     def fit(self, data, rng: np.random.Generator) -> dict:

@@ -189,3 +189,25 @@ def _capture_command(args) -> int:
         server.httpd.server_close()
     print(f"saved to {server.saved}" if server.saved else "nothing saved")
     return 0
+
+
+@hookimpl(specname="pliant_add_commands")
+def add_planar_command(subparsers):
+    parser = subparsers.add_parser(
+        "learn-planar", help="thesis Table 4.2: uniform vs demonstrated vs recovered sensitivities in the plane",
+        description="On planar-objects: RRT* with the true sensitivities plays the expert; PIIRL recovers the "
+                    "sensitivities from its demonstration (bounds 1-200); RRT* plans with uniform and with the "
+                    "recovered sensitivities; the deformation of every object is reported for the three paths.")
+    parser.add_argument("--max-time", type=float, default=60.0, help="seconds per plan (default 60; thesis 5 min)")
+    parser.add_argument("--seed", type=int, default=0, help="seed (default 0)")
+    parser.add_argument("--output", default="out", help="directory (default out)")
+    parser.set_defaults(handler=_planar_command)
+
+
+def _planar_command(args) -> int:
+    from pathlib import Path
+
+    from pliant_piirl.experiments import render_table42, run_table42
+
+    print(render_table42(run_table42(max_time=args.max_time, seed=args.seed, output=Path(args.output))))
+    return 0

@@ -4,7 +4,8 @@ Samples follow the smooth-noise process the chapter cites (Kalakrishnan et al., 
 is resampled to ``waypoints`` configurations evenly spaced along it; each sample perturbs them by tangent noise
 ``eps ~ N(0, R^-1)`` along the waypoint index, ``R = A^T A`` with ``A`` the second-difference (acceleration)
 operator.  The start is clamped (zero noise) and the end is free, so the noise is smooth and grows toward the end
-of the path, where an insertion's deformation happens.  Each tangent coordinate is scaled so that its largest
+of the path, where an insertion's deformation happens.  A task that ends at a goal configuration (``goal``) clamps
+the end as well: the noise vanishes at both ends.  Each tangent coordinate is scaled so that its largest
 standard deviation is ``translation`` (m) or ``rotation`` (rad).  The last waypoint is then moved so that the
 tip is back on the task's target: a sample is another way of doing the same task.  Samples that leave the
 collision planes or are infeasible (NaN features) are redrawn.
@@ -36,8 +37,20 @@ class SampleOptions:
     redraws: int = option(20, "most redraws of an invalid sample before it is dropped", minimum=0)
 
 
-def smooth_covariance(k: int) -> np.ndarray:
-    """``R^-1`` ``(k, k)`` for ``k`` waypoints, start clamped and end free, scaled to a largest variance of 1."""
+def smooth_covariance(k: int, clamp_end: bool = False) -> np.ndarray:
+    """``R^-1`` ``(k, k)`` for ``k`` waypoints, start clamped and end free (or clamped too), scaled to a largest
+    variance of 1."""
+    if clamp_end:
+        a = np.zeros((k + 1, k))                    # accelerations with zero ghosts beyond both clamped ends
+        for r in range(k + 1):
+            for c, w in ((r - 2, 1.0), (r - 1, -2.0), (r, 1.0)):
+                if 1 <= c < k - 1:
+                    a[r, c] = w
+        r_ = a.T @ a
+        r_[0, 0] = r_[k - 1, k - 1] = 1.0
+        cov = np.linalg.inv(r_)
+        cov[0, :] = cov[:, 0] = cov[k - 1, :] = cov[:, k - 1] = 0.0
+        return cov / cov.diagonal().max()
     a = np.zeros((k, k))
     for r in range(k):          # accelerations over [0 (ghost), 0 (start), x_1, ..., x_{k-1}]; none past the end
         for c, w in ((r - 2, 1.0), (r - 1, -2.0), (r, 1.0)):
@@ -60,6 +73,7 @@ class PathSampler:
         self.tip = np.asarray(tip, dtype=np.float64)
         k = self.options.waypoints
         self._chol = np.linalg.cholesky(smooth_covariance(k)[1:, 1:])
+        self._chol_clamped = np.linalg.cholesky(smooth_covariance(k, clamp_end=True)[1:-1, 1:-1])
         t = self.space.tangent_dim
         self._scale = np.full(t, self.options.translation)
         if t == 6:
@@ -90,11 +104,15 @@ class PathSampler:
         while len(out) < n and budget > 0:
             batch = min(budget, 2 * (n - len(out)))
             budget -= batch
-            noise = np.einsum("ij,bjt->bit", self._chol, rng.normal(size=(batch, len(base) - 1, len(self._scale))))
+            chol = self._chol if task.goal is None else self._chol_clamped
+            noise = np.einsum("ij,bjt->bit", chol, rng.normal(size=(batch, len(chol), len(self._scale))))
             for eps in noise * self._scale:
                 sample = base.copy()
-                sample[1:] = self.space.retract(base[1:], eps)
-                sample[-1] = self._onto_target(sample[-1], task.target)
+                sample[1:1 + len(chol)] = self.space.retract(base[1:1 + len(chol)], eps)
+                if task.goal is None:
+                    sample[-1] = self._onto_target(sample[-1], task.target)
+                else:
+                    sample[-1] = task.goal
                 points = self.robot.body_points(self.features.states(sample))
                 if task.allows(points).all():
                     out.append(sample)

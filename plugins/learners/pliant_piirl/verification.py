@@ -28,7 +28,8 @@ def scene_with(scene, sensitivities: dict[str, float]):
 
 
 def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstration, tip, rng: np.random.Generator,
-              *, max_time: float, shortcut_iterations: int = 300, planner_options: dict | None = None):
+              *, max_time: float, shortcut_iterations: int = 300, planner_options: dict | None = None,
+              planner: str = "rrtstar"):
     """RRT* (puncture check on) for ``demonstration``'s task in ``scene`` with ``sensitivities``; the planner's
     result and its path after cost-aware shortcutting (``None`` without a path or with no iterations)."""
     import pliant
@@ -38,16 +39,22 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
     context.robot = pliant.registry.create("robot", "rigid", context)
     context.cost = pliant.registry.create("cost", "voxel", context)
     task = demonstration.task
-    options = {"target": tuple(task.target), "tip": tuple(tip), "puncture_check": True, "max_time": max_time,
-               "progress": False, "max_step": 0.02, "target_tolerance": 0.004, **(planner_options or {})}
-    planner = pliant.registry.create("planner", "rrtstar", context, **options)
+    if planner == "rrtstar":
+        options = {"puncture_check": True, "max_time": max_time, "progress": False, "max_step": 0.02,
+                   **(planner_options or {})}
+    else:
+        options = dict(planner_options or {})
+    if task.goal is None:                            # "the tip touches the target", as the chapter plans
+        options.update({"target": tuple(task.target), "tip": tuple(tip), "target_tolerance": 0.004})
+    planner = pliant.registry.create("planner", planner, context, **options)
     robot = context.robot
 
     def inside_funnel(q: np.ndarray) -> np.ndarray:
         return task.allows(robot.body_points(q)).all(axis=1)
 
-    problem = PlanningProblem(space=context.space, start=task.start, goal=task.start, cost=context.cost, robot=robot,
-                              scene=context.scene, validity=inside_funnel)
+    goal = task.start if task.goal is None else task.goal
+    problem = PlanningProblem(space=context.space, start=task.start, goal=goal, goal_tolerance=scene.goal_tolerance,
+                              cost=context.cost, robot=robot, scene=context.scene, validity=inside_funnel)
     result = planner.plan(problem, rng)
     if result.path is None or shortcut_iterations == 0:
         return result, None

@@ -22,7 +22,8 @@ def demonstrations(draw):
     task = DemonstrationTask(np.array(draw(st.lists(finite, min_size=d, max_size=d))),
                              np.array(draw(st.lists(finite, min_size=3, max_size=3))),
                              np.array(planes).reshape(-1, 4), tuple(draw(st.lists(st.sampled_from("ABC"), max_size=2))),
-                             np.array(draw(st.lists(finite, min_size=3, max_size=3))) if draw(st.booleans()) else None)
+                             np.array(draw(st.lists(finite, min_size=3, max_size=3))) if draw(st.booleans()) else None,
+                             np.array(draw(st.lists(finite, min_size=d, max_size=d))) if draw(st.booleans()) else None)
     path = np.array([draw(st.lists(finite, min_size=d, max_size=d)) for _ in range(k)])
     return Demonstration(task, path, draw(st.sampled_from(["simulated-expert", "capture"])))
 
@@ -39,6 +40,7 @@ def test_a_file_round_trips_exactly(tmp_path_factory, demos):
         assert np.array_equal(a.task.start, b.task.start) and np.array_equal(a.task.target, b.task.target)
         assert np.allclose(a.task.planes, b.task.planes) and a.task.objects == b.task.objects
         assert (a.task.edge is None) == (b.task.edge is None)
+        assert (a.task.goal is None and b.task.goal is None) or np.array_equal(a.task.goal, b.task.goal)
 
 
 GOOD = {"format": "pliant-demonstrations", "version": 1, "scene": "s", "demonstrations": [
@@ -63,6 +65,7 @@ def _with(change):
     (lambda d: d["demonstrations"][0]["task"].update(planes=[[2.0, 0.0, 0.0, 1.0]]), "demonstrations[0].task.planes"),
     (lambda d: d["demonstrations"][0]["task"].update(planes=[[1.0, 0.0, 0.0]]), "demonstrations[0].task.planes"),
     (lambda d: d["demonstrations"][0]["task"].update(colour="red"), "demonstrations[0].task"),
+    (lambda d: d["demonstrations"][0]["task"].update(goal=[1.0, 2.0]), "demonstrations[0].task.goal"),
     (lambda d: d["demonstrations"][0].update(path=[[0.0, 0.0, 0.0]]), "demonstrations[0].path"),
     (lambda d: d["demonstrations"][0].update(path=[[0.0, 0.0], [1.0, 1.0]]), "demonstrations[0].path"),
     (lambda d: d["demonstrations"][0].update(path=[[0.0, 0.0, float("nan")], [1.0, 1.0, 1.0]]),

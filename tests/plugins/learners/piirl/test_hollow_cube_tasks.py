@@ -99,6 +99,10 @@ def test_smooth_noise_is_clamped_at_the_start_and_largest_at_the_end():
     assert np.allclose(cov, cov.T) and np.all(np.linalg.eigvalsh(cov) >= -1e-12)
     assert cov[0, 0] == 0 and cov.diagonal().max() == pytest.approx(1.0)
     assert np.all(np.diff(cov.diagonal()) >= 0)
+    both = smooth_covariance(9, clamp_end=True)                # a goal configuration: clamped at both ends
+    assert np.allclose(both, both.T) and np.all(np.linalg.eigvalsh(both) >= -1e-12)
+    assert both[0, 0] == both[-1, -1] == 0 and both.diagonal().max() == pytest.approx(1.0)
+    assert np.allclose(both.diagonal(), both.diagonal()[::-1])  # symmetric about the middle
 
 
 def test_samples_do_the_same_task_and_the_local_optimiser_only_improves(cube, demonstration):

@@ -1,0 +1,66 @@
+"""The planar environment of thesis 4.4.3: its passages, the planner expert, and PIIRL on one demonstration."""
+
+import numpy as np
+import pliant
+import pytest
+from pliant_piirl.demonstration import Demonstration, DemonstrationTask
+from pliant_piirl.features import DeformationFeatures, true_sensitivities
+from pliant_piirl.sampling import PathSampler, SampleOptions
+
+
+@pytest.fixture(scope="module")
+def planar():
+    scene = pliant.load_scene("planar-objects")
+    features = DeformationFeatures(scene)
+    task = DemonstrationTask(scene.start, np.r_[scene.goal[:2], 0.0], goal=scene.goal)
+    return scene, features, task
+
+
+def through(gap_x, scene):
+    turn = np.pi / 2
+    return np.array([scene.start, [gap_x, 0.2, turn], [gap_x, 0.4, turn], scene.goal])
+
+
+def test_uniform_sensitivities_prefer_the_wide_gap_and_the_true_ones_a_narrow_gap_beside_low_objects(planar):
+    scene, features, _ = planar
+    truth = features.sensitivity_vector(true_sensitivities(scene))
+    gaps = {"O1|O2": 0.1275, "O2|O3": 0.2675, "O3|O4": 0.4025, "O4|O5": 0.5125}
+    best = {}
+    for name, x in gaps.items():                     # the cheapest sideways offset in each gap
+        v = [features.of_path(through(x + dx, scene)) for dx in np.linspace(-0.01, 0.01, 5)]
+        best[name] = (min(f.sum() for f in v), min(f @ truth for f in v))
+    assert min(best, key=lambda k: best[k][0]) == "O3|O4"                      # uniform: the 35 mm gap
+    assert min(best, key=lambda k: best[k][1]) in ("O1|O2", "O2|O3")           # true: pressing into O1 or O2
+    assert all(b[0] > 0 for b in best.values())                               # every way deforms something
+
+
+def test_samples_around_a_goal_task_keep_both_ends(planar):
+    scene, features, task = planar
+    demo = Demonstration(task, through(0.1275, scene))
+    samples = PathSampler(features, (0.0, 0.0, 0.0), SampleOptions(samples=10)).draw(demo, np.random.default_rng(0))
+    assert len(samples) == 10
+    for s in samples:
+        assert np.array_equal(s[0], scene.start) and np.array_equal(s[-1], scene.goal)
+    assert not all(np.allclose(samples[0], s) for s in samples[1:])
+
+
+@pytest.mark.slow
+def test_the_planner_expert_reaches_the_goal_and_piirl_learns_from_it(planar):
+    from pliant_piirl.experiments import PLANAR_PLANNER
+    from pliant_piirl.expert import PlannerExpert
+
+    scene, features, task = planar
+    expert = PlannerExpert(features, true_sensitivities(scene), max_time=10.0, planner_options=PLANAR_PLANNER)
+    demo = expert.demonstrate(task, np.random.default_rng(0))
+    assert np.array_equal(demo.path[0], scene.start)
+    assert scene.goal_tolerance >= float(features.space.distance(demo.path[-1], scene.goal))
+    assert np.all(np.isfinite(features.of_path(demo.path)))
+    from pliant.interfaces import Context
+
+    context = Context(scene=scene)
+    context.robot = pliant.registry.create("robot", "rigid", context)
+    learner = pliant.registry.create("learner", "piirl", context, tip=(0.0, 0.0, 0.0), lower=1.0, upper=200.0,
+                                     initial=100.0, samples=30)
+    fitted = learner.fit([demo], np.random.default_rng(1))
+    assert set(fitted["sensitivities"]) == {"O1", "O2", "O3", "O4", "O5"}
+    assert all(1.0 - 1e-9 <= v <= 200.0 + 1e-9 for v in fitted["sensitivities"].values())
