@@ -103,10 +103,9 @@ class SimulatedExpert:
 
     def valid(self, task: DemonstrationTask, paths) -> np.ndarray:
         """Whether every measured configuration of each path keeps the probe inside the task's planes."""
-        robot = self.features.robot
         out = np.empty(len(paths), dtype=bool)
         for k, p in enumerate(paths):
-            out[k] = bool(task.allows(robot.body_points(self.features.states(p))).all())
+            out[k] = bool(task.allows(self.features.outline(self.features.states(p))).all())
         return out
 
 

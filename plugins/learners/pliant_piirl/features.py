@@ -71,6 +71,19 @@ class DeformationFeatures:
         ends = np.cumsum([len(s) for s in states])[:-1]
         return np.stack([part.sum(axis=0) for part in np.split(rows, ends)])
 
+    def outline(self, q: np.ndarray) -> np.ndarray:
+        """World positions ``(n, h, 3)`` of the robot's outline at configurations ``(n, d)``: for a rigid robot the
+        vertices of its body points' convex hull, which satisfy every half-space constraint exactly when all body
+        points do (a half-space is convex); for others every body point."""
+        q = np.atleast_2d(q)
+        placement = self.robot.rigid_placement(q)
+        if placement is None:
+            return self.robot.body_points(q)
+        rot, pos, local = placement
+        if getattr(self, "_outline_of", (None,))[0] is not local:
+            self._outline_of = (local, local[_hull_vertices(local)])
+        return np.einsum("nij,hj->nhi", rot, self._outline_of[1]) + pos[:, None, :]
+
     def sensitivity_vector(self, sensitivities: dict[str, float]) -> np.ndarray:
         """``S`` ``(n_objects,)`` in feature order from ``{object name: sensitivity}`` (every object named)."""
         missing = [n for n in self.names if n not in sensitivities]
@@ -78,6 +91,17 @@ class DeformationFeatures:
             raise ConfigError(f"no sensitivity for object(s) {missing}", field="sensitivities",
                               value=sorted(sensitivities))
         return np.array([float(sensitivities[n]) for n in self.names])
+
+
+def _hull_vertices(points: np.ndarray) -> np.ndarray:
+    """Indices of the convex hull's vertices among ``points`` ``(m, 3)``; every index when the points are flat or
+    too few for Qhull (a planar robot's single layer)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        return np.sort(ConvexHull(points).vertices)
+    except (QhullError, ValueError):
+        return np.arange(len(points))
 
 
 def true_sensitivities(scene) -> dict[str, float]:

@@ -113,8 +113,7 @@ class PathSampler:
                     sample[-1] = self._onto_target(sample[-1], task.target)
                 else:
                     sample[-1] = task.goal
-                points = self.robot.body_points(self.features.states(sample))
-                if task.allows(points).all():
+                if task.allows(self.features.outline(self.features.states(sample))).all():
                     out.append(sample)
                     if len(out) == n:
                         break

@@ -120,3 +120,14 @@ def test_samples_do_the_same_task_and_the_local_optimiser_only_improves(cube, de
     better, replaced = sampler.improve(shown, np.random.default_rng(3))
     assert np.all(features.of_path(better.path) <= features.of_path(shown.path) + 1e-9)
     assert (replaced == 0) == (better is shown)
+
+
+@pytest.mark.parametrize("scene_name", ["hollow-cube", "planar-objects"])
+def test_the_outline_meets_every_half_space_exactly_when_all_body_points_do(scene_name):
+    features = DeformationFeatures(pliant.load_scene(scene_name))
+    q = features.space.sample(np.random.default_rng(0), 40)
+    outline, points = features.outline(q), features.robot.body_points(q)
+    assert outline.shape[1] <= points.shape[1]
+    for n in np.random.default_rng(1).normal(size=(30, 3)):
+        n /= np.linalg.norm(n)
+        assert np.allclose((outline @ n).max(axis=1), (points @ n).max(axis=1))    # the same support function
