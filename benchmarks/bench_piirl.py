@@ -74,10 +74,9 @@ def main() -> None:
                 ("stage", "seconds", "target"), rows)
     names = features.names
     print("recovered: " + ", ".join(f"{n} {v:.4g}" for n, v in zip(names, result["sensitivities"])))
-    path = write_json("piirl", {"samples": n_samples, "demonstrate_s": demonstrate, "draw_s": draw,
+    write_json("piirl", {"samples": n_samples, "demonstrate_s": demonstrate, "draw_s": draw,
                                 "features_s": read, "solve_s": solves, "improve_s": improve,
                                 "sensitivities": dict(zip(names, result["sensitivities"].tolist()))})
-    print(f"written: {path}")
 
 
 if __name__ == "__main__":
