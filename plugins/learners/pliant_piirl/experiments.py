@@ -379,3 +379,49 @@ def render_table42(summary: dict) -> str:
         lines.append(f"| {name} | " + " | ".join(cells) + f" | {row['true_cost']:.1f} |")
     lines += ["", "Thesis values (pixels, its own layout) in parentheses."]
     return "\n".join(lines) + "\n"
+
+
+#: thesis Table 8.1: ground truth and recovered deformability of its five objects
+THESIS_TABLE_81 = {"truth": (0.75, 0.625, 0.5, 0.375, 0.25), "recovered": (0.813, 0.604, 0.482, 0.413, 0.191)}
+
+
+def run_table81(*, repetitions: int, force: float, seed: int, output: Path, echo=print) -> dict:
+    """Table 8.1: the ``press-deformability`` learner on five objects of the thesis's ground-truth deformability,
+    against a known object of deformability 0.5; the mean absolute error and the ranking, the thesis's beside."""
+    import pliant
+    from pliant.interfaces import Context
+
+    started = time.perf_counter()
+    context = Context(scene=pliant.load_scene(SCENE))
+    learner = pliant.registry.create("learner", "press-deformability", context, repetitions=repetitions, force=force)
+    truth = {f"object {k + 1}": d for k, d in enumerate(THESIS_TABLE_81["truth"])}
+    echo(f"pressing the known object and {len(truth)} unknown ones {repetitions} times each ...")
+    fitted = learner.fit(truth, np.random.default_rng(seed))
+    ours = fitted["deformability"]
+    names = list(truth)
+    error = float(np.mean([abs(ours[n] - truth[n]) for n in names]))
+    thesis_error = float(np.mean(np.abs(np.subtract(THESIS_TABLE_81["recovered"], THESIS_TABLE_81["truth"]))))
+    ranked = sorted(names, key=ours.get) == sorted(names, key=truth.get)
+    summary = {"truth": truth, "recovered": ours, "volume_change": fitted["volume_change"],
+               "reference": fitted["reference"], "mean_absolute_error": error, "ranking_correct": ranked,
+               "thesis_mean_absolute_error": thesis_error, "repetitions": repetitions, "force": force, "seed": seed,
+               "seconds": time.perf_counter() - started}
+    directory = Path(output) / "learn-table-8.1"
+    directory.mkdir(parents=True, exist_ok=True)
+    write_json(directory / "summary.json", summary)
+    write_text(directory / "table-8.1.md", render_table81(summary))
+    return summary
+
+
+def render_table81(summary: dict) -> str:
+    names = list(summary["truth"])
+    lines = ["# Table 8.1: ground-truth and recovered deformability (thesis's recovered in parentheses)", "",
+             "| | " + " | ".join(n.replace("object ", "") for n in names) + " |", "|---" * (len(names) + 1) + "|",
+             "| ground truth | " + " | ".join(f"{summary['truth'][n]:g}" for n in names) + " |",
+             "| recovered | " + " | ".join(f"{summary['recovered'][n]:.3f} ({THESIS_TABLE_81['recovered'][i]:g})"
+                                          for i, n in enumerate(names)) + " |", "",
+             f"Mean absolute error {summary['mean_absolute_error']:.3f} "
+             f"(thesis {summary['thesis_mean_absolute_error']:.3f});"
+             f" ranking {'correct' if summary['ranking_correct'] else 'WRONG'}.  {summary['repetitions']} presses "
+             f"per object at {summary['force']:g} N, {summary['seconds']:.0f} s."]
+    return "\n".join(lines) + "\n"

@@ -11,6 +11,8 @@ def pliant_register(registrar):
                   description="object sensitivities from demonstrations by PIIRL (thesis 4.3.3, eq. 4.1)")
     registrar.add("learner", "active-piirl", f"{_MODULE}:ActivePiirlLearner",
                   description="Alg. 2-3 choose demonstrations, a simulated expert shows them, PIIRL learns (ch. 4)")
+    registrar.add("learner", "press-deformability", "pliant_piirl.deformability:PressDeformabilityLearner",
+                  description="deformability from volume changes under a press, against a known object (app. A)")
 
 
 @hookimpl
@@ -210,4 +212,28 @@ def _planar_command(args) -> int:
     from pliant_piirl.experiments import render_table42, run_table42
 
     print(render_table42(run_table42(max_time=args.max_time, seed=args.seed, output=Path(args.output))))
+    return 0
+
+
+@hookimpl(specname="pliant_add_commands")
+def add_deformability_command(subparsers):
+    parser = subparsers.add_parser(
+        "learn-deformability", help="thesis Table 8.1: deformability from presses against a known object",
+        description="Press a known soft object (deformability 0.5) and five unknown ones (the thesis's ground truth "
+                    "0.75-0.25) in pybullet with a force-capped indenter; each estimate is the ratio of volume "
+                    "changes times 0.5 (thesis appendix A).")
+    parser.add_argument("--repetitions", type=int, default=30, help="presses per object (default 30, as the thesis)")
+    parser.add_argument("--force", type=float, default=1.0, help="the indenter's force (N, default 1)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the indenter's offsets (default 0)")
+    parser.add_argument("--output", default="out", help="directory (default out)")
+    parser.set_defaults(handler=_deformability_command)
+
+
+def _deformability_command(args) -> int:
+    from pathlib import Path
+
+    from pliant_piirl.experiments import render_table81, run_table81
+
+    print(render_table81(run_table81(repetitions=args.repetitions, force=args.force, seed=args.seed,
+                                     output=Path(args.output))))
     return 0
