@@ -20,6 +20,11 @@ Keys (one step each; lengths in ``step`` m, angles in ``turn`` rad; rotations tu
 ``z``                  undo the last step
 ====================  =====================================================
 
+A planar robot (SE(2)) moves in the plane: ``i`` / ``k`` along its body x axis, ``u`` / ``j`` turn it about the
+world z axis, and turns out of the plane do nothing.  For a task with a goal configuration, "reached" means
+within ``tolerance`` of it in the space's metric (the thesis's planar environment, captured in the kinematic
+model the planners use).
+
 Front ends: the browser page of :mod:`pliant_piirl.capture_server` (``pliant capture``), and a scripted key
 sequence (``pliant capture --keys``), which is also how the tool is tested headless.
 """
@@ -57,6 +62,7 @@ class CaptureSession:
                               value=task.start.tolist())
         self.path = [task.start.copy()]
         self.refused = 0
+        self.planar = getattr(features.space, "kind", "") == "se2"
 
     @property
     def configuration(self) -> np.ndarray:
@@ -77,7 +83,8 @@ class CaptureSession:
                 self.path.pop()
             return {**self.state(), "accepted": accepted}
         q = self._moved(action, np.asarray(arg, dtype=np.float64))
-        accepted = self._allowed(q) and self._allowed_motion(self.configuration, q)
+        moved = not np.array_equal(q, self.configuration)
+        accepted = moved and self._allowed(q) and self._allowed_motion(self.configuration, q)
         if accepted:
             self.path.append(q)
         else:
@@ -88,6 +95,8 @@ class CaptureSession:
         from scipy.spatial.transform import Rotation
 
         q = self.configuration.copy()
+        if self.planar:
+            return self._moved_planar(q, action, arg)
         rot = Rotation.from_quat(q[3:])
         if action == "insert":
             axis = rot.apply([0.0, 0.0, 1.0])                 # body z points from the tip backwards
@@ -99,6 +108,18 @@ class CaptureSession:
             turned = Rotation.from_rotvec(self.turn * arg) * rot
             q[3:] = turned.as_quat()
             q[:3] = tip - turned.apply(self.tip)
+        return q
+
+    def _moved_planar(self, q: np.ndarray, action: str, arg) -> np.ndarray:
+        """SE(2): ``i`` / ``k`` along the body's x axis, moves in the plane, turns about the world z axis only."""
+        if action == "insert":
+            q[:2] += arg * self.step * np.array([np.cos(q[2]), np.sin(q[2])])
+        elif action == "move":
+            q[:2] += self.step * arg[:2]
+        elif arg[2] != 0:
+            q[2] = (q[2] + self.turn * arg[2] + np.pi) % (2 * np.pi) - np.pi
+        else:
+            return q                                          # a turn out of the plane: no motion
         return q
 
     def _allowed(self, q: np.ndarray) -> bool:
@@ -115,7 +136,10 @@ class CaptureSession:
         tip = self.tip_position()
         now = self.features.cost.breakdown(self.configuration[None])[0]
         path = self.features.of_path(np.array(self.path)) if len(self.path) > 1 else np.zeros(len(now))
-        distance = float(np.linalg.norm(tip - self.task.target))
+        if self.task.goal is not None:                       # a goal configuration: its distance in the space
+            distance = float(self.features.space.distance(self.configuration, self.task.goal))
+        else:
+            distance = float(np.linalg.norm(tip - self.task.target))
         return {"configuration": self.configuration.tolist(), "tip": tip.tolist(), "target": self.task.target.tolist(),
                 "distance": distance, "reached": distance <= self.tolerance,
                 "deformation": dict(zip(self.features.names, now.tolist())),
@@ -125,7 +149,9 @@ class CaptureSession:
     def demonstration(self) -> Demonstration:
         """The recorded path as a demonstration; an error until the tip has reached the target."""
         if not self.state()["reached"]:
-            raise ConfigError(f"the tip is {self.state()['distance'] * 1000:.1f} mm from the target (within "
+            what = "the goal" if self.task.goal is not None else "the target"
+            raise ConfigError(f"the {'robot' if self.task.goal is not None else 'tip'} is "
+                              f"{self.state()['distance'] * 1000:.1f} mm from {what} (within "
                               f"{self.tolerance * 1000:.1f} mm needed)", field="capture", value=len(self.path) - 1)
         return Demonstration(self.task, np.array(self.path), "capture")
 

@@ -137,10 +137,11 @@ def _import_command(args) -> int:
 def add_capture_command(subparsers):
     parser = subparsers.add_parser(
         "capture", help="record a demonstration: drive the probe with the keyboard in a browser page (loopback)",
-        description="Generate a task for an object pair (Algorithm 3) or read one, serve the capture page on "
-                    "loopback and add the demonstration to --output when Enter is pressed with the tip on the "
-                    "target.  --keys plays a key sequence instead (headless).")
-    parser.add_argument("scene", help="the scene (a rigid probe with its tip at body (0, 0, -0.06))")
+        description="Generate a task for an object pair (Algorithm 3), read one, or (neither given) take the scene's "
+                    "start and goal; serve the capture page on loopback and add the demonstration to --output when "
+                    "Enter is pressed at the target (or goal).  --keys plays a key sequence instead (headless).")
+    parser.add_argument("scene", help="the scene: a rigid probe with its tip at body (0, 0, -0.06) for --pair / "
+                        "--task, or any rigid robot for the scene's own start and goal")
     parser.add_argument("--pair", nargs=2, metavar=("OBJECT", "OBJECT"), help="the adjacent objects to ask about")
     parser.add_argument("--task", help="a demonstrations file whose first task to demonstrate (instead of --pair)")
     parser.add_argument("--seed", type=int, default=0, help="the task generator's seed (default 0)")
@@ -162,18 +163,25 @@ def _capture_command(args) -> int:
     from pliant_piirl.features import DeformationFeatures
     from pliant_piirl.tasks import TaskSpace, rotation_onto
 
-    if (args.pair is None) == (args.task is None):
-        raise ConfigError("give exactly one of --pair and --task", field="--pair", value=args.pair)
+    if args.pair is not None and args.task is not None:
+        raise ConfigError("give at most one of --pair and --task", field="--pair", value=args.pair)
     scene = pliant.load_scene(args.scene)
     tip = np.array([0.0, 0.0, -0.06])
-    if args.task:
+    if args.pair is None and args.task is None:         # the scene's own task: from its start to its goal
+        from pliant_piirl.demonstration import DemonstrationTask
+
+        task = DemonstrationTask(scene.start, np.r_[scene.goal[:2], 0.0] if len(scene.goal) == 3 else
+                                 np.asarray(scene.goal[:3], dtype=float), goal=scene.goal)
+        tip = np.zeros(3)
+    elif args.task:
         _, demonstrations = load_demonstrations(args.task, dim=len(scene.start))
         if not demonstrations:
             raise ConfigError("holds no task", field="--task", value=args.task)
         task = demonstrations[0].task
     else:
         task = TaskSpace(scene).generate_task(*args.pair, np.random.default_rng(args.seed), tip, rotation_onto)
-    session = CaptureSession(DeformationFeatures(scene), task, tip)
+    tolerance = scene.goal_tolerance if task.goal is not None and scene.goal_tolerance > 0 else 0.004
+    session = CaptureSession(DeformationFeatures(scene), task, tip, tolerance=tolerance)
     server = CaptureServer(session, args.output, scene.name, host=args.host, port=args.port)
     if args.keys is not None:
         state = session.play(args.keys)

@@ -119,6 +119,28 @@ def test_the_headless_command_plays_keys_and_saves(cube, tmp_path):
                            "--keys", "i" * (presses // 2), "--output", str(out)], capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 2 and "mm from the target" in done.stderr
-    done = subprocess.run([sys.executable, "-m", "pliant.cli", "capture", "hollow-cube", "--output", str(out)],
-                          capture_output=True, text=True, timeout=300)
+    done = subprocess.run([sys.executable, "-m", "pliant.cli", "capture", "hollow-cube", "--pair", "L1", "M1",
+                           "--task", str(out), "--output", str(out)], capture_output=True, text=True, timeout=300)
     assert done.returncode == 2 and "--pair" in done.stderr
+
+
+def test_a_planar_robot_is_driven_in_the_plane_to_its_goal(tmp_path):
+    scene = pliant.load_scene("planar-objects")
+    from pliant_piirl.demonstration import DemonstrationTask
+
+    task = DemonstrationTask(scene.start, np.r_[scene.goal[:2], 0.0], goal=scene.goal)
+    session = CaptureSession(DeformationFeatures(scene), task, np.zeros(3), tolerance=scene.goal_tolerance)
+    assert not session.press("t")["accepted"]                 # out of the plane: nothing moves
+    state = session.press("u")
+    assert state["accepted"] and session.configuration[2] == pytest.approx(scene.start[2] + session.turn)
+    session.press("j")
+    state = insert_until_reached(session, limit=400)          # i drives along the block's long axis: +y here
+    assert state["reached"] and state["path_deformation"]["O3"] > 0   # straight up through O3
+    demo = session.demonstration()
+    assert np.array_equal(demo.path[0], scene.start) and demo.task.goal is not None
+    out = tmp_path / "planar.json"
+    done = subprocess.run([sys.executable, "-m", "pliant.cli", "capture", "planar-objects", "--keys",
+                           "i" * (len(demo.path) - 1), "--output", str(out)], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert load_demonstrations(out)[1][0].task.goal is not None
