@@ -1,69 +1,299 @@
-"""When anytime algorithms stop: time, iterations, a callback, or Ctrl-C (DESIGN rule 8)."""
+"""When anytime algorithms and experiments stop (DESIGN rule 8), after OMPL's ``PlannerTerminationCondition``.
+
+A stop condition is a :class:`Condition`.  The one every planner builds from its options is :class:`Termination`
+(a time budget, an iteration budget, a cost reached, a callback, the first solution -- any of them stops it); the
+helpers :func:`time_limit`, :func:`iteration_limit`, :func:`cost_reached`, :func:`first_solution` and :func:`when`
+make one-rule conditions, and :func:`any_of` / :func:`all_of` (or ``a | b`` / ``a & b``) combine conditions::
+
+    stop = any_of(time_limit(60.0), cost_reached(0.5))            # whichever comes first
+    stop = all_of(iteration_limit(1000), time_limit(5.0))          # both budgets spent
+    result = planner.plan(problem, rng, stop)
+
+Every condition has a :meth:`Condition.terminate` that is safe to call from any thread (a viewer, an executor
+cancelling a task, a signal handler): the loop polling :meth:`Condition.should_stop` stops at its next check, and
+:attr:`Condition.interrupted` tells the planner it was stopped from outside.  :meth:`Condition.watch` also turns
+Ctrl-C into ``terminate()`` while the loop runs (main thread only), so the planner returns its best result so far.
+
+Progress values: ``should_stop(iteration, best_cost, solved)`` publishes ``iterations``, ``best_cost`` and
+``solved``; a planner may :meth:`Condition.publish` more (``nodes=...``).  :meth:`Condition.progress` returns a
+snapshot from any thread.  Inside a task run by an executor (:mod:`pliant.executor`), every published value also
+goes to that task's progress, which the executor collects with the task's record.
+"""
 
 from __future__ import annotations
 
+import math
 import signal
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+
+from pliant.errors import ConfigError
+
+#: the progress values of the task an executor is running in this process (see :func:`task_progress`)
+_task_sink: dict | None = None
+_task_lock = threading.Lock()
 
 
-@dataclass
-class Termination:
-    """A stopping rule shared by every anytime planner.
+class Condition:
+    """Base of every stop condition: a clock, a thread-safe :meth:`terminate`, published progress values, and
+    composition (``|`` = any of, ``&`` = all of).  Subclasses implement :meth:`_rule`."""
 
-    max_time: wall-clock budget in seconds (``None`` for no limit).
-    max_iterations: iteration budget (``None`` for no limit).
-    callback: called as ``callback(iteration, best_cost)``; returning True stops the run.
-    stop_on_first: stop as soon as a first solution is found.
-
-    Use :meth:`watch` around the loop so that Ctrl-C sets :attr:`interrupted` instead of raising; the
-    planner then returns its best result so far.
-    """
-
-    max_time: float | None = None
-    max_iterations: int | None = None
-    callback: Callable[[int, float], bool] | None = None
-    stop_on_first: bool = False
-    interrupted: bool = False
-    _start: float = field(default=0.0, repr=False)
-
-    def start(self) -> None:
+    def _init_condition(self) -> None:
+        self._event = threading.Event()
+        self._lock = threading.Lock()
+        self._values: dict = {}
         self._start = time.perf_counter()
-        self.interrupted = False
+
+    # -- what subclasses decide --------------------------------------------------------------------------------
+    def _rule(self, iteration: int, best_cost: float, solved: bool) -> bool:
+        """Whether the condition's own rule holds (not counting :meth:`terminate`)."""
+        return False
+
+    def _children(self) -> tuple[Condition, ...]:
+        return ()
+
+    # -- the clock -----------------------------------------------------------------------------------------------
+    def start(self) -> None:
+        """Start the clock (of this condition and every condition it combines) and clear a previous ``terminate``."""
+        self._start = time.perf_counter()
+        self._event.clear()
+        for child in self._children():
+            child.start()
 
     @property
     def elapsed(self) -> float:
         """Seconds since :meth:`start`."""
         return time.perf_counter() - self._start
 
-    def should_stop(self, iteration: int, best_cost: float = float("nan"), solved: bool = False) -> bool:
-        """Whether the loop should stop before ``iteration``."""
-        if self.interrupted:
-            return True
-        if self.stop_on_first and solved:
-            return True
-        if self.max_iterations is not None and iteration >= self.max_iterations:
-            return True
-        if self.max_time is not None and self.elapsed >= self.max_time:
-            return True
-        return bool(self.callback and self.callback(iteration, best_cost))
+    # -- stopping ----------------------------------------------------------------------------------------------
+    def terminate(self) -> None:
+        """Stop the loop at its next :meth:`should_stop`; safe to call from any thread (and from a signal handler)."""
+        self._event.set()
 
+    @property
+    def interrupted(self) -> bool:
+        """Whether :meth:`terminate` was called (Ctrl-C inside :meth:`watch`, or another thread): the run was stopped
+        from outside rather than by its budget."""
+        return self._event.is_set()
+
+    @interrupted.setter
+    def interrupted(self, value: bool) -> None:
+        if value:
+            self._event.set()
+        else:
+            self._event.clear()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until :meth:`terminate` is called or ``timeout`` seconds pass; returns :attr:`interrupted`."""
+        self._event.wait(timeout)
+        return self.interrupted
+
+    def should_stop(self, iteration: int, best_cost: float = float("nan"), solved: bool = False) -> bool:
+        """Whether the loop should stop before ``iteration``, with the best cost so far (NaN: none) and whether a
+        solution exists; also publishes them as progress values (``iterations``, ``best_cost``, ``solved``)."""
+        self.publish(iterations=iteration, best_cost=best_cost, solved=solved)
+        return self._holds(iteration, best_cost, solved)
+
+    def _holds(self, iteration: int, best_cost: float, solved: bool) -> bool:
+        return self._event.is_set() or self._rule(iteration, best_cost, solved)
+
+    # -- progress ----------------------------------------------------------------------------------------------
+    def publish(self, **values) -> None:
+        """Publish named progress values (``nodes=812, best_cost=3.1``); readable from any thread by
+        :meth:`progress` and collected by the executor running the task."""
+        with self._lock:
+            self._values.update(values)
+        if _task_sink is not None:
+            with _task_lock:
+                _task_sink.update(values)
+
+    def progress(self) -> dict:
+        """A snapshot of the published progress values and the elapsed time (s)."""
+        with self._lock:
+            return {**self._values, "elapsed": self.elapsed}
+
+    # -- Ctrl-C ------------------------------------------------------------------------------------------------
     @contextmanager
-    def watch(self):
-        """Start the clock and turn SIGINT into :attr:`interrupted` for the duration (main thread only)."""
+    def watch(self) -> Iterator[Condition]:
+        """Start the clock and turn SIGINT into :meth:`terminate` for the duration (main thread only; elsewhere
+        only the clock starts -- stop such a loop with :meth:`terminate`)."""
         self.start()
         if threading.current_thread() is not threading.main_thread():
             yield self
             return
 
         def handler(signum, frame):
-            self.interrupted = True
+            self.terminate()
 
         previous = signal.signal(signal.SIGINT, handler)
         try:
             yield self
         finally:
             signal.signal(signal.SIGINT, previous)
+
+    # -- composition -------------------------------------------------------------------------------------------
+    def __or__(self, other: Condition) -> AnyOf:
+        return any_of(self, other)
+
+    def __and__(self, other: Condition) -> AllOf:
+        return all_of(self, other)
+
+
+@dataclass(eq=False)
+class Termination(Condition):
+    """The stopping rule every anytime planner builds from its options: any rule that is set stops the run.
+
+    max_time: wall-clock budget in seconds (``None`` for no limit).
+    max_iterations: iteration budget (``None`` for no limit).
+    callback: called as ``callback(iteration, best_cost)``; returning True stops the run.
+    stop_on_first: stop as soon as a first solution is found.
+    cost_reached: stop once the best cost is at most this value (``None``: never; NaN costs never reach it).
+
+    Use :meth:`watch` around the loop so that Ctrl-C calls :meth:`terminate` (:attr:`interrupted` becomes True)
+    instead of raising; the planner then returns its best result so far.  Combine with other conditions by
+    :func:`any_of` / :func:`all_of`.
+    """
+
+    max_time: float | None = None
+    max_iterations: int | None = None
+    callback: Callable[[int, float], bool] | None = None
+    stop_on_first: bool = False
+    cost_reached: float | None = None
+
+    def __post_init__(self) -> None:
+        self._init_condition()
+        for name in ("max_time", "max_iterations", "cost_reached"):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
+                raise ConfigError("must be a number or None", field=f"termination.{name}", value=value)
+            if name != "cost_reached" and value < 0:
+                raise ConfigError("must be >= 0", field=f"termination.{name}", value=value)
+
+    def _rule(self, iteration: int, best_cost: float, solved: bool) -> bool:
+        if self.stop_on_first and solved:
+            return True
+        if self.max_iterations is not None and iteration >= self.max_iterations:
+            return True
+        if self.max_time is not None and self.elapsed >= self.max_time:
+            return True
+        if self.cost_reached is not None and best_cost <= self.cost_reached:      # False for NaN
+            return True
+        return bool(self.callback and self.callback(iteration, best_cost))
+
+
+class _Combined(Condition):
+    def __init__(self, conditions: tuple[Condition, ...], kind: str) -> None:
+        if not conditions:
+            raise ConfigError("needs at least one condition", field=f"termination.{kind}", value=())
+        for k, c in enumerate(conditions):
+            if not isinstance(c, Condition):
+                raise ConfigError("must be a pliant.termination.Condition", field=f"termination.{kind}[{k}]",
+                                  value=c)
+        self.conditions = tuple(conditions)
+        self._init_condition()
+
+    def _children(self) -> tuple[Condition, ...]:
+        return self.conditions
+
+    def publish(self, **values) -> None:
+        """Publish on this condition and on every condition it combines (so each one's :meth:`progress` shows it)."""
+        super().publish(**values)
+        for child in self.conditions:
+            with child._lock:
+                child._values.update(values)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({', '.join(map(repr, self.conditions))})"
+
+
+class AnyOf(_Combined):
+    """Stops when any of its conditions holds (OMPL's ``plannerOrTerminationCondition``); made by :func:`any_of`."""
+
+    def _rule(self, iteration: int, best_cost: float, solved: bool) -> bool:
+        return any(c._holds(iteration, best_cost, solved) for c in self.conditions)
+
+    @property
+    def interrupted(self) -> bool:
+        """Terminated itself, or any of its conditions was."""
+        return self._event.is_set() or any(c.interrupted for c in self.conditions)
+
+    @interrupted.setter
+    def interrupted(self, value: bool) -> None:
+        Condition.interrupted.fset(self, value)
+
+
+class AllOf(_Combined):
+    """Stops when all of its conditions hold (OMPL's ``plannerAndTerminationCondition``); made by :func:`all_of`.
+    Its own :meth:`terminate` stops it at once."""
+
+    def _rule(self, iteration: int, best_cost: float, solved: bool) -> bool:
+        return all(c._holds(iteration, best_cost, solved) for c in self.conditions)
+
+    @property
+    def interrupted(self) -> bool:
+        """Terminated itself, or all of its conditions were."""
+        return self._event.is_set() or all(c.interrupted for c in self.conditions)
+
+    @interrupted.setter
+    def interrupted(self, value: bool) -> None:
+        Condition.interrupted.fset(self, value)
+
+
+def any_of(*conditions: Condition) -> AnyOf:
+    """A condition that holds as soon as any of ``conditions`` does."""
+    return AnyOf(conditions, "any_of")
+
+
+def all_of(*conditions: Condition) -> AllOf:
+    """A condition that holds once all of ``conditions`` do."""
+    return AllOf(conditions, "all_of")
+
+
+def time_limit(seconds: float) -> Termination:
+    """Stop after ``seconds`` of wall-clock time."""
+    return Termination(max_time=seconds)
+
+
+def iteration_limit(iterations: int) -> Termination:
+    """Stop before iteration ``iterations``."""
+    return Termination(max_iterations=iterations)
+
+
+def cost_reached(cost: float) -> Termination:
+    """Stop once the best cost is at most ``cost`` (OMPL's ``exactSolnPlannerTerminationCondition`` for a cost)."""
+    return Termination(cost_reached=cost)
+
+
+def first_solution() -> Termination:
+    """Stop as soon as a first solution exists."""
+    return Termination(stop_on_first=True)
+
+
+def when(callback: Callable[[int, float], bool]) -> Termination:
+    """Stop when ``callback(iteration, best_cost)`` returns True."""
+    return Termination(callback=callback)
+
+
+def never() -> Termination:
+    """A condition that holds only when terminated (Ctrl-C inside :meth:`Condition.watch`, or :meth:`terminate`)."""
+    return Termination()
+
+
+@contextmanager
+def task_progress() -> Iterator[dict]:
+    """Collect the progress values every condition publishes in this process while the block runs (the executor
+    wraps each task in it); yields the dict they are written to (read it after the block)."""
+    global _task_sink
+    sink: dict = {}
+    with _task_lock:
+        previous, _task_sink = _task_sink, sink
+    try:
+        yield sink
+    finally:
+        with _task_lock:
+            _task_sink = previous
