@@ -14,6 +14,12 @@ Choices the thesis leaves open (its tasks ran on a real KUKA iiwa; its figures a
                     (0.125, 0.125) and (0.25, 0.25): the tilt makes the peg meet the rim.
 ``se2-through-passage``  the scene's start to its goal: the L-block from 5 mm below contact with the wall,
                     through the passage 5 mm wider than it, to 12 cm past the wall.
+
+The robot's wrist.  Whether a contact turns the body or stops it depends on the ratio of the controller's torque
+to its force: the lever arm beyond which a contact force turns the body.  The metric's model (the kinematic
+simulator's ``effort_length``) and the ground truth's dynamic simulator (its ``max_torque / max_force``) are given
+the same ratio, :data:`WRIST_LEVER`: the thesis's robot, a KUKA iiwa under Cartesian impedance control, at the
+controller's default stiffness (200 N m/rad over 2000 N/m).
 """
 
 from __future__ import annotations
@@ -24,6 +30,10 @@ EPSILONS = (0.125, 0.1875, 0.25)
 ALPHAS = (0.0625, 0.125, 0.25)
 METHODS = ("simulation", "simulation-scaled", "sampling-driven", "reachable-volume")
 GROUND_TRUTH = "ground truth"
+
+#: m: torque over force of the robot in both the metric's model and the ground truth (KUKA iiwa Cartesian
+#: impedance defaults: 200 N m/rad rotational over 2000 N/m translational stiffness)
+WRIST_LEVER = 0.1
 
 
 @dataclass(frozen=True)
@@ -62,16 +72,18 @@ TASKS = {
     "se3-peg-tight": MetricTask(
         "se3-peg-tight", "se3-peg-tight",
         ((0.151, 0.151, 0.16, *_TILT), (0.151, 0.151, 0.0625, 0.0, 0.0, 0.0, 1.0)),
-        {"kp": 1.0, "velocity_limit": 0.1, "angular_velocity_limit": 0.25, "frequency": 10.0},
+        {"kp": 1.0, "velocity_limit": 0.1, "angular_velocity_limit": 0.25, "frequency": 10.0,
+         "effort_length": WRIST_LEVER},
         simulations=10000, largest_volume_samples=500,
         # the pulling constraint's force for a 25 g peg (the peg-tight-policy pipeline's measurement: 200 N jams it)
-        world="pybullet", world_options={"max_force": 0.2}),
+        world="pybullet", world_options={"max_force": 0.2, "max_torque": 0.2 * WRIST_LEVER}),
     "se2-through-passage": MetricTask(
         "se2-through-passage", "se2-through-passage",
         ((0.2375, 0.12, 0.0), (0.2375, 0.42, 0.0)),
-        {"kp": 1.0, "velocity_limit": 0.1, "angular_velocity_limit": 0.25, "frequency": 10.0},
+        {"kp": 1.0, "velocity_limit": 0.1, "angular_velocity_limit": 0.25, "frequency": 10.0,
+         "effort_length": WRIST_LEVER},
         simulations=2000, largest_volume_samples=250,
-        world="pymunk"),
+        world="pymunk", world_options={"max_force": 2000.0, "max_torque": 2000.0 * WRIST_LEVER}),
 }
 
 # The thesis's tables, cells in the order (epsilon, alpha) = (0.125, 0.0625), (0.125, 0.125), ... (0.25, 0.25).

@@ -4,6 +4,14 @@ The robot is one rigid multibody from the scene's robot parts (boxes, spheres, c
 ``density`` x volume).  A fixed constraint pulls it toward the commanded pose with a force capped at
 ``max_force`` (N), its target swept along the commanded motion over the physics substeps, so the
 robot yields against obstacles instead of passing through them.
+
+Bullet caps every row of a fixed constraint with the same number, so its torque cap is ``max_force`` read in
+N m: the hold's torque-to-force ratio is 1 m, far stiffer in rotation than a wrist under impedance control.
+With ``max_torque`` the rotation is held separately: a point-to-point constraint (capped at ``max_force``)
+pulls the reference point, and a torque capped at ``max_torque`` (N m) turns the body toward the commanded
+orientation, computed each physics step as the torque that would reach it in ``ANGULAR_STEPS`` steps.  The
+ratio ``max_torque / max_force`` is then the lever arm beyond which a contact turns the body, the quantity the
+kinematic simulator's effort solver calls ``effort_length``.
 """
 
 from __future__ import annotations
@@ -12,6 +20,9 @@ import math
 
 import numpy as np
 from pliant.errors import SimulationError
+
+#: physics steps in which the capped torque drive would bring the body to its commanded orientation
+ANGULAR_STEPS = 2.0
 
 
 def _yaw_quaternion(theta: float) -> list[float]:
@@ -61,17 +72,22 @@ class FreeFlyer:
     """The scene's rigid robot as a pybullet body held by a force-capped fixed constraint.
 
     ``kind`` is the space's kind (``rn`` / ``se2`` / ``se3``); ``max_force`` (N) caps the pull;
-    ``friction`` is the Coulomb coefficient of the robot's surface.
+    ``max_torque`` (N m, or ``None``: the fixed constraint's own cap) caps the turn; ``friction`` is the
+    Coulomb coefficient of the robot's surface; ``time_step`` is the physics step (s).
     """
 
-    def __init__(self, pb, scene, space, density: float, max_force: float, friction: float) -> None:
+    def __init__(self, pb, scene, space, density: float, max_force: float, friction: float,
+                 max_torque: float | None = None, time_step: float = 1 / 240) -> None:
         self.pb = pb
         self.space = space
         self.kind = scene.robot.space
         self.max_force = max_force
+        self.max_torque = max_torque
+        self.time_step = time_step
         self.friction = friction
         self.shape, self.mass = robot_collision_shape(pb, scene, density)
         self.body = self.hold = None
+        self._orientation = None
 
     def _pose(self, q):
         if self.kind == "se3":
@@ -99,14 +115,42 @@ class FreeFlyer:
         position, orientation = self._pose(q)
         self.body = self.pb.createMultiBody(self.mass, self.shape, basePosition=position, baseOrientation=orientation)
         self.pb.changeDynamics(self.body, -1, lateralFriction=self.friction, linearDamping=0.0, angularDamping=0.0)
-        self.hold = self.pb.createConstraint(self.body, -1, -1, -1, self.pb.JOINT_FIXED, [0, 0, 0], [0, 0, 0],
-                                             position, childFrameOrientation=orientation)
-        self.pb.changeConstraint(self.hold, position, orientation, maxForce=self.max_force)
+        if self.max_torque is None:
+            self.hold = self.pb.createConstraint(self.body, -1, -1, -1, self.pb.JOINT_FIXED, [0, 0, 0], [0, 0, 0],
+                                                 position, childFrameOrientation=orientation)
+            self.pb.changeConstraint(self.hold, position, orientation, maxForce=self.max_force)
+        else:
+            self.hold = self.pb.createConstraint(self.body, -1, -1, -1, self.pb.JOINT_POINT2POINT, [0, 0, 0],
+                                                 [0, 0, 0], position)
+            self.pb.changeConstraint(self.hold, position, maxForce=self.max_force)
+            info = self.pb.getDynamicsInfo(self.body, -1)
+            self._inertia = np.asarray(info[2], dtype=np.float64)
+            self._inertial_frame = np.asarray(self.pb.getMatrixFromQuaternion(info[4])).reshape(3, 3)
+            self._orientation = orientation
 
     def command(self, q: np.ndarray, motion: np.ndarray, fraction: float, dt: float) -> None:
         """Move the constraint's target to ``fraction`` of the tangent ``motion`` (over ``dt`` s) from ``q``."""
         position, orientation = self._pose(self.space.retract(q, motion * fraction))
-        self.pb.changeConstraint(self.hold, position, orientation, maxForce=self.max_force)
+        if self.max_torque is None:
+            self.pb.changeConstraint(self.hold, position, orientation, maxForce=self.max_force)
+            return
+        self.pb.changeConstraint(self.hold, position, maxForce=self.max_force)
+        self.pb.applyExternalTorque(self.body, -1, self._turning_torque(orientation).tolist(), self.pb.WORLD_FRAME)
+
+    def _turning_torque(self, target: list[float]) -> np.ndarray:
+        """The world-frame torque (N m, norm at most ``max_torque``) that turns the body toward ``target``."""
+        _, quat = self.pb.getBasePositionAndOrientation(self.body)
+        _, omega = self.pb.getBaseVelocity(self.body)
+        current = np.asarray(self.pb.getMatrixFromQuaternion(quat)).reshape(3, 3)
+        goal = np.asarray(self.pb.getMatrixFromQuaternion(target)).reshape(3, 3)
+        error = _rotation_vector(goal @ current.T)                     # world frame
+        h = self.time_step
+        wanted = error / (ANGULAR_STEPS * h)
+        frame = current @ self._inertial_frame
+        inertia = frame @ np.diag(self._inertia) @ frame.T
+        torque = inertia @ (wanted - np.asarray(omega)) / h
+        norm = float(np.linalg.norm(torque))
+        return torque if norm <= self.max_torque else torque * (self.max_torque / norm)
 
     def pulling_force(self) -> float:
         """Magnitude (N) of the constraint's force in the last physics step."""
@@ -115,3 +159,17 @@ class FreeFlyer:
     def touching(self) -> bool:
         """Whether the robot touches another body now."""
         return bool(self.pb.getContactPoints(bodyA=self.body))
+
+
+def _rotation_vector(rotation: np.ndarray) -> np.ndarray:
+    """The axis-angle vector ``(3,)`` (rad) of a rotation matrix (the logarithm map of SO(3))."""
+    cos = np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0)
+    angle = math.acos(cos)
+    axis = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0], rotation[1, 0] - rotation[0, 1]])
+    if angle < 1e-9:
+        return axis / 2.0
+    if math.pi - angle < 1e-6:                                     # half a turn: the axis from the diagonal
+        k = int(np.argmax(np.diag(rotation)))
+        v = (rotation[:, k] + np.eye(3)[k]) / math.sqrt(2.0 * (1.0 + rotation[k, k]))
+        return angle * v
+    return angle * axis / (2.0 * math.sin(angle))

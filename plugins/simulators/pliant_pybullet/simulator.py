@@ -33,6 +33,10 @@ class PybulletOptions(SteppedOptions):
     density: float = option(100.0, "free-flying robot's mass per volume (kg/m^3)", minimum=1e-9)
     max_force: float = option(200.0, "largest force the free-flying robot's pulling constraint applies (N)",
                               minimum=0.0)
+    max_torque: float | None = option(None, "free-flying robot: largest torque (N m) turning it toward the commanded "
+                                      "orientation, separate from max_force; default: the fixed constraint caps "
+                                      "its rotation at max_force read in N m (pliant_pybullet.free_flyer)",
+                                      minimum=0.0)
     gravity: float = option(0.0, "gravity along -z (m/s^2)", minimum=0.0)
     effort_scale: float = option(1.0, "URDF robots: joint torque caps = this x the URDF's effort limits",
                                  minimum=1e-9)
@@ -70,7 +74,8 @@ class PybulletSimulator(SteppedSimulator):
         if scene.robot.kind == "rigid":
             from pliant_pybullet.free_flyer import FreeFlyer
 
-            self.body = FreeFlyer(self.pb, scene, self.space, o.density, o.max_force, o.friction)
+            self.body = FreeFlyer(self.pb, scene, self.space, o.density, o.max_force, o.friction,
+                                  max_torque=o.max_torque, time_step=self.dt / self.substeps)
         else:
             self.body = self._articulated(scene)
         from pliant_pybullet.objects import MovableObjects

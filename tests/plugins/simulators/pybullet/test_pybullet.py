@@ -217,3 +217,37 @@ def test_contact_points_lie_on_the_block_with_upward_normals_and_bounded_forces(
     sim.reset(pose(8, 8, 8))
     sim.step(np.zeros(6), 0.1, rng)
     assert sim.contact_points().shape == (0, 7)
+
+
+def _tilt(q):
+    return 2 * np.arccos(np.clip(abs(q[6]), 0.0, 1.0))
+
+
+def test_a_separate_torque_cap_turns_the_body_to_the_commanded_orientation_in_free_space(peg):
+    sim = registry.create("simulator", "pybullet", peg, kp=1.0, angular_velocity_limit=0.25, max_torque=5.0)
+    start = pose(8, 8, 8)
+    target = np.array([7.5, 8.0, 7.5, np.sin(0.15), 0.0, 0.0, np.cos(0.15)])     # 0.3 rad about x
+    result = sim.simulate(start[None], target, np.random.default_rng(0), 6.0)
+    assert result.reached[0]
+    assert _tilt(result.final[0]) == pytest.approx(0.3, abs=0.01)
+    assert np.allclose(result.final[0, :3], target[:3], atol=0.02)
+
+
+def test_a_zero_torque_cap_leaves_the_orientation_alone(peg):
+    sim = registry.create("simulator", "pybullet", peg, kp=1.0, max_torque=0.0)
+    sim.reset(pose(8, 8, 8))
+    rng = np.random.default_rng(0)
+    for _ in range(10):
+        q = sim.step(np.array([0.0, 0.0, -0.5, 0.25, 0.0, 0.0]), 0.1, rng)       # translate down, ask to turn
+    assert q[2] == pytest.approx(7.5, abs=0.1)                                  # the pull lags a little
+    assert _tilt(q) < 1e-6
+
+
+def test_the_torque_cap_bounds_how_fast_a_turn_accelerates(peg):
+    """A torque capped at T turns a body of inertia I about x by at most T t^2 / (2 I) in t seconds (from rest)."""
+    cap = 1e-3
+    sim = registry.create("simulator", "pybullet", peg, kp=1.0, angular_velocity_limit=1.0, max_torque=cap)
+    sim.reset(pose(8, 8, 8))
+    inertia = sim.pb.getDynamicsInfo(sim.body.body, -1)[2][0]
+    q = sim.step(np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0]), 0.1, np.random.default_rng(0))
+    assert 0 < _tilt(q) <= cap * 0.1 ** 2 / (2 * inertia) * 1.05
