@@ -262,7 +262,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
-        return int(args.handler(args) or 0)
+        from pliant.executor import from_args, using
+
+        # a command given add_executor_arguments: its tasks run with the executor asked for (--executor ray)
+        executor = from_args(args) if hasattr(args, "executor") else None
+        with using(executor):
+            return int(args.handler(args) or 0)
     except PliantError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

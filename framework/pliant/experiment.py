@@ -1,5 +1,6 @@
-"""Resumable experiments: seeded tasks run in a local process pool, each record appended to ``runs.jsonl`` as it
-finishes (the belief planner's ch. 5 experiments, the path metric's ch. 6 tables).
+"""Resumable experiments: seeded tasks run by an executor (:mod:`pliant.executor`: a local process pool by default,
+or a Ray cluster), each record appended to ``runs.jsonl`` in this process as it finishes (the belief planner's
+ch. 5 experiments, the path metric's ch. 6 tables, the learners' ch. 4 trials).
 
 Guarantees (docs/conventions.md, "Interruption and files"): every finished task is appended and fsynced at once;
 Ctrl-C cancels the queued tasks, ends the workers within seconds and raises :class:`KeyboardInterrupt` after the
@@ -11,51 +12,15 @@ differ from the run's ``settings.json`` is refused (:func:`check_settings`).
 from __future__ import annotations
 
 import json
-import os
-import threading
-import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 from pliant.errors import ConfigError
+from pliant.executor import Executor, LocalExecutor, current, stop_pool, worker_init
 from pliant.files import append_jsonl, read_jsonl, rewrite_jsonl, write_json
+from pliant.termination import Condition
 
-
-def worker_init(parent: int) -> None:
-    """Pool workers: leave Ctrl-C to the parent (it cancels the queue and ends the workers), and die with the parent
-    (Linux: the kernel sends SIGTERM when it exits, even by kill -9; elsewhere a watcher thread polls)."""
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL("libc.so.6", use_errno=True)
-        libc.prctl(1, signal.SIGTERM)                  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-    if os.getppid() != parent:                         # the parent died before prctl took effect
-        os._exit(1)
-
-    def watch():
-        while True:
-            time.sleep(1.0)
-            if os.getppid() != parent:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="pliant-parent-watch", daemon=True).start()
-
-
-def stop_pool(pool: ProcessPoolExecutor) -> None:
-    """Cancel every queued task and end the workers now (the running tasks' results are not waited for)."""
-    processes = list((getattr(pool, "_processes", None) or {}).values())     # shutdown forgets them
-    pool.shutdown(wait=False, cancel_futures=True)
-    for process in processes:
-        if process.is_alive():
-            process.terminate()
-    for process in processes:
-        process.join(timeout=5.0)
+__all__ = ["check_settings", "open_log", "run_tasks", "stop_pool", "worker_init"]
 
 
 def check_settings(directory: Path, settings: dict, keys: Sequence[str], *, replace: bool) -> dict:
@@ -97,25 +62,34 @@ def open_log(directory: Path, output_flag: str, echo=print) -> tuple[Path, list[
 
 def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, log: Path, records: list[dict],
               describe: Callable[[dict], str], on_interrupt: Callable[[], object] = lambda: None,
-              echo=print) -> list[dict]:
-    """Run ``work(*task)`` for every task in a pool of ``jobs`` processes; each record is appended to ``records`` and
-    to ``log`` (fsynced) as it finishes and echoed as ``[k/n] describe(record)``.  On Ctrl-C: the pool is stopped,
-    ``on_interrupt()`` runs (e.g. writes a summary of the finished tasks), and :class:`KeyboardInterrupt` is raised."""
+              echo=print, executor: Executor | None = None, stop: Condition | None = None) -> list[dict]:
+    """Run ``work(*task)`` for every task with ``executor`` -- by default the one installed by
+    :func:`pliant.executor.using` (``pliant ... --executor ray``), else a local pool of ``jobs`` processes.  Each
+    record is appended to ``records`` and to ``log`` (fsynced) in this process as it finishes, exactly once, and
+    echoed as ``[k/n] describe(record)`` (with the node that ran it when the executor is remote).
+
+    On Ctrl-C: the tasks left are cancelled, ``on_interrupt()`` runs (e.g. writes a summary of the finished tasks),
+    and :class:`KeyboardInterrupt` is raised.  When ``stop`` holds (checked with the number of finished tasks) or
+    the executor is cancelled from another thread, the tasks left are cancelled, ``on_interrupt()`` runs and the
+    records so far are returned; a second call resumes with the tasks not on file."""
     tasks = list(tasks)
-    pool = ProcessPoolExecutor(max_workers=jobs, initializer=worker_init, initargs=(os.getpid(),))
+    own = executor is None and current() is None
+    executor = executor or current() or LocalExecutor(jobs)
     try:
         with log.open("a") as sink:
-            futures = [pool.submit(work, *task) for task in tasks]
-            for k, future in enumerate(as_completed(futures), start=1):
-                record = future.result()
-                records.append(record)
-                append_jsonl(sink, record)
-                echo(f"[{k}/{len(tasks)}] {describe(record)}")
+            for k, result in enumerate(executor.run(work, tasks, stop), start=1):
+                records.append(result.record)
+                append_jsonl(sink, result.record)
+                where = f" [{result.node}]" if executor.remote else ""
+                echo(f"[{k}/{len(tasks)}] {describe(result.record)}{where}")
     except KeyboardInterrupt:
-        stop_pool(pool)
         on_interrupt()
         echo(f"interrupted: the {len(records)} finished tasks are in {log}; run the same command again to resume")
         raise
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        if own:
+            executor.close()
+    if executor.stopped:
+        on_interrupt()
+        echo(f"stopped: the {len(records)} finished tasks are in {log}; run the same command again to resume")
     return records

@@ -1,5 +1,6 @@
 """Entry point of the ch. 4 learners: PIIRL sensitivity recovery and its active-learning loop."""
 
+from pliant.executor import add_executor_arguments
 from pliant.hookspecs import hookimpl
 
 _MODULE = "pliant_piirl.learner"
@@ -31,6 +32,7 @@ def pliant_add_commands(subparsers):
     parser.add_argument("--fresh", action="store_true", help="forget the trials on file")
     parser.add_argument("--output", default="out", help="directory (default out)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="an active-piirl option")
+    add_executor_arguments(parser)
     parser.set_defaults(handler=_active_command)
 
 
@@ -66,6 +68,7 @@ def add_table_command(subparsers):
     parser.add_argument("--fresh", action="store_true", help="learn again and forget the plans on file")
     parser.add_argument("--output", default="out", help="directory (default out)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="an active-piirl option")
+    add_executor_arguments(parser)
     parser.set_defaults(handler=_table_command)
 
 

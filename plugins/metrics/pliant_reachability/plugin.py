@@ -1,5 +1,6 @@
 """Entry point of the reachable-volume path-quality metrics (thesis ch. 6)."""
 
+from pliant.executor import add_executor_arguments
 from pliant.hookspecs import hookimpl
 
 _MODULE = "pliant_reachability.metrics"
@@ -36,6 +37,7 @@ def pliant_add_commands(subparsers):
     parser.add_argument("--output", default="out", help="directory (default out; the tables go in metric-tables/)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="a metric option for every method (e.g. contact_horizon=12)")
+    add_executor_arguments(parser)
     parser.set_defaults(handler=_table_command)
 
     parser = subparsers.add_parser(

@@ -2,6 +2,7 @@
 
 import os
 
+from pliant.executor import add_executor_arguments
 from pliant.hookspecs import hookimpl
 
 
@@ -39,6 +40,7 @@ def pliant_add_commands(subparsers):
     parser.add_argument("--output", default="out/experiments", help="directory (default out/experiments)")
     parser.add_argument("--replay", action="store_true",
                         help="plan nothing: execute the saved policies on file again and replace their executions")
+    add_executor_arguments(parser)
     parser.set_defaults(handler=_experiment_command)
 
 

@@ -1,0 +1,381 @@
+"""Where an experiment's tasks run: a local process pool (the default) or a Ray cluster (``pip install
+'pliant[ray]'``), behind one interface (docs/experiments.md).
+
+A task is ``work(*args)`` returning a JSON-able record; tasks are seeded and idempotent, so a task run twice -- a
+retry after a worker or node died -- returns the same record.  :func:`pliant.experiment.run_tasks` gives the
+records to the caller as they finish and appends each to the run's ``runs.jsonl`` in *this* process, so the result
+store, resuming and Ctrl-C behave the same whichever executor ran the tasks.
+
+- :class:`LocalExecutor`: ``jobs`` worker processes on this machine, which end with their parent (even on
+  ``kill -9``); Ctrl-C cancels the queue and ends them within seconds.
+- :class:`RayExecutor`: every task is a Ray task asking for one CPU, submitted at once; the cluster's CPUs decide
+  how many run together.  A task whose worker process or node dies is run again elsewhere (``retries`` times).
+  Cancelling interrupts the running tasks (a ``KeyboardInterrupt`` in the task, which an anytime planner turns
+  into ``terminate()``), then kills the ones still running after ``grace`` seconds.
+
+Both run each task inside :func:`pliant.termination.task_progress`, so the progress values the task's planners
+publish (``iterations``, ``best_cost``, ``nodes`` ...) come back with its record (:attr:`TaskResult.progress`),
+and a result names the node that ran it.
+
+Commands that run many tasks get ``--executor local|ray --address ADDR`` from :func:`add_executor_arguments`;
+the ``pliant`` command installs the chosen executor for the command's duration (:func:`using`), and
+:func:`pliant.experiment.run_tasks` uses it instead of its local pool.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import threading
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor
+from concurrent.futures import wait as wait_futures
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+from pliant.errors import ConfigError, PliantError
+from pliant.termination import Condition, task_progress
+
+#: how often a waiting executor checks its stop condition and cancel requests (s)
+POLL = 0.1
+EXECUTORS = ("local", "ray")
+
+
+class ExecutorError(PliantError):
+    """A task could not be run (its worker or node died more often than the executor retries, or the cluster
+    has another pliant version)."""
+
+
+@dataclass
+class TaskResult:
+    """One finished task: its position in the submitted list, its record, the progress values its conditions
+    published (:func:`pliant.termination.task_progress`), where it ran and how long it took there (s)."""
+
+    index: int
+    record: dict
+    progress: dict = field(default_factory=dict)
+    node: str = ""
+    seconds: float = 0.0
+
+
+def call_task(work: Callable[..., dict], args: tuple) -> tuple[dict, dict, str, float, str]:
+    """Run one task where the executor placed it: ``(record, progress, node, seconds, pliant version)``."""
+    import pliant
+
+    t0 = time.perf_counter()
+    with task_progress() as sink:
+        record = work(*args)
+    return record, dict(sink), _node(), time.perf_counter() - t0, pliant.__version__
+
+
+def _node() -> str:
+    """``host:pid``, and the first 8 hex digits of the Ray node's id inside a Ray worker (two Ray nodes can share
+    a host)."""
+    import sys
+
+    where = f"{socket.gethostname()}:{os.getpid()}"
+    ray = sys.modules.get("ray")
+    if ray is not None and ray.is_initialized():
+        where = f"node {ray.get_runtime_context().get_node_id()[:8]} {where}"
+    return where
+
+
+class Executor(ABC):
+    """Runs seeded, idempotent tasks somewhere and yields their results as they finish.
+
+    :meth:`run` is a generator: it submits every task, yields a :class:`TaskResult` per finished task, and stops
+    early (cancelling what is left) when ``stop`` holds -- checked with the number of finished tasks as the
+    iteration -- or :meth:`cancel` was called from any thread; :attr:`stopped` then says so.  Ctrl-C cancels the
+    tasks left and re-raises :class:`KeyboardInterrupt`.
+    """
+
+    name = "executor"
+    #: whether results name other machines' processes (the progress lines then show the node)
+    remote = False
+
+    def __init__(self) -> None:
+        self._cancel = threading.Event()
+        self.stopped = False
+
+    def cancel(self) -> None:
+        """Stop a running :meth:`run` at its next check and cancel its tasks; safe from any thread."""
+        self._cancel.set()
+
+    def _should_stop(self, stop: Condition | None, finished: int) -> bool:
+        return self._cancel.is_set() or (stop is not None and stop.should_stop(finished))
+
+    @abstractmethod
+    def run(self, work: Callable[..., dict], tasks: Sequence[tuple],
+            stop: Condition | None = None) -> Iterator[TaskResult]:
+        """Run ``work(*task)`` for every task; yield the results as they finish (in any order)."""
+
+    def close(self) -> None:
+        """Release what the executor holds (pool processes, the cluster connection)."""
+        self._cancel.clear()
+
+    def describe(self) -> str:
+        """A short description for progress lines (``local pool of 4``, ``ray at 10.0.0.1:6379 (16 CPUs)``)."""
+        return self.name
+
+    def __enter__(self) -> Executor:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def worker_init(parent: int) -> None:
+    """Pool workers: leave Ctrl-C to the parent (it cancels the queue and ends the workers), and die with the parent
+    (Linux: the kernel sends SIGTERM when it exits, even by kill -9; elsewhere a watcher thread polls)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGTERM)                  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:                         # the parent died before prctl took effect
+        os._exit(1)
+
+    def watch():
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="pliant-parent-watch", daemon=True).start()
+
+
+def stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel every queued task and end the workers now (the running tasks' results are not waited for)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())     # shutdown forgets them
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    for process in processes:
+        process.join(timeout=5.0)
+
+
+class LocalExecutor(Executor):
+    """``jobs`` worker processes on this machine (one task each at a time); the default executor."""
+
+    name = "local"
+
+    def __init__(self, jobs: int | None = None) -> None:
+        super().__init__()
+        if jobs is None:
+            jobs = os.cpu_count() or 1
+        if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+            raise ConfigError("must be a positive integer", field="--jobs", value=jobs)
+        self.jobs = jobs
+
+    def describe(self) -> str:
+        """``local pool of N``."""
+        return f"local pool of {self.jobs}"
+
+    def run(self, work: Callable[..., dict], tasks: Sequence[tuple],
+            stop: Condition | None = None) -> Iterator[TaskResult]:
+        """Submit every task to a fresh pool; yield results as they finish; end the pool afterwards."""
+        self.stopped = False
+        if stop is not None:
+            stop.start()
+        pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=worker_init, initargs=(os.getpid(),))
+        try:
+            futures = {pool.submit(call_task, work, tuple(task)): k for k, task in enumerate(tasks)}
+            pending = set(futures)
+            finished = 0
+            while pending:
+                if self._should_stop(stop, finished):
+                    self.stopped = True
+                    stop_pool(pool)
+                    return
+                done, pending = wait_futures(pending, timeout=POLL, return_when=FIRST_COMPLETED)
+                for future in done:
+                    record, progress, node, seconds, _ = future.result()
+                    finished += 1
+                    yield TaskResult(futures[future], record, progress, node, seconds)
+        except BaseException:       # Ctrl-C, a task's error, or the consumer closing the generator early
+            stop_pool(pool)
+            raise
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+class RayExecutor(Executor):
+    """Tasks as Ray tasks on a cluster (``address``: ``host:port`` of its head, ``"auto"`` for the cluster this
+    machine belongs to, ``None`` to start Ray on this machine alone).
+
+    retries: how many times a task whose worker process or node died is run again (Ray's ``max_retries``).
+    grace: seconds a cancelled running task gets to stop by itself before its worker is killed.
+    cpus: CPUs each task asks for.
+    """
+
+    name = "ray"
+    remote = True
+
+    def __init__(self, address: str | None = None, *, retries: int = 3, grace: float = 5.0, cpus: float = 1.0,
+                 ray_options: dict | None = None) -> None:
+        super().__init__()
+        if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
+            raise ConfigError("must be a non-negative integer", field="retries", value=retries)
+        self.address = address
+        self.retries = retries
+        self.grace = grace
+        self.cpus = cpus
+        self.ray_options = dict(ray_options or {})
+        self._ray = None
+        self._remote = None
+        self._owns_connection = False
+
+    def _connect(self):
+        if self._ray is not None:
+            return self._ray
+        try:
+            import ray
+        except ImportError:
+            raise ConfigError("Ray is not installed (pip install 'pliant[ray]')", field="--executor",
+                              value="ray") from None
+        if not ray.is_initialized():
+            try:
+                ray.init(address=self.address, log_to_driver=False, configure_logging=False,
+                         include_dashboard=False, **self.ray_options)
+            except (ConnectionError, RuntimeError, ValueError) as exc:
+                raise ConfigError(f"cannot connect to the Ray cluster: {exc}", field="--address",
+                                  value=self.address) from None
+            self._owns_connection = True
+        self._ray = ray
+        self._remote = ray.remote(call_task).options(num_cpus=self.cpus, max_retries=self.retries,
+                                                     retry_exceptions=False)
+        return ray
+
+    def cluster_cpus(self) -> float:
+        """CPUs the cluster has now (connects on first use)."""
+        return float(self._connect().cluster_resources().get("CPU", 0.0))
+
+    def describe(self) -> str:
+        """``ray at ADDRESS (N nodes, M CPUs)``."""
+        ray = self._connect()
+        nodes = sum(1 for n in ray.nodes() if n.get("Alive"))
+        return f"ray at {self.address or 'a local instance'} ({nodes} nodes, {self.cluster_cpus():g} CPUs)"
+
+    def run(self, work: Callable[..., dict], tasks: Sequence[tuple],
+            stop: Condition | None = None) -> Iterator[TaskResult]:
+        """Submit every task to the cluster; yield results as they finish; cancel what is left when stopped."""
+        import pliant
+
+        ray = self._connect()
+        self.stopped = False
+        if stop is not None:
+            stop.start()
+        work_ref = ray.put(work)                    # shipped once, not with every task
+        refs = {self._remote.remote(work_ref, tuple(task)): k for k, task in enumerate(tasks)}
+        pending = list(refs)
+        finished = 0
+        try:
+            while pending:
+                if self._should_stop(stop, finished):
+                    self.stopped = True
+                    self._cancel_refs(pending)
+                    return
+                done, pending = ray.wait(pending, num_returns=1, timeout=POLL)
+                for ref in done:
+                    try:
+                        record, progress, node, seconds, version = ray.get(ref)
+                    except ray.exceptions.RayTaskError as exc:
+                        raise exc.as_instanceof_cause() from None
+                    except (ray.exceptions.WorkerCrashedError, ray.exceptions.NodeDiedError,
+                            ray.exceptions.ObjectLostError) as exc:
+                        raise ExecutorError(f"task {refs[ref]} failed {self.retries + 1} times on the cluster: "
+                                            f"{type(exc).__name__}", field="task", value=tasks[refs[ref]]) from None
+                    if version != pliant.__version__:
+                        raise ExecutorError(f"the cluster runs pliant {version} on {node}, this machine "
+                                            f"{pliant.__version__}: install the same version on every node",
+                                            field="--address", value=self.address)
+                    finished += 1
+                    yield TaskResult(refs[ref], record, progress, node, seconds)
+        except BaseException:
+            self._cancel_refs(pending)
+            raise
+
+    def _cancel_refs(self, refs: list) -> None:
+        """Interrupt the tasks (KeyboardInterrupt in a running one), then kill those still running after ``grace``."""
+        ray = self._ray
+        for ref in refs:
+            ray.cancel(ref, force=False)
+        if not refs:
+            return
+        _, left = ray.wait(refs, num_returns=len(refs), timeout=self.grace)
+        for ref in left:
+            try:
+                ray.cancel(ref, force=True)
+            except (ValueError, TypeError):
+                pass
+
+    def close(self) -> None:
+        """Disconnect from the cluster if this executor connected (the cluster keeps running)."""
+        if self._ray is not None and self._owns_connection:
+            self._ray.shutdown()
+        self._ray = None
+        self._remote = None
+        self._owns_connection = False
+
+
+_current: Executor | None = None
+
+
+def current() -> Executor | None:
+    """The executor installed by :func:`using` (None: experiments use a local pool of their ``--jobs``)."""
+    return _current
+
+
+@contextmanager
+def using(executor: Executor | None) -> Iterator[Executor | None]:
+    """Run experiments in the block with ``executor`` (closed afterwards); None leaves the default."""
+    global _current
+    previous, _current = _current, executor
+    try:
+        yield executor
+    finally:
+        _current = previous
+        if executor is not None:
+            executor.close()
+
+
+def create(name: str, *, address: str | None = None, jobs: int | None = None) -> Executor:
+    """An executor by name: ``local`` (``jobs`` processes) or ``ray`` (the cluster at ``address``)."""
+    if name == "local":
+        if address is not None:
+            raise ConfigError("is for --executor ray; the local pool runs on this machine", field="--address",
+                              value=address)
+        return LocalExecutor(jobs)
+    if name == "ray":
+        return RayExecutor(address)
+    raise ConfigError(f"unknown executor (executors: {', '.join(EXECUTORS)})", field="--executor", value=name)
+
+
+def add_executor_arguments(parser) -> None:
+    """Give an experiment command ``--executor local|ray`` and ``--address ADDR`` (the ``pliant`` command then runs
+    its tasks with that executor; ``--jobs`` stays the local pool's size)."""
+    parser.add_argument("--executor", choices=EXECUTORS, default="local",
+                        help="where tasks run: local (a process pool of --jobs, the default) or ray (a Ray "
+                             "cluster; pip install 'pliant[ray]')")
+    parser.add_argument("--address", default=None, metavar="HOST:PORT",
+                        help="with --executor ray: the cluster's head (auto: the cluster this machine is in; "
+                             "default: start Ray on this machine)")
+
+
+def from_args(args) -> Executor | None:
+    """The executor a command's ``--executor`` / ``--address`` ask for; None for the default local pool (which each
+    experiment sizes by its own ``--jobs``)."""
+    name = getattr(args, "executor", "local")
+    address = getattr(args, "address", None)
+    if name == "local":
+        create("local", address=address, jobs=1)            # checks --address
+        return None
+    return create(name, address=address)

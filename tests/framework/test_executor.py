@@ -1,0 +1,110 @@
+"""The executor interface (pliant.executor) with the local pool, and run_tasks on top of it."""
+
+import sys
+import threading
+import time
+from types import SimpleNamespace
+
+import pytest
+from pliant import executor as executor_module
+from pliant.errors import ConfigError
+from pliant.executor import LocalExecutor, RayExecutor, TaskResult, add_executor_arguments, create, from_args, using
+from pliant.experiment import open_log, run_tasks
+from pliant.files import read_jsonl
+from pliant.termination import Termination, iteration_limit
+
+
+def square(x: int, pause: float = 0.0) -> dict:
+    """A seeded, idempotent task that also runs a planner-like loop publishing progress values."""
+    stop = Termination(max_iterations=x + 1)
+    stop.start()
+    i = 0
+    while not stop.should_stop(i, best_cost=1.0 / (i + 1)):
+        i += 1
+    stop.publish(nodes=10 * x)
+    time.sleep(pause)
+    return {"x": x, "square": x * x}
+
+
+def test_the_local_pool_runs_every_task_once_and_collects_progress():
+    with LocalExecutor(2) as pool:
+        results = list(pool.run(square, [(x,) for x in range(6)]))
+    assert sorted(r.index for r in results) == list(range(6))
+    assert all(isinstance(r, TaskResult) and r.record == {"x": r.index, "square": r.index ** 2} for r in results)
+    by_index = {r.index: r for r in results}
+    assert by_index[3].progress["nodes"] == 30 and by_index[3].progress["iterations"] == 4
+    assert by_index[3].seconds >= 0 and ":" in by_index[3].node and not pool.stopped
+
+
+def test_run_tasks_appends_each_record_once_and_a_stop_condition_ends_it_early(tmp_path):
+    log, records = open_log(tmp_path / "run", "--output")
+    lines, summaries = [], []
+    run_tasks(square, [(x, 0.3) for x in range(8)], jobs=2, log=log, records=records, describe=str,
+              echo=lines.append, stop=iteration_limit(3), on_interrupt=lambda: summaries.append(len(records)))
+    on_file, torn = read_jsonl(log)
+    assert not torn and on_file == records and 3 <= len(records) < 8
+    assert summaries == [len(records)] and lines[-1].startswith("stopped")
+    # a resume runs the rest, each task once
+    done = {r["x"] for r in records}
+    run_tasks(square, [(x, 0.0) for x in range(8) if x not in done], jobs=2, log=log, records=records,
+              describe=str, echo=lambda _: None)
+    assert sorted(r["x"] for r in read_jsonl(log)[0]) == list(range(8))
+
+
+def test_cancel_from_another_thread_stops_the_pool_within_seconds():
+    pool = LocalExecutor(2)
+    threading.Timer(0.5, pool.cancel).start()
+    t0 = time.perf_counter()
+    results = list(pool.run(square, [(x, 30.0) for x in range(4)]))
+    assert results == [] and pool.stopped and time.perf_counter() - t0 < 10.0
+
+
+def test_run_tasks_uses_the_installed_executor():
+    class Recording(LocalExecutor):
+        used = 0
+
+        def run(self, work, tasks, stop=None):
+            Recording.used += 1
+            yield from super().run(work, tasks, stop)
+
+    records = []
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp, using(Recording(1)):
+        log, records = open_log(Path(tmp), "--output")
+        run_tasks(square, [(1,), (2,)], jobs=4, log=log, records=records, describe=str, echo=lambda _: None)
+    assert Recording.used == 1 and sorted(r["x"] for r in records) == [1, 2]
+    assert executor_module.current() is None
+
+
+def test_executor_flags_and_errors_name_the_flag():
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    add_executor_arguments(parser)
+    assert from_args(parser.parse_args([])) is None                          # the default local pool
+    ray = from_args(parser.parse_args(["--executor", "ray", "--address", "10.0.0.1:6379"]))
+    assert isinstance(ray, RayExecutor) and ray.address == "10.0.0.1:6379"
+    with pytest.raises(ConfigError, match="--address"):
+        from_args(SimpleNamespace(executor="local", address="10.0.0.1:6379"))
+    with pytest.raises(ConfigError, match="--executor"):
+        create("dask")
+    with pytest.raises(ConfigError, match="--jobs"):
+        LocalExecutor(0)
+    with pytest.raises(ConfigError, match="retries"):
+        RayExecutor(retries=-1)
+
+
+def test_ray_missing_is_a_config_error_naming_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)                            # import ray fails
+    with pytest.raises(ConfigError, match=r"pliant\[ray\]"):
+        RayExecutor("127.0.0.1:1").describe()
+
+
+def test_the_pliant_command_passes_the_executor_to_the_experiment(monkeypatch, capsys):
+    """``--executor`` reaches run_tasks through the installed executor (a bad address fails before any work)."""
+    from pliant.cli import main
+
+    assert main(["metric-table", "se2-through-passage", "--executor", "local", "--address", "h:1"]) == 2
+    assert "--address" in capsys.readouterr().err
