@@ -258,6 +258,15 @@ class RayExecutor(Executor):
         """CPUs the cluster has now (connects on first use)."""
         return float(self._connect().cluster_resources().get("CPU", 0.0))
 
+    def wait_for_cpus(self, cpus: float, timeout: float = 60.0) -> float:
+        """Wait until the cluster has ``cpus`` CPUs (nodes still joining); returns what it has."""
+        deadline = time.monotonic() + timeout
+        while (have := self.cluster_cpus()) < cpus:
+            if time.monotonic() > deadline:
+                raise ExecutorError(f"the cluster has {have:g} CPUs after {timeout:g} s", field="cpus", value=cpus)
+            time.sleep(0.2)
+        return have
+
     def describe(self) -> str:
         """``ray at ADDRESS (N nodes, M CPUs)``."""
         ray = self._connect()
@@ -324,6 +333,103 @@ class RayExecutor(Executor):
         self._ray = None
         self._remote = None
         self._owns_connection = False
+
+
+class LoopbackCluster:
+    """A Ray cluster of ``nodes`` nodes on this machine, each its own ``ray start --block`` process group (a raylet
+    with its workers) with ``cpus`` CPUs -- the emulated cluster of the tests and ``benchmarks/bench_executor.py``,
+    and a way to try ``--executor ray`` without machines.  Use as a context manager; :meth:`stop` kills the process
+    groups it started (only those).
+
+    Ray replaces ``127.0.0.1`` by this machine's own address, so :attr:`address` is that address and the head's port.
+    """
+
+    def __init__(self, nodes: int = 2, cpus: int = 1, *, object_store_bytes: int = 80_000_000,
+                 timeout: float = 60.0) -> None:
+        if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 1:
+            raise ConfigError("must be a positive integer", field="nodes", value=nodes)
+        self.nodes = nodes
+        self.cpus = cpus
+        self.object_store_bytes = object_store_bytes
+        self.timeout = timeout
+        self.processes: list = []
+        self.address: str | None = None
+        self._temp: str | None = None
+
+    @staticmethod
+    def _free_port() -> int:
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            return s.getsockname()[1]
+
+    def _start(self, args: list[str], log: str):
+        import subprocess
+        import sys
+        from pathlib import Path
+
+        ray = str(Path(sys.executable).with_name("ray"))
+        env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
+        with open(log, "w") as out:
+            process = subprocess.Popen(
+                [ray, "start", "--block", "--disable-usage-stats", f"--num-cpus={self.cpus}",
+                 f"--object-store-memory={self.object_store_bytes}",
+                 f"--dashboard-agent-listen-port={self._free_port()}", *args],
+                stdout=out, stderr=subprocess.STDOUT, start_new_session=True, env=env)
+        self.processes.append(process)
+        return process
+
+    def start(self) -> LoopbackCluster:
+        """Start the head, then the other nodes; returns once the cluster has every node's CPUs."""
+        import re
+        import tempfile
+        from pathlib import Path
+
+        self._temp = tempfile.mkdtemp(prefix="pliant-ray-", dir="/tmp")          # short: Ray's socket paths
+        head_log = Path(self._temp) / "node0.log"
+        self._start(["--head", f"--port={self._free_port()}", "--node-ip-address=127.0.0.1",
+                     "--include-dashboard=false", f"--temp-dir={self._temp}/ray"], str(head_log))
+        deadline = time.monotonic() + self.timeout
+        while self.address is None:
+            found = re.search(r"--address='([^']+)'", head_log.read_text())
+            if found:
+                self.address = found.group(1)
+            elif time.monotonic() > deadline or self.processes[0].poll() is not None:
+                text = head_log.read_text()[-2000:]
+                self.stop()
+                raise ExecutorError(f"the Ray head did not start: {text}", field="nodes", value=self.nodes)
+            else:
+                time.sleep(0.1)
+        for k in range(1, self.nodes):
+            self._start([f"--address={self.address}"], f"{self._temp}/node{k}.log")
+        return self
+
+    def kill_node(self, k: int) -> None:
+        """``SIGKILL`` node ``k``'s process group (0 is the head): a machine that fails."""
+        import signal
+
+        process = self.processes[k]
+        try:
+            os.killpg(process.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        process.wait(10)
+
+    def stop(self) -> None:
+        """Kill every node this object started and remove its temporary directory."""
+        import shutil
+
+        for k in range(len(self.processes)):
+            self.kill_node(k)
+        self.processes = []
+        if self._temp:
+            shutil.rmtree(self._temp, ignore_errors=True)
+            self._temp = None
+
+    def __enter__(self) -> LoopbackCluster:
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
 
 
 _current: Executor | None = None

@@ -7,84 +7,31 @@ The worker node is killed (``SIGKILL`` to its whole process group) after the thi
 finish exactly once, with records equal to the local pool's (but for the wall time ``seconds``).
 """
 
-import os
 import re
-import shutil
-import signal
-import socket
-import subprocess
-import sys
-import tempfile
 import time
-from pathlib import Path
 
 import pytest
 
 ray = pytest.importorskip("ray", reason="the Ray executor's tests need pip install 'pliant[ray]'")
 
-from pliant.executor import LocalExecutor, RayExecutor, using  # noqa: E402
+from pliant.executor import LocalExecutor, LoopbackCluster, RayExecutor, using  # noqa: E402
 from pliant.experiment import open_log, run_tasks  # noqa: E402
 from pliant.files import read_jsonl  # noqa: E402
 from pliant.termination import iteration_limit  # noqa: E402
 
 pytestmark = pytest.mark.slow
-RAY = str(Path(sys.executable).with_name("ray"))
 TASK = "se2-through-passage"
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _wait(condition, timeout: float, what: str):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.2)
-    raise TimeoutError(what)
-
-
-def _start(args: list[str], log: Path) -> subprocess.Popen:
-    """``ray start --block ...`` in its own process group (so the group is its raylet and workers, and only they)."""
-    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
-    return subprocess.Popen([RAY, "start", "--block", "--disable-usage-stats", "--num-cpus=1",
-                             "--object-store-memory=80000000", f"--dashboard-agent-listen-port={_free_port()}",
-                             *args], stdout=log.open("w"), stderr=subprocess.STDOUT, start_new_session=True, env=env)
-
-
-def _kill(process: subprocess.Popen) -> None:
-    try:
-        os.killpg(process.pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    process.wait(10)
 
 
 @pytest.fixture(scope="module")
 def cluster():
-    """A head (1 CPU) and a worker node (1 CPU) on loopback; both process groups are killed afterwards."""
-    temp = Path(tempfile.mkdtemp(prefix="pliant-ray-", dir="/tmp"))        # short: Ray's socket paths
-    head_log = temp / "head.log"
-    head = _start(["--head", f"--port={_free_port()}", "--node-ip-address=127.0.0.1", "--include-dashboard=false",
-                   f"--temp-dir={temp / 'ray'}"], head_log)
-    processes = [head]
-    try:
-        # Ray replaces 127.0.0.1 by this machine's own address (reachable from other nodes); read it back
-        address = _wait(lambda: (m := re.search(r"--address='([^']+)'", head_log.read_text())) and m.group(1),
-                        60.0, f"the Ray head did not start: {head_log.read_text()[-2000:]}")
-        worker = _start([f"--address={address}"], temp / "worker.log")
-        processes.append(worker)
-        yield {"address": address, "head": head, "worker": worker, "temp": temp}
-    finally:
-        if ray.is_initialized():
-            ray.shutdown()
-        for process in processes:
-            _kill(process)
-        shutil.rmtree(temp, ignore_errors=True)
+    """A head (1 CPU) and a worker node (1 CPU) on this machine; both process groups are killed afterwards."""
+    with LoopbackCluster(nodes=2, cpus=1) as running:
+        try:
+            yield running
+        finally:
+            if ray.is_initialized():
+                ray.shutdown()
 
 
 def _tasks() -> list[tuple]:
@@ -101,14 +48,14 @@ def _timeless(records: list[dict]) -> dict:
 
 def _connected(address: str, cpus: float) -> RayExecutor:
     executor = RayExecutor(address, grace=2.0)
-    _wait(lambda: executor.cluster_cpus() >= cpus, 60.0, "the worker node did not join")
+    executor.wait_for_cpus(cpus)
     return executor
 
 
 def test_a_stop_condition_cancels_the_tasks_left_on_the_cluster(cluster, tmp_path):
     from pliant_reachability.tables import _evaluate
 
-    executor = _connected(cluster["address"], 2)
+    executor = _connected(cluster.address, 2)
     try:
         assert "2 nodes" in executor.describe()
         log, records = open_log(tmp_path / "stopped", "--output")
@@ -129,13 +76,13 @@ def test_a_killed_worker_node_loses_no_task_and_the_records_equal_the_local_pool
     run_tasks(_evaluate, tasks, jobs=2, log=log, records=local, describe=str, echo=lambda _: None,
               executor=LocalExecutor(2))
 
-    executor = _connected(cluster["address"], 2)
+    executor = _connected(cluster.address, 2)
     lines, killed = [], []
 
     def echo(line: str) -> None:
         lines.append(line)
         if line.startswith("[3/") and not killed:                 # mid-run: the worker node dies with its tasks
-            _kill(cluster["worker"])
+            cluster.kill_node(1)
             killed.append(time.monotonic())
 
     log, records = open_log(tmp_path / "ray", "--output")
