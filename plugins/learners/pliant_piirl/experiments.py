@@ -179,20 +179,23 @@ DEFORMED_SHARE = 0.1
 
 
 def run_table41(*, plans: int, max_time: float, jobs: int, output: Path, quick: bool = False, fresh: bool = False,
-                options: dict | None = None, echo=print) -> dict:
+                options: dict | None = None, refine: int = 0, echo=print) -> dict:
     """Table 4.1: learn from all 12 pairs (trial 0 of ``--all-pairs``), then plan every task ``plans`` times with
-    RRT* for ``max_time`` s with the recovered sensitivities and compare with the demonstration in true costs."""
+    RRT* for ``max_time`` s with the recovered sensitivities (then ``refine`` rounds of local search,
+    :func:`pliant_piirl.verification.refine`) and compare with the demonstration in true costs."""
     for key, value in (("--plans", plans), ("--jobs", jobs)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
             raise ConfigError("must be a positive integer", field=key, value=value)
+    if isinstance(refine, bool) or not isinstance(refine, int) or refine < 0:
+        raise ConfigError("must be a non-negative integer", field="--refine", value=refine)
     if not (isinstance(max_time, (int, float)) and np.isfinite(max_time) and max_time > 0):
         raise ConfigError("must be a positive number of seconds", field="--max-time", value=max_time)
     options = {**(QUICK["options"] if quick else {}), **(options or {})}
     directory = Path(output) / f"learn-table-4.1{'-quick' if quick else ''}"
     log, records = open_log(directory, "--output", echo)
     learned_file = directory / "learned.json"
-    check_settings(directory, {"options": options, "plans": plans, "max_time": max_time}, ["options", "max_time"],
-                   replace=fresh or not records)
+    check_settings(directory, {"options": options, "plans": plans, "max_time": max_time, "refine": refine},
+                   ["options", "max_time", "refine"], replace=fresh or not records)
     if fresh or not learned_file.exists():
         from pliant.files import rewrite_jsonl
 
@@ -207,7 +210,7 @@ def run_table41(*, plans: int, max_time: float, jobs: int, output: Path, quick: 
     tasks = range(min(TABLE_QUICK["tasks"], len(learned["features"]["demonstrations"])) if quick else
                   len(learned["features"]["demonstrations"]))
     done = {(r["task"], r["plan"]) for r in records}
-    todo = [(str(learned_file), task, plan, max_time) for task in tasks for plan in range(plans)
+    todo = [(str(learned_file), task, plan, max_time, refine) for task in tasks for plan in range(plans)
             if (task, plan) not in done]
     echo(f"table 4.1: {len(records)} plans on file, {len(todo)} to go, {jobs} at a time, {max_time:g} s each")
 
@@ -222,7 +225,7 @@ def run_table41(*, plans: int, max_time: float, jobs: int, output: Path, quick: 
     return finish()
 
 
-def _plan41(learned_file: str, task: int, plan: int, max_time: float) -> dict:
+def _plan41(learned_file: str, task: int, plan: int, max_time: float, refine: int = 0) -> dict:
     import json
 
     import pliant
@@ -237,7 +240,7 @@ def _plan41(learned_file: str, task: int, plan: int, max_time: float) -> dict:
     demonstration = Demonstration.from_dict(learned["demonstrations_shown"][task])
     started = time.perf_counter()
     result, path = plan_task(scene, learned["sensitivities"], demonstration, (0.0, 0.0, -0.06),
-                             np.random.default_rng(1000 * task + plan), max_time=max_time)
+                             np.random.default_rng(1000 * task + plan), max_time=max_time, refine_rounds=refine)
     if path is None and result.path is not None:
         path = result.path.configurations
     row = compare(features, true_sensitivities(scene), demonstration, path)

@@ -64,6 +64,8 @@ def add_table_command(subparsers):
     parser.add_argument("--max-time", type=float, default=60.0, help="seconds per plan (default 60; thesis 30 and "
                         "60 minutes)")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="plans at a time (default: cores)")
+    parser.add_argument("--refine", type=int, default=0, metavar="ROUNDS",
+                        help="rounds of local search in the recovered cost after RRT* and shortcutting (default 0)")
     parser.add_argument("--quick", action="store_true", help="CI-sized: 3 tasks, 1 plan of 10 s, a coarser expert")
     parser.add_argument("--fresh", action="store_true", help="learn again and forget the plans on file")
     parser.add_argument("--output", default="out", help="directory (default out)")
@@ -83,7 +85,7 @@ def _table_command(args) -> int:
     plans = TABLE_QUICK["plans"] if args.quick and args.plans == 3 else args.plans
     max_time = TABLE_QUICK["max_time"] if args.quick and args.max_time == 60.0 else args.max_time
     summary = run_table41(plans=plans, max_time=max_time, jobs=args.jobs, output=Path(args.output),
-                          quick=args.quick, fresh=args.fresh, options=options)
+                          quick=args.quick, fresh=args.fresh, options=options, refine=args.refine)
     print(render_table41(summary))
     return 0
 

@@ -5,8 +5,12 @@ up by name through the registry: plugins do not import each other) with the punc
 task-space goal "the tip touches the target" and the task's collision planes as a validity constraint, as in the
 chapter; then the path is shortcut (:mod:`pliant.shortcut`, cost-aware, every shortcut checked for punctures and
 cuts along the whole path), the post-processing step of sampling planners.  The chapter planned for 30 and 60
-minutes per task; the time budget here is an option.  The planned path and the demonstration are then both
-measured in the scene's *true* sensitivities: the deformation of each object and the cost ``S . V``.
+minutes per task; the time budget here is an option.  With ``refine_rounds`` the shortcut path is then improved by
+stochastic local search in the recovered cost (:func:`refine`): the sample paths of thesis 4.3.1 drawn around it,
+the cheapest kept when it is cheaper and free of punctures, with the noise shrinking each round -- the local
+optimisation a trajectory optimiser (STOMP, which the chapter's sampling follows) does after a sampling planner.
+The planned path and the demonstration are then both measured in the scene's *true* sensitivities: the deformation
+of each object and the cost ``S . V``.
 """
 
 from __future__ import annotations
@@ -29,9 +33,10 @@ def scene_with(scene, sensitivities: dict[str, float]):
 
 def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstration, tip, rng: np.random.Generator,
               *, max_time: float, shortcut_iterations: int = 300, planner_options: dict | None = None,
-              planner: str = "rrtstar"):
+              planner: str = "rrtstar", refine_rounds: int = 0):
     """RRT* (puncture check on) for ``demonstration``'s task in ``scene`` with ``sensitivities``; the planner's
-    result and its path after cost-aware shortcutting (``None`` without a path or with no iterations)."""
+    result and its path after cost-aware shortcutting and ``refine_rounds`` of :func:`refine` (``None`` without a
+    path or with no shortcut iterations)."""
     import pliant
     from pliant.interfaces import Context, PlanningProblem
 
@@ -66,7 +71,52 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
                               arc_margin=arc_margin(context.scene, context.space))
     path, _ = shortcut(problem, result.path.configurations, rng, step=scene.resolution / 2,
                        iterations=shortcut_iterations, check=lambda q: checker.check(q)[0])
+    if refine_rounds:
+        from pliant_piirl.features import DeformationFeatures
+
+        features = DeformationFeatures(context.scene)
+        densify = features.states
+
+        def intact(candidate: np.ndarray) -> bool:
+            return bool(checker.check(densify(candidate))[0])
+
+        path = refine(path, demonstration.task, features, features.sensitivity_vector(sensitivities), tip, rng,
+                      rounds=refine_rounds, check=intact)
     return result, path
+
+
+def refine(path: np.ndarray, task, features, weights: np.ndarray, tip, rng: np.random.Generator, *,
+           rounds: int = 8, samples: int = 100, translation: float = 0.01, rotation: float = 0.15,
+           shrink: float = 0.7, check=None) -> np.ndarray:
+    """Stochastic local search on ``path`` in the cost ``features.of_path(path) @ weights`` (thesis eq. 3.1 with the
+    given sensitivities, deformation only).
+
+    Each round draws ``samples`` smooth sample paths around the current one (thesis 4.3.1's sampler: start clamped,
+    the end back on the task's target or at its goal, inside the task's collision planes) with largest standard
+    deviations ``translation`` (m) and ``rotation`` (rad), both multiplied by ``shrink`` after every round; the
+    cheapest sample that ``check`` accepts (e.g. no puncture) replaces the path when it costs less.  Returns the
+    best path found (``path`` itself when nothing cheaper was found)."""
+    from pliant_piirl.sampling import PathSampler, SampleOptions
+
+    best = np.asarray(path, dtype=np.float64)
+    best_cost = float(features.of_path(best) @ weights)
+    if not np.isfinite(best_cost):
+        return best
+    for k in range(rounds):
+        scale = shrink ** k
+        sampler = PathSampler(features, tip, SampleOptions(samples=samples, translation=translation * scale,
+                                                           rotation=rotation * scale, rounds=0))
+        drawn = sampler.draw(Demonstration(task, best), rng)
+        if not drawn:
+            continue
+        costs = features.of_paths(drawn) @ weights
+        for j in np.argsort(costs):
+            if not costs[j] < best_cost:
+                break
+            if check is None or check(drawn[j]):
+                best, best_cost = drawn[j], float(costs[j])
+                break
+    return best
 
 
 def compare(features, truth: dict[str, float], demonstration: Demonstration, planned_path, *,

@@ -76,8 +76,9 @@ def run_tables(tasks: list[str], *, runs: int, jobs: int, output: Path, fresh: b
                 for run in range(1 if method == GROUND_TRUTH else runs):
                     if (task, method, cell, run) not in done:
                         todo.append((task, method, cell, run, density, simulations[task], options, executions))
-    # the references first (ground truth, then the baseline), so an interrupted run has every cell's
-    todo.sort(key=lambda t: (t[1] != GROUND_TRUTH, t[1] != "simulation", t[3], t[0], t[2]))
+    # the ground truth first, then run by run (the baseline first in each), so that an interrupted run has tables
+    # of every method over the same runs
+    todo.sort(key=lambda t: (t[1] != GROUND_TRUTH, t[3], t[1] != "simulation", t[0], t[2]))
     echo(f"metric tables: {len(records)} evaluations on file, {len(todo)} to go, {jobs} at a time")
 
     def describe(r: dict) -> str:

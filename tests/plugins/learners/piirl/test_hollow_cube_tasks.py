@@ -131,3 +131,26 @@ def test_the_outline_meets_every_half_space_exactly_when_all_body_points_do(scen
     for n in np.random.default_rng(1).normal(size=(30, 3)):
         n /= np.linalg.norm(n)
         assert np.allclose((outline @ n).max(axis=1), (points @ n).max(axis=1))    # the same support function
+
+
+def test_refining_a_poor_path_lowers_its_cost_keeps_the_task_and_respects_the_check(cube, demonstration):
+    from pliant_piirl.verification import refine
+
+    scene, _, features = cube
+    _, task, shown = demonstration
+    weights = features.sensitivity_vector(true_sensitivities(scene))
+    wide = PathSampler(features, TIP, SampleOptions(samples=40, translation=0.012, rotation=0.2))
+    drawn = wide.draw(shown, np.random.default_rng(5))
+    costs = features.of_paths(drawn) @ weights
+    poor = drawn[int(np.argmax(costs))]
+    poor_cost = float(costs.max())
+    assert poor_cost > float(features.of_path(shown.path) @ weights)
+    better = refine(poor, task, features, weights, TIP, np.random.default_rng(6), rounds=4, samples=40)
+    assert float(features.of_path(better) @ weights) < poor_cost
+    assert np.array_equal(better[0], poor[0])
+    rot, pos, _ = features.robot.rigid_placement(better[-1:])
+    assert np.allclose(rot[0] @ TIP + pos[0], task.target, atol=1e-9)
+    assert task.allows(features.robot.body_points(features.states(better))).all()
+    refused = refine(poor, task, features, weights, TIP, np.random.default_rng(6), rounds=2, samples=20,
+                     check=lambda path: False)
+    assert refused is poor or np.array_equal(refused, poor)
