@@ -5,6 +5,7 @@
     pliant run PIPELINE [--set key=value ...]            run a pipeline file or bundled pipeline
     pliant driver [NAME --check] [--set option=value]    robot drivers; inspect a robot without moving it
     pliant bench [NAME] [-- ARGS]                        run a benchmark script from benchmarks/
+    pliant reproduce [LIST | NAME] [--quick | --ci]      reproduce a thesis table or figure, with its report
 
 Plugins add their own sub-commands through the ``pliant_add_commands`` hook.  Errors in input are
 reported as one line naming the file, field and value, with exit status 2.
@@ -31,6 +32,8 @@ EXAMPLES = """examples:
   pliant run my.toml --set planner.max_time=5 --set simulator=pybullet
   pliant driver baxter-ros --check --set side=right   inspect a robot (state, limits, rates)
   pliant bench                                   list the benchmarks
+  pliant reproduce list                          thesis tables and figures: available or waiting
+  pliant reproduce figure-3.5 --quick            one of them, report in out/reproduce/figure-3.5/quick/
 """
 
 
@@ -244,6 +247,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("name", nargs="?", help="benchmark name; omit to list them")
     p.add_argument("args", nargs=argparse.REMAINDER, help="arguments passed to the benchmark")
     p.set_defaults(handler=cmd_bench)
+
+    from pliant.reproduce import add_command as add_reproduce
+
+    add_reproduce(sub)
 
     from pliant.registry import default_registry
 

@@ -31,6 +31,12 @@ class PliantSpec:
         """
 
     @hookspec
+    def pliant_reproductions(self):
+        """Declare reproductions of thesis tables and figures for ``pliant reproduce``: return a list of
+        :class:`pliant.reproduce.Reproduction` (the runner a ``"module:function"`` string, imported only when it
+        runs)."""
+
+    @hookspec
     def pliant_add_commands(self, subparsers):
         """Add sub-commands to the ``pliant`` command line.
 

@@ -52,3 +52,14 @@ def _pareto_command(args) -> int:
     print(f"\n{result.statistics.get('values_done', 0)} values of p in {result.statistics.get('time', 0):.2f} s; "
           f"report: {record.output / 'report.md'}")
     return 0 if result.solved else 1
+
+
+@hookimpl
+def pliant_reproductions():
+    from pliant.reproduce import Reproduction
+
+    return [Reproduction("figure-3.5", "Figure 3.5: A* path classes on the triple-wall over p",
+                         "pliant_astar.reproduce:figure_35",
+                         modes={"full": "101 values of p in [0, 1], as the thesis", "quick": "the same (seconds)",
+                                "ci": "21 values of p"},
+                         minutes={"full": 0.1, "quick": 0.1, "ci": 0.1})]

@@ -1,0 +1,342 @@
+"""``pliant reproduce``: every thesis table and figure by one command, each with a report of ours beside the
+thesis's (docs/experiments.md).
+
+Plugins declare their reproductions through the hook ``pliant_reproductions()`` (a list of
+:class:`Reproduction`), so the core imports no plugin: the runner is a ``"module:function"`` string imported only
+when the reproduction runs.  The core keeps the catalogue of the thesis's tables and figures
+(:data:`CATALOGUE`): one no plugin provides is listed as *waiting*, naming the plugin it waits for.
+
+A runner is called as ``runner(run: ReproductionRun) -> Outcome``.  ``run.mode`` is one of
+
+- ``full``: the thesis's protocol (hours to days on two cores; ``--executor ray`` spreads it over a cluster);
+- ``quick``: CI-sized, minutes;
+- ``ci``: for reproductions whose quick mode takes more than a few minutes, a smaller one that still checks the
+  headline numbers (the reproduction's ``modes`` says what each does).
+
+The :class:`Outcome` holds the rows of the table (ours beside the thesis's, each with the tolerance within which a
+difference is not marked), the headline numbers with their documented tolerance ranges (checked: ``pliant
+reproduce`` exits with status 3 when one is outside, so CI fails on a change that breaks a result), the exact
+settings, the raw record files and the figures.  :func:`run_reproduction` writes ``report.md`` and
+``outcome.json`` into ``out/reproduce/<name>/<mode>/``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import math
+import platform
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from pliant.errors import ConfigError, PluginError
+from pliant.files import write_json, write_text
+
+MODES = ("full", "quick", "ci")
+
+#: every thesis table and figure `pliant reproduce` knows, with what a missing one waits for
+CATALOGUE: dict[str, tuple[str, str]] = {
+    "figure-3.5": ("Figure 3.5: A* path classes on the triple-wall over p", "the A* planner (pliant_astar)"),
+    "table-3.1": ("Table 3.1: T-RRT and GradienT-RRT on the cube-wall", "the T-RRT planners (pliant_trrt)"),
+    "table-4.1": ("Table 4.1: planning with recovered sensitivities against the demonstrations",
+                  "the PIIRL learner (pliant_piirl)"),
+    "table-4.2": ("Table 4.2: uniform, demonstrated and recovered-sensitivity paths in the planar environment",
+                  "the PIIRL learner (pliant_piirl)"),
+    "table-5.1": ("Table 5.1: belief planner clustering methods on the SE(3) peg-in-hole",
+                  "the belief planner (pliant_belief)"),
+    "table-5.2": ("Table 5.2: Simple RRT, Contact RRT and the belief planner over actuation noise",
+                  "the belief planner (pliant_belief)"),
+    "table-6.1": ("Table 6.1: path-quality metrics' P_exec on the SE(3) peg-in-hole",
+                  "the reachable-volume metrics (pliant_reachability)"),
+    "table-6.2": ("Table 6.2: path-quality metrics' P_exec on the SE(2) through-hole",
+                  "the reachable-volume metrics (pliant_reachability)"),
+    "table-6.3": ("Table 6.3: path-quality metrics' computation time on the SE(3) peg-in-hole",
+                  "the reachable-volume metrics (pliant_reachability)"),
+    "table-6.4": ("Table 6.4: path-quality metrics' computation time on the SE(2) through-hole",
+                  "the reachable-volume metrics (pliant_reachability)"),
+    "table-8.1": ("Table 8.1: recovered deformability against ground truth (appendix A)",
+                  "the deformability learner (pliant_piirl)"),
+    "poster": ("The TS-RRT poster (ICHR 2010): object-space planning", "the TS-RRT planner (pliant_tsrrt)"),
+}
+
+
+@dataclass(frozen=True)
+class Reproduction:
+    """A plugin's reproduction of one thesis table or figure.
+
+    name: the catalogue name (``table-5.1``) or a new one; title: what it reproduces; runner: ``"module:function"``
+    called as ``function(run) -> Outcome``; modes: what each mode (``full``, ``quick``, ``ci``) runs, in words --
+    a mode not listed is not offered; minutes: rough duration of each mode on two cores.
+    """
+
+    name: str
+    title: str
+    runner: str
+    modes: dict[str, str]
+    minutes: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def plugin(self) -> str:
+        """The package that provides it."""
+        return self.runner.split(":")[0].split(".")[0]
+
+
+@dataclass
+class Row:
+    """One line of the comparison: a quantity, the thesis's value, ours, and the tolerance within which a
+    difference is not marked (None: not compared, e.g. a number the thesis does not give)."""
+
+    quantity: str
+    thesis: float | str | None
+    ours: float | str | None
+    tolerance: float | None = None
+    unit: str = ""
+
+    @property
+    def difference(self) -> float | None:
+        """``ours - thesis`` where both are numbers."""
+        if isinstance(self.thesis, (int, float)) and isinstance(self.ours, (int, float)):
+            return float(self.ours) - float(self.thesis)
+        return None
+
+    @property
+    def marked(self) -> bool:
+        """Whether ours differs from the thesis's by more than the tolerance."""
+        d = self.difference
+        return self.tolerance is not None and d is not None and not (abs(d) <= self.tolerance)
+
+
+@dataclass
+class Headline:
+    """A number CI checks: ours must lie in ``[low, high]`` (the documented tolerance), the thesis's beside it."""
+
+    name: str
+    ours: float
+    low: float
+    high: float
+    thesis: float | None = None
+    why: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """``low <= ours <= high`` (NaN is never within)."""
+        return isinstance(self.ours, (int, float)) and self.low <= self.ours <= self.high
+
+
+@dataclass
+class Outcome:
+    """What a runner returns: the table, the headline numbers, settings, raw records, figures and notes."""
+
+    rows: list[Row]
+    headlines: list[Headline]
+    settings: dict
+    records: list[Path] = field(default_factory=list)
+    figures: list[Path] = field(default_factory=list)
+    notes: str = ""
+
+
+@dataclass
+class ReproductionRun:
+    """What a runner gets: the reproduction, the mode, the directory to write into, and ``echo`` for progress."""
+
+    reproduction: Reproduction
+    mode: str
+    output: Path
+    echo: Callable[[str], object] = print
+
+
+def reproductions() -> dict[str, Reproduction]:
+    """Every reproduction the installed plugins declare, by name (a duplicate name: the first plugin's wins)."""
+    from pliant.registry import default_registry
+
+    found: dict[str, Reproduction] = {}
+    for group in default_registry().call_isolated("pliant_reproductions"):
+        for item in group or ():
+            if isinstance(item, Reproduction) and item.name not in found:
+                found[item.name] = item
+    return found
+
+
+def listing() -> list[dict]:
+    """The catalogue and the plugins' reproductions: name, status (available / waiting), title, provider or what
+    it waits for, modes."""
+    available = reproductions()
+    rows = []
+    for name in dict.fromkeys([*CATALOGUE, *available]):
+        if name in available:
+            r = available[name]
+            rows.append({"name": name, "status": "available", "title": r.title, "plugin": r.plugin,
+                         "modes": [m for m in MODES if m in r.modes], "minutes": r.minutes})
+        else:
+            title, waits = CATALOGUE[name]
+            package = waits.rsplit("(", 1)[-1].rstrip(")")
+            if importlib.util.find_spec(package) is not None:
+                waits = f"{waits}: installed, but it declares no reproduction of this yet"
+            rows.append({"name": name, "status": "waiting", "title": title, "plugin": None,
+                         "waits_for": waits, "modes": []})
+    return rows
+
+
+def _versions() -> dict:
+    import numpy
+
+    import pliant
+
+    out = {"pliant": pliant.__version__, "python": platform.python_version(), "numpy": numpy.__version__,
+           "machine": f"{platform.machine()} {platform.system()}"}
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, timeout=5,
+                                cwd=Path(__file__).resolve().parent)
+        if commit.returncode == 0:
+            dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+                                   text=True, timeout=5, cwd=Path(__file__).resolve().parent).stdout.strip()
+            out["commit"] = commit.stdout.strip() + (" (with uncommitted changes)" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return out
+
+
+def _load(runner: str) -> Callable[[ReproductionRun], Outcome]:
+    module, _, function = runner.partition(":")
+    try:
+        return getattr(importlib.import_module(module), function)
+    except (ImportError, AttributeError) as exc:
+        raise PluginError(f"cannot load the reproduction's runner: {exc}", field="runner", value=runner) from None
+
+
+def _fmt(value, unit: str = "") -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        text = f"{value:.3g}" if abs(value) < 1000 else f"{value:.0f}"
+    else:
+        text = str(value)
+    return f"{text} {unit}".strip()
+
+
+def render(reproduction: Reproduction, mode: str, outcome: Outcome, versions: dict, seconds: float,
+           directory: Path) -> str:
+    """The report as Markdown: the table (differences beyond tolerance in bold), headline checks, settings,
+    versions, figures and raw records."""
+    def rel(p: Path) -> str:
+        try:
+            return str(Path(p).resolve().relative_to(directory.resolve()))
+        except ValueError:
+            return str(p)
+
+    lines = [f"# {reproduction.title}", "",
+             f"`pliant reproduce {reproduction.name}{'' if mode == 'full' else ' --' + mode}` -- mode **{mode}**: "
+             f"{reproduction.modes.get(mode, '')}", "",
+             f"Ran in {seconds:.0f} s.  Provided by the plugin `{reproduction.plugin}`.", "",
+             "## Ours beside the thesis's", "",
+             "| quantity | thesis | ours | difference | tolerance |", "| --- | --- | --- | --- | --- |"]
+    for row in outcome.rows:
+        d = row.difference
+        diff = "-" if d is None else f"{d:+.3g}"
+        if row.marked:
+            diff = f"**{diff}**"
+        lines.append(f"| {row.quantity} | {_fmt(row.thesis, row.unit)} | {_fmt(row.ours, row.unit)} | {diff} | "
+                     f"{'-' if row.tolerance is None else _fmt(row.tolerance)} |")
+    marked = sum(r.marked for r in outcome.rows)
+    lines += ["", f"{marked} of {len(outcome.rows)} differences are beyond their tolerance (bold).", "",
+              "## Headline numbers (checked)", "", "| number | ours | within | thesis | result | why this range |",
+              "| --- | --- | --- | --- | --- | --- |"]
+    for h in outcome.headlines:
+        lines.append(f"| {h.name} | {_fmt(h.ours)} | [{_fmt(h.low)}, {_fmt(h.high)}] | {_fmt(h.thesis)} | "
+                     f"{'ok' if h.ok else '**OUT OF RANGE**'} | {h.why} |")
+    if outcome.notes:
+        lines += ["", "## Notes", "", outcome.notes.strip()]
+    if outcome.figures:
+        lines += ["", "## Figures", ""] + [f"![{Path(f).stem}]({rel(f)})" for f in outcome.figures]
+    lines += ["", "## Settings", "", "```", *(f"{k} = {v!r}" for k, v in outcome.settings.items()), "```", "",
+              "## Versions", "", "```", *(f"{k} = {v}" for k, v in versions.items()), "```", "",
+              "## Raw records", ""] + [f"- `{rel(p)}`" for p in outcome.records]
+    return "\n".join(lines) + "\n"
+
+
+def run_reproduction(name: str, *, mode: str = "quick", output: Path = Path("out/reproduce"),
+                     echo: Callable[[str], object] = print) -> tuple[Outcome, Path]:
+    """Run one reproduction; writes ``report.md`` and ``outcome.json`` into ``output/<name>/<mode>/``; returns the
+    outcome and that directory."""
+    if mode not in MODES:
+        raise ConfigError(f"unknown mode (modes: {', '.join(MODES)})", field="mode", value=mode)
+    available = reproductions()
+    if name not in available:
+        if name in CATALOGUE:
+            waits = next(r["waits_for"] for r in listing() if r["name"] == name)
+            raise ConfigError(f"not available yet: waits for {waits}", field="NAME", value=name)
+        known = ", ".join(dict.fromkeys([*CATALOGUE, *available]))
+        raise ConfigError(f"unknown reproduction (known: {known})", field="NAME", value=name)
+    reproduction = available[name]
+    if mode not in reproduction.modes:
+        raise ConfigError(f"{name} has no {mode} mode (modes: {', '.join(reproduction.modes)})",
+                          field=f"--{mode}", value=True)
+    directory = Path(output) / name / mode
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot be created ({exc.strerror or exc})", field="--output", value=str(output)) from None
+    runner = _load(reproduction.runner)
+    echo(f"{name} ({mode}): {reproduction.modes[mode]}")
+    t0 = time.perf_counter()
+    outcome = runner(ReproductionRun(reproduction, mode, directory, echo))
+    seconds = time.perf_counter() - t0
+    versions = _versions()
+    write_text(directory / "report.md", render(reproduction, mode, outcome, versions, seconds, directory))
+    write_json(directory / "outcome.json", {
+        "name": name, "mode": mode, "seconds": seconds, "versions": versions, "settings": outcome.settings,
+        "rows": [{**asdict(r), "difference": r.difference, "marked": r.marked} for r in outcome.rows],
+        "headlines": [{**asdict(h), "ok": h.ok} for h in outcome.headlines],
+        "records": [str(p) for p in outcome.records], "figures": [str(p) for p in outcome.figures]})
+    return outcome, directory
+
+
+def command(args) -> int:
+    """``pliant reproduce [LIST | NAME] [--quick | --ci] [--output DIR]``."""
+    if not args.name or args.name.lower() == "list":
+        rows = listing()
+        width = max(len(r["name"]) for r in rows)
+        for r in rows:
+            if r["status"] == "available":
+                modes = ", ".join(f"{m} ~{r['minutes'][m]:g} min" if m in r["minutes"] else m for m in r["modes"])
+                print(f"{r['name']:<{width}}  available  {r['title']}  [{r['plugin']}; {modes}]")
+            else:
+                print(f"{r['name']:<{width}}  waiting    {r['title']}  [waits for {r['waits_for']}]")
+        return 0
+    mode = "ci" if args.ci else "quick" if args.quick else "full"
+    outcome, directory = run_reproduction(args.name, mode=mode, output=Path(args.output))
+    failed = [h for h in outcome.headlines if not h.ok]
+    for h in outcome.headlines:
+        print(f"  {h.name}: {_fmt(h.ours)} (within [{_fmt(h.low)}, {_fmt(h.high)}]: {'ok' if h.ok else 'NO'}; "
+              f"thesis {_fmt(h.thesis)})")
+    marked = sum(r.marked for r in outcome.rows)
+    print(f"{len(outcome.rows)} rows, {marked} beyond tolerance; report: {directory / 'report.md'}")
+    if failed:
+        print(f"error: {len(failed)} headline number(s) out of range: {', '.join(h.name for h in failed)}",
+              file=sys.stderr)
+        return 3
+    return 0
+
+
+def add_command(subparsers) -> None:
+    """Add ``pliant reproduce`` to the command line."""
+    from pliant.executor import add_executor_arguments
+
+    parser = subparsers.add_parser(
+        "reproduce", help="reproduce a thesis table or figure (LIST: what exists and what waits)",
+        description="Run one reproduction and write out/reproduce/NAME/MODE/report.md: our table beside the "
+                    "thesis's with the differences marked, the headline numbers checked against documented "
+                    "tolerances (exit status 3 if one is out of range), settings, versions, figures and raw records.")
+    parser.add_argument("name", nargs="?", help="a reproduction (figure-3.5, table-5.1, ...) or LIST")
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument("--quick", action="store_true", help="CI-sized: minutes")
+    size.add_argument("--ci", action="store_true", help="smaller still, for reproductions whose --quick is long")
+    parser.add_argument("--output", default="out/reproduce", help="directory (default out/reproduce)")
+    add_executor_arguments(parser)
+    parser.set_defaults(handler=command)
