@@ -141,12 +141,14 @@ class Outcome:
 
 @dataclass
 class ReproductionRun:
-    """What a runner gets: the reproduction, the mode, the directory to write into, and ``echo`` for progress."""
+    """What a runner gets: the reproduction, the mode, the directory to write into, ``echo`` for progress, and
+    ``fresh``: forget the records on file (runners resume from them otherwise)."""
 
     reproduction: Reproduction
     mode: str
     output: Path
     echo: Callable[[str], object] = print
+    fresh: bool = False
 
 
 def reproductions() -> dict[str, Reproduction]:
@@ -261,7 +263,7 @@ def render(reproduction: Reproduction, mode: str, outcome: Outcome, versions: di
 
 
 def run_reproduction(name: str, *, mode: str = "quick", output: Path = Path("out/reproduce"),
-                     echo: Callable[[str], object] = print) -> tuple[Outcome, Path]:
+                     echo: Callable[[str], object] = print, fresh: bool = False) -> tuple[Outcome, Path]:
     """Run one reproduction; writes ``report.md`` and ``outcome.json`` into ``output/<name>/<mode>/``; returns the
     outcome and that directory."""
     if mode not in MODES:
@@ -285,7 +287,7 @@ def run_reproduction(name: str, *, mode: str = "quick", output: Path = Path("out
     runner = _load(reproduction.runner)
     echo(f"{name} ({mode}): {reproduction.modes[mode]}")
     t0 = time.perf_counter()
-    outcome = runner(ReproductionRun(reproduction, mode, directory, echo))
+    outcome = runner(ReproductionRun(reproduction, mode, directory, echo, fresh))
     seconds = time.perf_counter() - t0
     versions = _versions()
     write_text(directory / "report.md", render(reproduction, mode, outcome, versions, seconds, directory))
@@ -310,7 +312,7 @@ def command(args) -> int:
                 print(f"{r['name']:<{width}}  waiting    {r['title']}  [waits for {r['waits_for']}]")
         return 0
     mode = "ci" if args.ci else "quick" if args.quick else "full"
-    outcome, directory = run_reproduction(args.name, mode=mode, output=Path(args.output))
+    outcome, directory = run_reproduction(args.name, mode=mode, output=Path(args.output), fresh=args.fresh)
     failed = [h for h in outcome.headlines if not h.ok]
     for h in outcome.headlines:
         print(f"  {h.name}: {_fmt(h.ours)} (within [{_fmt(h.low)}, {_fmt(h.high)}]: {'ok' if h.ok else 'NO'}; "
@@ -338,5 +340,6 @@ def add_command(subparsers) -> None:
     size.add_argument("--quick", action="store_true", help="CI-sized: minutes")
     size.add_argument("--ci", action="store_true", help="smaller still, for reproductions whose --quick is long")
     parser.add_argument("--output", default="out/reproduce", help="directory (default out/reproduce)")
+    parser.add_argument("--fresh", action="store_true", help="forget the records on file (a second run resumes)")
     add_executor_arguments(parser)
     parser.set_defaults(handler=command)

@@ -10,3 +10,15 @@ def pliant_register(registrar):
     registrar.add("planner", "gradient-trrt", "pliant_trrt.planner:GradientTRRTPlanner",
                   description="GradienT-RRT (Berenson, Simeon, Srinivasa 2011): rejected extensions follow the "
                               "cost gradient (thesis eq. 3.2)")
+
+
+@hookimpl
+def pliant_reproductions():
+    from pliant.reproduce import Reproduction
+
+    return [Reproduction("table-3.1", "Table 3.1: T-RRT and GradienT-RRT on the cube-wall",
+                         "pliant_trrt.reproduce:table_31",
+                         modes={"full": "30 runs per planner and nFailMax (10, 20), 1200 s budget, as the thesis",
+                                "quick": "4 runs per planner and nFailMax (10, 20)",
+                                "ci": "3 runs per planner at nFailMax 10"},
+                         minutes={"full": 60, "quick": 1, "ci": 0.5})]
