@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from pliant.contracts import checked_command, checked_plan, checked_reset, checked_step
-from pliant.errors import DimensionError, DriverError, JointMismatch, LimitViolation, PlanningError
+from pliant.errors import DimensionError, DriverError, JointMismatch, LimitViolation, PlanningError, SimulationError
 from pliant.hardware.limits import JointLimits
 from pliant.hardware.state import JointState, RobotStatus
 from pliant.options import NoOptions, build_options, option
@@ -347,6 +347,20 @@ class Simulator(Component):
         The default ``{}`` is for simulators that hold every object fixed (the kinematic simulator).
         """
         return {}
+
+    #: whether :meth:`set_object_poses` is implemented (planners that push objects check it when they bind)
+    can_place_objects: ClassVar[bool] = False
+
+    def set_object_poses(self, poses: dict[str, np.ndarray]) -> None:
+        """Place the named movable objects at ``poses`` (the layout of :meth:`object_poses`), at rest; the robot and
+        the objects not named stay where they are.  Object-space planners (TS-RRT, poster ICHR 2010) use it to start
+        an execution from a chosen arrangement and to reposition the pusher between pushes (``reset``, which puts
+        every object back at its scene pose, then this).
+
+        The default raises :class:`~pliant.errors.SimulationError`: the simulator cannot place objects.
+        """
+        raise SimulationError(f"{type(self).__name__} cannot place movable objects", field="simulator",
+                              value=type(self).__name__)
 
     @abstractmethod
     def configuration(self) -> np.ndarray:

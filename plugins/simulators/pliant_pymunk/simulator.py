@@ -16,6 +16,7 @@ kinematic simulator, so the two agree in free space.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -134,6 +135,29 @@ class PymunkSimulator(SteppedSimulator):
     def object_poses(self) -> dict[str, np.ndarray]:
         """The movable objects' current poses ``(x, y, theta)`` (m, rad; theta in [-pi, pi)), by name."""
         return {spec.name: spec.pose(parts[0]) for spec, parts in zip(self.objects, self._object_parts)}
+
+    can_place_objects = True
+
+    def set_object_poses(self, poses: dict[str, np.ndarray]) -> None:
+        """Place the named movable objects at ``(x, y, theta)`` (m, rad), at rest, as fresh bodies; the robot and the
+        other objects stay.  An unknown name or a pose that is not three finite numbers is a
+        :class:`~pliant.errors.SimulationError` naming it (nothing is moved then)."""
+        index = {spec.name: k for k, spec in enumerate(self.objects)}
+        checked = {}
+        for name, pose in poses.items():
+            if name not in index:
+                raise SimulationError(f"no movable object of that name (movable: {', '.join(index) or 'none'})",
+                                      field="set_object_poses", value=name)
+            pose = np.asarray(pose, dtype=np.float64).reshape(-1)
+            if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+                raise SimulationError("an object pose must be three finite numbers (x, y, theta)",
+                                      field=f"set_object_poses.{name}", value=np.asarray(pose).tolist())
+            checked[index[name]] = pose
+        o = self.options
+        for k, pose in checked.items():
+            self.world.remove(*self._object_parts[k])
+            spec = dataclasses.replace(self.objects[k], position=pose[:2].copy(), angle=float(pose[2]))
+            self._object_parts[k] = add_object(self.world, self.pymunk, spec, o.friction, o.table_friction)
 
     def configuration(self):
         return np.array([self.body.position.x, self.body.position.y,

@@ -1,0 +1,216 @@
+"""TS-RRT (Scholz & Stilman, poster ICHR 2010; issue 18): model learning, plan quality, execution with noise and
+replanning, and how planning grows with the number of objects.  Every push is simulated by pymunk (through the core's
+Simulator interface); planning uses the learned models.
+
+1. **Model learning** (``tsrrt-table``, three classes): pushes per class and primitive until the standard error of
+   the model's mean is below ``sigma_ref`` (LEARN_MODEL), with execution noise (the paddle's placement error and
+   pymunk's bounded actuation noise), and the models' prediction error on ``--holdout`` further pushes each.
+2. **Plan quality** (``tsrrt-table``, 3 objects at random collision-free poses, one per seed): TS-RRT with a
+   ``--budget`` s budget; the final arrangement's cost against the best arrangement found by a long free-placement
+   optimisation of the same cost (``pliant_tsrrt.reference.optimise``, started from random arrangements and the
+   plan's final one), its collisions (none allowed) and its redundant actions (actions that could be dropped alone
+   without raising the final cost).
+3. **Execution** of each plan in pymunk with noise, monitoring and replanning: the final cost against the
+   reference (within 10 %) and against the plan (within 10 %), collisions, replans.
+4. **Scaling** (``tsrrt-setting``, table-setting relations, 2 .. 8 objects): tree growth to ``--nodes`` nodes;
+   time, nodes, time to the best node, cost.
+
+    python benchmarks/bench_tsrrt.py --quick        (3 seeds, short reference optimisation)
+    python benchmarks/bench_tsrrt.py                (10 seeds, 2 executions per plan)
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import pliant
+from _common import print_table, write_json
+from pliant import registry
+from pliant.interfaces import Context
+from pliant.termination import Termination
+from pliant_tsrrt.learning import learn_models
+from pliant_tsrrt.planner import (
+    PushPlan,
+    TSRRTOptions,
+    arena,
+    build_space,
+    execute_plan,
+    learn_settings,
+    search_settings,
+)
+from pliant_tsrrt.pushing import PRIMITIVES
+from pliant_tsrrt.reference import optimise, random_arrangements
+from pliant_tsrrt.search import grow, redundant_actions
+
+SETTING_ORDER = ["plate-1", "fork-1", "knife-1", "cup-1", "plate-2", "fork-2", "knife-2", "cup-2"]
+SETTING_RELATIONS = {"plate-1": "table 0.3 0.25", "fork-1": "plate-1 -0.15 0.0", "knife-1": "plate-1 0.15 0.0",
+                     "cup-1": "plate-1 0.14 0.16", "plate-2": "table 0.7 0.25", "fork-2": "plate-2 -0.15 0.0",
+                     "knife-2": "plate-2 0.15 0.0", "cup-2": "plate-2 0.14 0.16"}
+
+
+def world_for(scene_name: str, noise: bool):
+    """The pymunk world on a scene (bounded actuation noise of 0.01 m/s with ``noise``)."""
+    scene = pliant.load_scene(scene_name)
+    ctx = Context(scene=scene)
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    extra = {"noise": "bounded", "noise_linear": 0.01, "noise_angular": 0.01} if noise else {}
+    sim = registry.create("simulator", "pymunk", ctx, max_force=50.0, table_friction=0.5, **extra)
+    return scene, sim
+
+
+def relations_for(names: list[str]) -> tuple[str, ...]:
+    out = []
+    for n in names:
+        ref = SETTING_RELATIONS[n].split()[0]
+        if ref == "table" or ref in names:
+            out.append(f"{n} {SETTING_RELATIONS[n]}")
+        else:                                   # the reference is not planned: the object's absolute target
+            plate = np.array([float(v) for v in SETTING_RELATIONS[ref].split()[1:]])
+            off = np.array([float(v) for v in SETTING_RELATIONS[n].split()[1:]])
+            out.append(f"{n} table {plate[0] + off[0]:.3f} {plate[1] + off[1]:.3f}")
+    return tuple(out)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="3 seeds, 1 execution each, short reference search")
+    parser.add_argument("--seeds", type=int, default=None)
+    parser.add_argument("--budget", type=float, default=5.0, help="TS-RRT time budget (s)")
+    parser.add_argument("--executions", type=int, default=None, help="noisy executions per plan")
+    parser.add_argument("--rounds", type=int, default=None, help="rounds of the free-placement optimisation")
+    parser.add_argument("--nodes", type=int, default=1500, help="tree size for the scaling runs")
+    parser.add_argument("--holdout", type=int, default=5)
+    parser.add_argument("--noise", type=float, default=0.004, help="paddle placement noise (m, std)")
+    parser.add_argument("--skip-scaling", action="store_true")
+    parser.add_argument("--set", action="append", default=[], help="a TS-RRT option, NAME=VALUE (TOML value)")
+    args = parser.parse_args()
+    seeds = args.seeds or (3 if args.quick else 10)
+    executions = args.executions or (1 if args.quick else 2)
+    rounds = args.rounds or (1500 if args.quick else 6000)
+    import tomllib
+
+    extra = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (s.split("=", 1) for s in args.set)}
+    options = TSRRTOptions(placement_noise=args.noise, **extra)
+    out: dict = {"budget": args.budget, "seeds": seeds, "noise": args.noise, "options": extra}
+
+    # 1. model learning, with noise
+    scene, sim = world_for("tsrrt-table", noise=True)
+    rng = np.random.default_rng(0)
+    t0 = time.perf_counter()
+    models, report = learn_models(arena(sim, scene, options), learn_settings(options), rng, holdout=args.holdout)
+    learn_time = time.perf_counter() - t0
+    rows = []
+    for cls, per in models.models.items():
+        for p, d in zip(PRIMITIVES, per):
+            h = report["holdout"][cls][p]
+            rows.append((cls, p, d.n, f"{1000 * d.mean[0]:.1f}", f"{1000 * d.mean[1]:.1f}",
+                         f"{np.degrees(d.mean[2]):.1f}", f"{1000 * np.hypot(*d.std[:2]):.1f}",
+                         f"{np.degrees(d.std[2]):.2f}", f"{1000 * h['translation_error']:.1f}",
+                         f"{np.degrees(h['rotation_error']):.2f}", f"{h['coverage95']:.2f}"))
+    print_table(f"1. LEARN_MODEL on tsrrt-table with noise ({learn_time:.1f} s; sigma_ref "
+                f"{options.sigma_ref * 1000:.0f} mm / {np.degrees(options.sigma_ref_angle):.2f} deg)",
+                ("class", "primitive", "pushes", "dx mm", "dy mm", "dth deg", "sd mm", "sd deg", "held-out err mm",
+                 "held-out err deg", "in 95%"), rows)
+    out["learning"] = {"time": learn_time, "pushes": report["pushes"], "holdout": report["holdout"],
+                       "models": models.to_dict()}
+
+    # 2-3. plan quality and execution
+    names = [o.name for o in scene.objects if o.movable]
+    space = build_space(scene, options, models, names)
+    rows, runs = [], []
+    for seed in range(seeds):
+        rng = np.random.default_rng(1000 + seed)
+        s0 = random_arrangements(space, rng, 1)[0]
+        found = grow(space, s0, rng, search_settings(options), Termination(max_time=args.budget))
+        st = found.statistics
+        best_at = st["cost_history"][-1][0]
+        _, ref_cost = optimise(space, np.random.default_rng(seed), rounds=rounds,
+                               starts=found.states[-1][None])
+        _, ref_random_cost = optimise(space, np.random.default_rng(seed), rounds=rounds)
+        ratio = found.cost / ref_cost
+        collided = bool(space.checker.in_collision(found.states).any())
+        redundant = redundant_actions(space, s0, found.actions)
+        plan = PushPlan(names, s0, found.actions, found.states, found.cost, options.__dict__, models)
+        ex = []
+        for e in range(executions):
+            _, world = world_for("tsrrt-table", noise=True)
+            record = execute_plan(plan, world, scene, np.random.default_rng(50_000 + 100 * seed + e),
+                                  action_limit=200)
+            ex.append({"final_cost": record.final_cost, "ratio_reference": record.final_cost / ref_cost,
+                       "ratio_plan": record.final_cost / found.cost, "collided": record.collided,
+                       "replans": len(record.adaptations), "pushes": len(record.actions),
+                       "outcome": record.outcome})
+        runs.append({"seed": seed, "start_cost": float(space.cost.cost(s0[None])[0]), "cost": found.cost,
+                     "reference_cost": ref_cost, "reference_random_starts_cost": ref_random_cost,
+                     "ratio": ratio, "collision": collided, "redundant": redundant, "actions": len(found.actions),
+                     "actions_before_shortcut": st["actions_before_shortcut"], "nodes": st["nodes"],
+                     "iterations": st["iterations"], "tree_time": st["tree_time"], "time": st["time"],
+                     "time_to_best": best_at, "executions": ex})
+        rows.append((seed, f"{runs[-1]['start_cost']:.3f}", f"{found.cost:.3f}", f"{ref_cost:.3f}", f"{ratio:.3f}",
+                     "yes" if collided else "no", redundant, len(found.actions), st["nodes"], f"{best_at:.2f}",
+                     f"{st['time']:.2f}",
+                     " ".join(f"{x['ratio_reference']:.3f}/{x['ratio_plan']:.3f}/{x['replans']}" for x in ex)))
+        print(f"seed {seed}: cost {found.cost:.4f} ref {ref_cost:.4f} ratio {ratio:.3f}", flush=True)
+    print_table(f"2-3. TS-RRT on tsrrt-table, 3 objects at random poses, budget {args.budget:g} s; executed in pymunk "
+                f"with noise (placement {args.noise * 1000:.0f} mm, actuation 0.01 m/s) and replanning",
+                ("seed", "start", "TS-RRT", "free opt", "ratio", "collision", "redundant", "pushes", "nodes",
+                 "t best s", "t total s", "exec: /ref /plan replans"), rows)
+    ratios = np.array([r["ratio"] for r in runs])
+    exr = [x for r in runs for x in r["executions"]]
+    within_ref = np.mean([x["ratio_reference"] <= 1.1 and not x["collided"] for x in exr])
+    within_plan = np.mean([x["ratio_plan"] <= 1.1 and not x["collided"] for x in exr])
+    summary = {"ratio_median": float(np.median(ratios)), "ratio_max": float(ratios.max()),
+               "plans_within_10pct": float(np.mean(ratios <= 1.1)),
+               "collisions": int(sum(r["collision"] for r in runs)),
+               "redundant_actions": int(sum(r["redundant"] for r in runs)),
+               "executions": len(exr), "executions_within_10pct_of_reference": float(within_ref),
+               "executions_within_10pct_of_plan": float(within_plan),
+               "execution_collisions": int(sum(x["collided"] for x in exr)),
+               "replans_mean": float(np.mean([x["replans"] for x in exr])),
+               "time_to_best_median": float(np.median([r["time_to_best"] for r in runs])),
+               "time_total_median": float(np.median([r["time"] for r in runs]))}
+    print("\nsummary: " + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                                    for k, v in summary.items()))
+    out["runs"], out["summary"] = runs, summary
+
+    # 4. scaling with the number of objects (table setting)
+    if not args.skip_scaling:
+        scene, sim = world_for("tsrrt-setting", noise=False)
+        o = TSRRTOptions(w_setting=1.0, relations=relations_for(SETTING_ORDER))
+        models, _ = learn_models(arena(sim, scene, o), learn_settings(o), np.random.default_rng(0))
+        rows, scaling = [], []
+        for k in range(2, 9):
+            sub = SETTING_ORDER[:k]
+            ok = TSRRTOptions(w_setting=1.0, relations=relations_for(sub), objects=tuple(sub),
+                              max_nodes=args.nodes)
+            sp = build_space(scene, ok, models, sub)
+            times, nodes, costs, starts, best_t = [], [], [], [], []
+            for seed in range(min(seeds, 3)):
+                rng = np.random.default_rng(2000 + seed)
+                s0 = random_arrangements(sp, rng, 1)[0]
+                found = grow(sp, s0, rng, search_settings(ok), Termination(max_time=120.0))
+                times.append(found.statistics["time"])
+                best_t.append(found.statistics["cost_history"][-1][0])
+                nodes.append(found.statistics["nodes"])
+                costs.append(found.cost)
+                starts.append(float(sp.cost.cost(s0[None])[0]))
+            scaling.append({"objects": k, "time": times, "nodes": nodes, "cost": costs, "start_cost": starts,
+                            "time_to_best": best_t})
+            rows.append((k, f"{np.median(times):.2f}", f"{np.median(best_t):.2f}", int(np.median(nodes)),
+                         f"{np.median(starts):.2f}", f"{np.median(costs):.2f}"))
+            print(f"{k} objects: {np.median(times):.2f} s", flush=True)
+        print_table(f"4. scaling on tsrrt-setting (table-setting cost), tree of {args.nodes} nodes, median of "
+                    f"{min(seeds, 3)} random starts", ("objects", "time s", "t best s", "nodes", "start cost",
+                                                       "final cost"), rows)
+        out["scaling"] = scaling
+    write_json("tsrrt" + ("-quick" if args.quick else ""), out)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,88 @@
+"""The learner ``push-models``: LEARN_MODEL (poster ICHR 2010) for every object class of the scene, in the pipeline's
+simulator, with a held-out test of the models; writes the models file the ``tsrrt`` planner reads.
+
+``fit`` returns, per class: the pushes spent per primitive and, per primitive, the mean displacement and its
+standard deviation (object frame: m, m, rad), and the held-out prediction errors (m, rad) and the share of held-out
+displacements inside the models' 95 % intervals.  The models themselves stay on the component (``models``) for a
+``tsrrt`` planner in the same pipeline (``models = "auto"``) and go to the ``output`` file when it is set.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pliant.errors import PlanningError
+from pliant.interfaces import Learner
+from pliant.options import option
+
+from pliant_tsrrt import domain
+from pliant_tsrrt.domain import PushOptions
+from pliant_tsrrt.learning import LearnSettings, learn_models
+from pliant_tsrrt.pushing import PRIMITIVES
+
+
+@dataclass(frozen=True)
+class PushModelsOptions(PushOptions):
+    """Options of :class:`PushModelsLearner`."""
+
+    sigma_ref: float = option(0.002, "standard error of the mean displacement to reach (m)", minimum=1e-9)
+    sigma_ref_angle: float = option(0.01, "standard error of the mean rotation to reach (rad)", minimum=1e-9)
+    min_pushes: int = option(5, "fewest pushes per class and primitive", minimum=2)
+    max_pushes: int = option(40, "most pushes per class and primitive", minimum=2)
+    holdout: int = option(5, "held-out pushes per class and primitive to measure the prediction error", minimum=0)
+    output: str = option("", "models file to write (JSON); empty: keep them in the pipeline only")
+
+
+class PushModelsLearner(Learner):
+    """LEARN_MODEL per object class and primitive in the pipeline's simulator (poster ICHR 2010, "Model Learning")."""
+
+    Options = PushModelsOptions
+    example_scene = "tsrrt-table"
+    example_components = {"simulator": "pymunk"}
+    example_data = ("can-1",)
+
+    def bind(self, context) -> None:
+        super().bind(context)
+        self.models = None
+
+    def fit(self, data, rng: np.random.Generator) -> dict:
+        """Learn the models by pushing in the simulator.  ``data``: ``None`` (the pipeline's case: the classes of the
+        ``objects`` option, default every movable object) or the names of the objects whose classes to learn; an
+        empty list is an error."""
+        from pliant_tsrrt.planner import arena
+
+        o = self.options
+        scene = self.require("scene")
+        world = self.require("simulator")
+        if not getattr(world, "can_place_objects", False):
+            raise PlanningError("learning push models needs a simulator that can place objects (pymunk)",
+                                field="simulator", value=type(world).__name__)
+        if data is not None:
+            if isinstance(data, str) or not isinstance(data, (list, tuple)) or not data:
+                raise PlanningError("push-models learns from a non-empty list of movable object names (or None)",
+                                    field="data", value=data)
+            names = domain.movable_names(scene, tuple(data))
+        else:
+            names = domain.movable_names(scene, o.objects)
+        settings = LearnSettings(sigma_ref=o.sigma_ref, sigma_ref_angle=o.sigma_ref_angle, min_pushes=o.min_pushes,
+                                 max_pushes=o.max_pushes)
+        models, report = learn_models(arena(world, scene, o), settings, rng, holdout=o.holdout, only=names)
+        self.models = models
+        if o.output:
+            models.save(o.output)
+        out: dict = {}
+        for cls, per in models.models.items():
+            entry: dict = {"pushes": int(sum(d.n for d in per))}
+            for p, d in zip(PRIMITIVES, per):
+                entry[f"{p} n"] = d.n
+                entry[f"{p} mean"] = d.mean.tolist()
+                entry[f"{p} std"] = d.std.tolist()
+            for p, row in report["holdout"].get(cls, {}).items():
+                entry[f"{p} holdout translation error (m)"] = row["translation_error"]
+                entry[f"{p} holdout rotation error (rad)"] = row["rotation_error"]
+                entry[f"{p} holdout coverage95"] = row["coverage95"]
+            out[cls] = entry
+        if o.output:
+            out["models_file"] = o.output
+        return out

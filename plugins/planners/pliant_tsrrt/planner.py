@@ -1,0 +1,338 @@
+"""The planner ``tsrrt``: TS-RRT (Scholz & Stilman, "Combining Motion Planning and Optimization for Flexible Robot
+Manipulation", poster ICHR 2010) -- learn push models of unfamiliar objects, plan in object space toward the
+cheapest arrangement, execute with monitoring and replanning.
+
+:meth:`TSRRTPlanner.plan` runs TASK_SPACE_RRT: lines 1-2 (LEARN_MODEL per object class, unless the pipeline's
+``push-models`` learner or a models file supplies the models) and lines 3-14 (:mod:`pliant_tsrrt.search`).  The
+result holds a :class:`PushPlan` policy: the action sequence with its predicted arrangements.  Executing it
+(:meth:`PushPlan.execute`, in any simulator that can place objects) performs each push, compares the observed
+arrangement with the one the plan predicted after that push, and replans from the observed arrangement when an
+object is off by more than ``replan_threshold`` (m) or ``replan_angle`` (rad), or when the plan is done and the
+arrangement costs more than ``1 + finish_tolerance`` times the plan's cost ("Robot monitored error and replanned as
+necessary").
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path as FilePath
+
+import numpy as np
+from pliant.errors import ConfigError, PlanningError
+from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
+from pliant.options import option
+from pliant.results import PlanResult, Policy, Status
+from pliant.termination import Termination
+
+from pliant_tsrrt import domain
+from pliant_tsrrt.domain import PushOptions
+from pliant_tsrrt.learning import LearningArena, LearnSettings, learn_models
+from pliant_tsrrt.models import PushModels, footprints_from_scene, object_class, scene_pose, wrap
+from pliant_tsrrt.pushing import PRIMITIVES, apply_action
+from pliant_tsrrt.reference import random_arrangements
+from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow
+
+
+@dataclass(frozen=True)
+class TSRRTOptions(PushOptions):
+    """Options of :class:`TSRRTPlanner` (and of its plan's execution)."""
+
+    models: str = option("auto", "push models: 'auto' (the pipeline's push-models learner, else LEARN_MODEL in the "
+                         "simulator now: poster lines 1-2) or a models file (JSON) written by that learner")
+    start: str = option("scene", "initial arrangement: the scene's poses, or 'random' collision-free poses drawn "
+                        "from the run's generator (placed in the world before execution)", choices=("scene", "random"))
+    epsilon: float = option(0.1, "probability of a uniform sample instead of DIRECTGD's (poster line 6)",
+                            minimum=0.0, maximum=1.0)
+    max_nodes: int = option(5000, "tree size limit (poster line 4)", minimum=2)
+    max_time: float | None = option(5.0, "time budget of the tree's growth (s); None for no limit", minimum=0.0)
+    max_iterations: int | None = option(None, "iteration budget; None for no limit", minimum=1)
+    gd_step: float = option(1.0, "DIRECTGD's step along the negative cost gradient, in mean push lengths",
+                            minimum=1e-3)
+    gd_pool: int = option(4, "DIRECTGD descends from one of this many cheapest open nodes", minimum=1)
+    gd_tries: int = option(4, "descents without a cheaper child after which a node is exhausted", minimum=1)
+    margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
+    w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
+    w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
+    w_edge: float = option(1.0, "weight of the edge term, sum of 1 - d/d_ref (d: distance to the table's edge)",
+                           minimum=0.0)
+    w_setting: float = option(0.0, "weight of the table-setting term (relations)", minimum=0.0)
+    relations: tuple[str, ...] = option((), "table setting: 'object reference dx dy' (object's centre at (dx, dy) m "
+                                        "from the reference object's, or from the table's lower-left corner for "
+                                        "reference 'table')")
+    setting_scale: float = option(0.1, "length scale l of the table-setting term (m)", minimum=1e-6)
+    sigma_ref: float = option(0.002, "LEARN_MODEL: standard error of the mean displacement to reach (m)",
+                              minimum=1e-9)
+    sigma_ref_angle: float = option(0.01, "LEARN_MODEL: standard error of the mean rotation to reach (rad)",
+                                    minimum=1e-9)
+    min_pushes: int = option(5, "LEARN_MODEL: fewest pushes per class and primitive", minimum=2)
+    max_pushes: int = option(40, "LEARN_MODEL: most pushes per class and primitive", minimum=2)
+    replan_threshold: float = option(0.02, "execution: replan when an object lies this far from where the plan "
+                                     "predicted it at this step (m)", minimum=0.0)
+    replan_angle: float = option(0.15, "execution: replan when a box is turned this far from the plan's predicted "
+                                 "yaw at this step (rad, modulo its symmetry)", minimum=0.0)
+    finish_tolerance: float = option(0.05, "execution: when the plan is done and the arrangement costs more than "
+                                     "(1 + this) x the plan's final cost, replan once more", minimum=0.0)
+    replan_time: float = option(2.0, "time budget of each replanning (s)", minimum=0.0)
+    max_replans: int = option(20, "most replannings in one execution", minimum=0)
+
+    def validate(self) -> None:
+        if self.min_pushes > self.max_pushes:
+            raise ConfigError("must not exceed max_pushes", field="min_pushes", value=self.min_pushes)
+        if self.models not in ("auto", "") and not self.models.endswith(".json"):
+            raise ConfigError("must be 'auto' or a .json models file", field="models", value=self.models)
+
+
+class TSRRTPlanner(Planner):
+    """TS-RRT over the joint poses of the scene's movable objects (poster ICHR 2010).
+
+    Statistics: ``iterations``, ``nodes`` (tree size), ``time`` (s, tree growth and shortcut), ``tree_time``,
+    ``learn_time`` (s, when the models were learned here), ``actions``, ``actions_before_shortcut``,
+    ``start_cost``, ``tree_best_cost``, ``gd_samples``, ``random_samples``, ``invalid``, ``duplicates``,
+    ``exhausted``, ``cost_history``, ``interrupted``.
+    """
+
+    SPECS = PlannerSpecs(needs_simulator=True, needs_scene=True, returns_policy=True, anytime=True, spaces=("se2",))
+    Options = TSRRTOptions
+    name = "tsrrt"
+    example_scene = "tsrrt-table"
+    example_components = {"simulator": "pymunk"}
+    example_options = {"max_time": None, "max_iterations": 200}
+
+    def plan(self, problem: PlanningProblem, rng: np.random.Generator,
+             termination: Termination | None = None) -> PlanResult:
+        o = self.options
+        scene = problem.scene
+        if scene is None:
+            raise PlanningError("TS-RRT needs the scene (its objects and table)", field="scene")
+        t0 = time.perf_counter()
+        names = domain.movable_names(scene, o.objects)
+        models, learn_time = self._models(problem, scene, names, rng)
+        space = build_space(scene, o, models, names)
+        if o.start == "random":
+            s0 = random_arrangements(space, rng, 1)[0]
+        else:
+            s0 = np.array([scene_pose(scene, n) for n in names])
+        options = self._option_dict()
+        if space.checker.in_collision(s0)[0]:
+            return PlanResult(Status.INVALID_START, planner=self.name, options=options,
+                              message="the initial arrangement overlaps, leaves the table or lacks the clearance "
+                                      f"margin ({o.margin} m)")
+        termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations)
+        found = grow(space, s0, rng, search_settings(o), termination)
+        stats = dict(found.statistics, learn_time=learn_time,
+                     start_cost=float(space.cost.cost(s0[None])[0]), total_time=time.perf_counter() - t0)
+        policy = PushPlan(names=names, start=s0, actions=found.actions, states=found.states, cost=found.cost,
+                          options=options, models=models)
+        return PlanResult(Status.SOLVED, policy=policy, cost=found.cost, statistics=stats, planner=self.name,
+                          options=options, message=f"{len(found.actions)} pushes to an arrangement of cost "
+                                                   f"{found.cost:.4g} (start {stats['start_cost']:.4g})")
+
+    def _option_dict(self) -> dict:
+        return {k: getattr(self.options, k) for k in self.options.__dataclass_fields__}
+
+    def _models(self, problem, scene, names, rng) -> tuple[PushModels, float]:
+        o = self.options
+        if o.models not in ("auto", ""):
+            path = FilePath(o.models)
+            if not path.is_file():
+                raise ConfigError("no such models file (run the push-models learner first, or models = 'auto')",
+                                  field="planner.models", value=o.models)
+            return PushModels.load(path), 0.0
+        learner = (self.context.extras.get("learner") if self.context is not None else None)
+        learned = getattr(learner, "models", None)
+        if isinstance(learned, PushModels) and all(object_class(n) in learned.models for n in names):
+            return learned, 0.0
+        world = problem.simulator
+        if world is None or not getattr(world, "can_place_objects", False):
+            raise PlanningError("learning push models needs a simulator that can place objects (pymunk)",
+                                field="simulator", value=type(world).__name__ if world is not None else None)
+        t0 = time.perf_counter()
+        models, _ = learn_models(arena(world, scene, o), learn_settings(o), rng, only=names)
+        return models, time.perf_counter() - t0
+
+
+def search_settings(o: TSRRTOptions) -> SearchSettings:
+    return SearchSettings(epsilon=o.epsilon, max_nodes=o.max_nodes, gd_step=o.gd_step, gd_pool=o.gd_pool,
+                          gd_tries=o.gd_tries)
+
+
+def learn_settings(o) -> LearnSettings:
+    return LearnSettings(sigma_ref=o.sigma_ref, sigma_ref_angle=o.sigma_ref_angle, min_pushes=o.min_pushes,
+                         max_pushes=o.max_pushes)
+
+
+def arena(world, scene, o: PushOptions) -> LearningArena:
+    """The learning arena over every movable object of the scene (all of them may need parking)."""
+    names = domain.movable_names(scene, ())
+    return LearningArena(world, names, footprints_from_scene(scene, names), domain.table_rect(scene, o.table),
+                         domain.bounds_rect(scene), o.push_settings(scene))
+
+
+def build_space(scene, o: TSRRTOptions, models: PushModels, names: list[str]) -> ObjectSpace:
+    """The planning domain for the objects ``names`` of ``scene`` under options ``o``."""
+    fp = footprints_from_scene(scene, names)
+    table = domain.table_rect(scene, o.table)
+    obs_fp, obs_poses, _ = domain.obstacles(scene, names, table)
+    relations = domain.parse_relations(o.relations, names)
+    cost = domain.task_cost(fp, table, (o.w_orth, o.w_area, o.w_edge, o.w_setting), relations, o.setting_scale)
+    check = domain.checker(fp, obs_fp, obs_poses, table, o.margin)
+    means = models.means([object_class(n) for n in names])
+    return ObjectSpace(fp, means, check, cost, o.push_settings(scene), domain.bounds_rect(scene))
+
+
+class PushPlan(Policy):
+    """A TS-RRT plan: the planned objects' ``names``, the ``start`` arrangement ``(k, 3)``, the ``actions``
+    (``6 o + p``: object ``o``, primitive ``p`` of :data:`~pliant_tsrrt.pushing.PRIMITIVES`), the predicted
+    ``states`` ``(m + 1, k, 3)`` and final ``cost``; with the planner's ``options`` and the ``models`` so that
+    execution can replan after a round trip through JSON."""
+
+    kind = "tsrrt-push-plan"
+
+    def __init__(self, names, start, actions, states, cost, options, models: PushModels) -> None:
+        self.names = list(names)
+        self.start = np.asarray(start, dtype=np.float64)
+        self.actions = [int(a) for a in actions]
+        self.states = np.asarray(states, dtype=np.float64)
+        self.cost = float(cost)
+        self.options = dict(options)
+        self.models = models
+
+    def describe(self) -> list[str]:
+        """The actions as ``object primitive`` strings."""
+        return [f"{self.names[a // 6]} {PRIMITIVES[a % 6]}" for a in self.actions]
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "names": self.names, "start": self.start.tolist(), "actions": self.actions,
+                "steps": self.describe(), "states": self.states.tolist(), "cost": self.cost,
+                "options": {k: list(v) if isinstance(v, tuple) else v for k, v in self.options.items()},
+                "models": self.models.to_dict()}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> PushPlan:
+        try:
+            return cls(data["names"], data["start"], data["actions"], data["states"], data["cost"], data["options"],
+                       PushModels.from_dict(data["models"]))
+        except KeyError as exc:
+            raise ConfigError("a TS-RRT plan needs names, start, actions, states, cost, options and models",
+                              field=f"policy.{exc.args[0]}") from None
+
+    def execute(self, world, controller, rng, *, context=None, period: float = 0.1, time_limit: float = 60.0,
+                action_limit: int = 100, on_step=None, world_name: str = ""):
+        """Run the plan in ``world`` (a simulator that can place objects) with monitoring and replanning; the
+        ``controller`` is not used (pushes are the primitives' velocity commands).  Returns an
+        :class:`~pliant.execution.ExecutionRecord` whose ``actions`` hold, per push, the object, the primitive, the
+        predicted and observed poses, the error (m, rad) and whether it triggered a replan; ``adaptations`` list the
+        replans; ``outcome`` is ``success`` (plan completed, final arrangement collision-free), ``failure`` (it is
+        not) or ``action limit``."""
+        scene = context.scene if context is not None else None
+        if scene is None:
+            raise PlanningError("executing a TS-RRT plan needs the pipeline's context (its scene)", field="context")
+        return execute_plan(self, world, scene, rng, action_limit=action_limit, on_step=on_step,
+                            world_name=world_name)
+
+
+def options_from_dict(values: dict) -> TSRRTOptions:
+    from pliant.options import build_options
+
+    known = TSRRTOptions.__dataclass_fields__
+    return build_options(TSRRTOptions, {k: v for k, v in values.items() if k in known}, source="<plan>")
+
+
+class _Recording:
+    """A world whose steps go to a :class:`pliant.execution.Recorder` (the pushes' control steps)."""
+
+    def __init__(self, world, recorder, clock) -> None:
+        self.world, self.recorder, self.clock = world, recorder, clock
+
+    def __getattr__(self, name):
+        return getattr(self.world, name)
+
+    def step(self, velocity, dt, rng):
+        q = self.world.step(velocity, dt, rng)
+        self.clock[0] += dt
+        self.recorder.add(self.world, q, self.clock[0], velocity, q)
+        return q
+
+
+def _pose_errors(space: ObjectSpace, observed: np.ndarray, expected: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per object: position error (m) and yaw error (rad, modulo the footprint's symmetry; 0 for circles)."""
+    err_t = np.linalg.norm(observed[:, :2] - expected[:, :2], axis=1)
+    dth = wrap(observed[:, 2] - expected[:, 2])
+    dth = np.abs((dth + space.period / 2) % space.period - space.period / 2)
+    return err_t, np.where(space.scale > 0, dth, 0.0)
+
+
+def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, action_limit: int = 100,
+                 on_step=None, world_name: str = "", noise: float | None = None):
+    """Execute ``plan`` in ``world`` with monitoring and replanning (see :meth:`PushPlan.execute`); ``noise``
+    overrides the options' paddle placement noise (m)."""
+    from pliant.execution import Recorder
+
+    o = options_from_dict(plan.options)
+    if noise is not None:
+        o = replace(o, placement_noise=noise)
+    if not getattr(world, "can_place_objects", False):
+        raise PlanningError("executing a TS-RRT plan needs a world that can place objects (a simulator such as "
+                            "pymunk)", field="execution.world", value=type(world).__name__)
+    space = build_space(scene, o, plan.models, plan.names)
+    push = o.push_settings(scene)
+    all_names = domain.movable_names(scene, ())
+    fp_all = footprints_from_scene(scene, all_names)
+    world.reset(np.asarray(scene.start, dtype=np.float64))
+    world.set_object_poses({n: p for n, p in zip(plan.names, plan.start)})
+    recorder = Recorder(world, on_step)
+    rec_world = _Recording(world, recorder, [0.0])
+    observed = plan.start.copy()
+    actions, expected, planned_cost = list(plan.actions), plan.states, plan.cost
+    records: list[dict] = []
+    replans: list[dict] = []
+    outcome = "success"
+    j = 0
+    while True:
+        if j == len(actions):
+            # the plan is done: replan once more if the arrangement is clearly worse than planned
+            cost_now = float(space.cost.cost(observed[None])[0])
+            if cost_now <= planned_cost * (1 + o.finish_tolerance) + 1e-12 or len(replans) >= o.max_replans:
+                break
+            reason = "finish"
+        else:
+            if len(records) >= action_limit:
+                outcome = "action limit"
+                break
+            a = actions[j]
+            obj, prim = divmod(a, 6)
+            predicted = space.step(observed, a)
+            poses = apply_action(rec_world, all_names, fp_all, all_names.index(plan.names[obj]), prim, push, rng)
+            observed = np.array([poses[n] for n in plan.names])
+            j += 1
+            err_t, dth = _pose_errors(space, observed, expected[j])
+            step_t, step_th = _pose_errors(space, observed, predicted)
+            replan = bool(np.any(err_t > o.replan_threshold) or np.any(dth > o.replan_angle))
+            records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "predicted": predicted,
+                            "observed": observed.copy(), "step_error": float(step_t.max()),
+                            "step_angle_error": float(step_th.max()), "plan_error": float(err_t.max()),
+                            "plan_angle_error": float(dth.max()), "replanned": replan and len(replans) < o.max_replans})
+            if not (replan and len(replans) < o.max_replans):
+                continue
+            reason = "deviation"
+        found = grow(space, observed, rng, search_settings(o), Termination(max_time=o.replan_time))
+        replans.append({"after_action": len(records), "reason": reason,
+                        "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
+                        "actions": len(found.actions)})
+        actions, expected, planned_cost, j = found.actions, found.states, found.cost, 0
+    final_cost = float(space.cost.cost(observed[None])[0])
+    collided = bool(replace(space.checker, margin=0.0).in_collision(observed)[0])
+    if outcome == "success" and collided:
+        outcome = "failure"
+    recorder.settle(world)
+    record = recorder.record(outcome, events=[f"final cost {final_cost:.4g} (first plan {plan.cost:.4g}); "
+                                              f"{len(replans)} replans; collision-free: {not collided}"],
+                             actions=records, adaptations=replans, world=world_name)
+    record.final_cost = final_cost
+    record.final_state = observed
+    record.collided = collided
+    return record
+
+
+__all__ = ["PushPlan", "TSRRTOptions", "TSRRTPlanner", "build_space", "execute_plan"]

@@ -1,0 +1,154 @@
+"""The six action primitives and APPLY_ACTION in any simulator that can push and place objects (poster ICHR 2010:
+"Six action primitives defined for interacting with objects in the robot's workspace"; LEARN_MODEL line 4).
+
+The poster's figure of the primitives is missing from the text; the six chosen here are the four pushes on the
+middle of each side of the object (each toward the opposite side, along the object's own axes) and two turning
+pushes, which press near one end of a long side, at right angles to the line from the object's centre to the
+contact, so that the object turns counter-clockwise (``turn+``) or clockwise (``turn-``) about z (a circle is
+pushed off its centre line instead: sideways and forward).  Every primitive is defined in the object's frame, so
+its displacement model ``P(delta s | a, o)`` (:mod:`pliant_tsrrt.models`) holds wherever the object stands.
+
+A push is executed by the robot (a flat paddle, the scene's SE(2) rigid robot) through the core's
+:class:`~pliant.interfaces.Simulator` interface only: the paddle is placed ``gap`` behind the contact point, facing
+the push direction (``reset`` then :meth:`~pliant.interfaces.Simulator.set_object_poses` to keep the objects where
+they are: the real robot lifts its paddle between pushes), driven ``gap + depth`` along the push direction
+(``turn_depth`` for turning pushes, which meet the object with the paddle's narrow end) at ``speed`` (velocity
+commands through ``step``; contact and friction are the simulator's), backed off ``retreat`` and held still for
+``settle`` s while the objects come to rest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pliant_tsrrt.geometry import CIRCLE, Footprints
+
+PRIMITIVES = ("push+x", "push-x", "push+y", "push-y", "turn+", "turn-")
+
+
+@dataclass(frozen=True)
+class PushSettings:
+    """How a push is executed (m, m/s, s): paddle ``thickness`` and ``width`` (its extent along and across the push
+    direction), ``gap`` behind the contact at the start, push ``depth`` beyond the contact, ``speed``, ``retreat``
+    after the push, ``settle`` time at rest, ``turn_offset`` (fraction of the half side at which turning pushes
+    press), control period ``dt`` and ``placement_noise`` (standard deviation, m, of the paddle's placement error
+    along and across the push; 0 for none)."""
+
+    thickness: float = 0.03
+    width: float = 0.08
+    gap: float = 0.02
+    depth: float = 0.05
+    turn_depth: float = 0.015
+    speed: float = 0.1
+    retreat: float = 0.02
+    settle: float = 0.2
+    turn_offset: float = 0.9
+    dt: float = 0.05
+    placement_noise: float = 0.0
+
+
+def contact_frames(fp: Footprints, turn_offset: float) -> tuple[np.ndarray, np.ndarray]:
+    """Contact points ``c`` ``(k, 6, 2)`` and unit push directions ``u`` ``(k, 6, 2)`` of the six primitives in each
+    object's frame (m).  Turning pushes press on the long sides (boxes) at ``turn_offset`` of the half length."""
+    k = len(fp)
+    hx, hy = fp.half[:, 0], fp.half[:, 1]
+    c = np.zeros((k, 6, 2))
+    u = np.zeros((k, 6, 2))
+    c[:, 0] = np.stack([-hx, 0 * hx], -1)
+    u[:, 0] = (1.0, 0.0)
+    c[:, 1] = np.stack([hx, 0 * hx], -1)
+    u[:, 1] = (-1.0, 0.0)
+    c[:, 2] = np.stack([0 * hy, -hy], -1)
+    u[:, 2] = (0.0, 1.0)
+    c[:, 3] = np.stack([0 * hy, hy], -1)
+    u[:, 3] = (0.0, -1.0)
+    long_x = hx >= hy
+    f = turn_offset
+    # turn+ (counter-clockwise): at f of the long side's half length from the middle, on the -y side (long x) or the
+    # +x side (long y), pushing at right angles to the contact's radius (the largest torque for the force); turn-
+    # (clockwise): the same corner seen from the other long side (+y side, or -x side), so the two turns need room on
+    # different sides of the object
+    c[:, 4] = np.where(long_x[:, None], np.stack([f * hx, -hy], -1), np.stack([hx, f * hy], -1))
+    c[:, 5] = np.where(long_x[:, None], np.stack([f * hx, hy], -1), np.stack([-hx, f * hy], -1))
+    for col, sign in ((4, 1.0), (5, -1.0)):
+        r = c[:, col]
+        perp = sign * np.stack([-r[:, 1], r[:, 0]], -1)
+        u[:, col] = perp / np.linalg.norm(perp, axis=-1, keepdims=True)
+    circle = fp.kind == CIRCLE
+    if circle.any():   # a circle: pushed along +y off its centre line (a glancing push, sideways and forward)
+        c[circle, 4] = np.stack([f * hx[circle], -hy[circle]], -1)
+        c[circle, 5] = np.stack([-f * hx[circle], -hy[circle]], -1)
+        u[circle, 4:6] = (0.0, 1.0)
+    return c, u
+
+
+def paddle_sweeps(poses: np.ndarray, fp: Footprints, settings: PushSettings) -> tuple[np.ndarray, np.ndarray,
+                                                                                         np.ndarray]:
+    """For objects at ``poses`` ``(n, k, 3)``: the paddle's start pose ``(n, k, 6, 3)`` for every primitive, and the
+    area it sweeps until the end of the push as boxes: centre poses ``(n, k, 6, 3)`` and half extents
+    ``(k, 6, 2)`` (m, rad; the boxes' x axis is the push direction).
+
+    Side pushes meet the object with the paddle's face (the paddle across the push direction); turning pushes with
+    its narrow end (the paddle turned along the push direction), a near point contact, so the object can turn
+    about it -- a face flush with the object's side would hold the side parallel to it and barely turn it."""
+    c, u = contact_frames(fp, settings.turn_offset)
+    s = settings
+    turning = np.array([False, False, False, False, True, True])
+    along = np.where(turning, s.width, s.thickness)                          # paddle extent along the push (6,)
+    across = np.where(turning, s.thickness, s.width)
+    back = s.gap + 0.5 * along
+    theta = poses[..., 2][..., None]                                          # (n, k, 1)
+    cos, sin = np.cos(theta), np.sin(theta)
+
+    def world(p):                                                            # object frame -> world, (n, k, 6, 2)
+        return np.stack([cos * p[..., 0] - sin * p[..., 1], sin * p[..., 0] + cos * p[..., 1]], -1) \
+            + poses[..., None, :2]
+
+    uw = np.stack([cos * u[..., 0] - sin * u[..., 1], sin * u[..., 0] + cos * u[..., 1]], -1)
+    heading = np.arctan2(uw[..., 1], uw[..., 0])
+    start = world(c - back[:, None] * u)
+    travel = s.gap + np.where(turning, s.turn_depth, s.depth)                # (6,)
+    centre = start + 0.5 * travel[:, None] * uw
+    yaw = heading + np.where(turning, 0.5 * np.pi, 0.0)
+    start_pose = np.concatenate([start, yaw[..., None]], -1)
+    sweep_pose = np.concatenate([centre, heading[..., None]], -1)
+    half = np.stack(np.broadcast_arrays(0.5 * (travel + along), 0.5 * across), -1)   # (6, 2)
+    half = np.broadcast_to(half, c.shape).copy()
+    return start_pose, sweep_pose, half
+
+
+def apply_action(world, names: list[str], fp: Footprints, index: int, primitive: int, settings: PushSettings,
+                 rng: np.random.Generator, poses: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+    """APPLY_ACTION (poster, LEARN_MODEL line 4): push object ``names[index]`` with primitive ``primitive`` (an index
+    into :data:`PRIMITIVES`) in ``world`` (a :class:`~pliant.interfaces.Simulator` that can place objects) and
+    return every movable object's pose afterwards, by name.  ``poses``: where the objects are now (default: asked
+    from the world).  The paddle's placement error is drawn from ``rng`` (``settings.placement_noise``)."""
+    s = settings
+    poses = dict(world.object_poses()) if poses is None else {n: np.asarray(p, float) for n, p in poses.items()}
+    pose = np.asarray(poses[names[index]], dtype=np.float64)
+    start, sweep, _ = paddle_sweeps(pose[None, None], fp.subset([index]), s)
+    q = start[0, 0, primitive].copy()
+    direction = sweep[0, 0, primitive, 2]
+    heading = np.array([np.cos(direction), np.sin(direction)])
+    if s.placement_noise > 0:
+        along, across = rng.normal(0.0, s.placement_noise, 2)
+        q[:2] += along * heading + across * np.array([-heading[1], heading[0]])
+    world.reset(q)
+    world.set_object_poses(poses)
+    depth = s.turn_depth if PRIMITIVES[primitive].startswith("turn") else s.depth
+    _move(world, heading * s.speed, (s.gap + depth) / s.speed, s.dt, rng)
+    if s.retreat > 0:
+        _move(world, -heading * s.speed, s.retreat / s.speed, s.dt, rng)
+    _move(world, np.zeros(2), s.settle, s.dt, rng)
+    return {n: np.asarray(p, dtype=np.float64).copy() for n, p in world.object_poses().items()}
+
+
+def _move(world, velocity: np.ndarray, duration: float, dt: float, rng: np.random.Generator) -> None:
+    """Command the planar ``velocity`` (m/s, no turning) for ``duration`` s in steps of at most ``dt``."""
+    steps = max(1, int(np.ceil(duration / dt - 1e-9)))
+    h = duration / steps
+    command = np.array([velocity[0], velocity[1], 0.0])
+    for _ in range(steps):
+        world.step(command, h, rng)

@@ -1,0 +1,417 @@
+"""TASK_SPACE_RRT (poster ICHR 2010, "Pseudo code for TS-RRT algorithm"), lines 3-14, and the shortcut that removes
+redundant actions.
+
+    3  T.init(s_init)
+    4  for i <- 1 to max_nodes
+    5  do s_GD <- DIRECTGD(T)
+    6    if RAND() > epsilon
+    7    then s_samp <- s_GD
+    8    else s_samp <- RANDOM_CONFIG()
+    9    s_near <- NEAREST_NEIGHBOR(s_samp)
+    10   a* <- ARGMIN_a(rho(MODEL(s_near, a), s_samp))
+    11   s_new <- MODEL(s_near, a*)
+    12   if not IN_COLLISION(s_new)
+    13   then ADD_VERTEX(s_new)
+    14        ADD_EDGE(s_near -a*-> s_new)
+
+A state is the joint configuration of all ``k`` objects, ``(k, 3)`` poses (m, rad).  An action is a pair (object,
+primitive); MODEL moves that object by its class's mean displacement for the primitive
+(:func:`pliant_tsrrt.models.compose`).  Choices where the poster is silent (docs/plugins/tsrrt.md):
+
+* **DIRECTGD(T)**: one of the ``gd_pool`` cheapest tree nodes that are not exhausted, moved against the task cost's
+  gradient by ``gd_step`` times the mean push length (times a uniform factor in [0.5, 1.5]).  A node whose descent
+  brought no cheaper child ``gd_tries`` times, or whose every action is used or invalid, is exhausted.  Line 5 is
+  only evaluated when line 7 uses it.
+* **rho**: ``sqrt(sum_o |p_o - p'_o|^2 + (r_o dtheta_o)^2)`` with each object's circumscribed radius ``r_o`` (m)
+  turning angles into lengths and ``dtheta`` taken modulo the footprint's symmetry (pi for rectangles, pi / 2 for
+  squares, ignored for circles).
+* **IN_COLLISION** (:class:`pliant_tsrrt.geometry.CollisionChecker`) is checked for every action's outcome at once,
+  and line 10 picks the closest *collision-free* outcome (the poster checks only the closest one; here an invalid
+  closest outcome does not waste the iteration).  An outcome is invalid when the moved object, halfway or at the
+  end, overlaps another object or an obstacle or leaves the table (with ``margin`` clearance), or when the paddle's
+  swept area touches another object or an obstacle, or leaves the scene's bounds.  An action already taken from a
+  node, and an outcome within ``duplicate`` of an existing node, is not added again; if it reaches that node in
+  fewer pushes, the node is re-attached to the shorter way (its subtree follows).
+* NEAREST_NEIGHBOR and the duplicate test use the chord approximation of rho (:meth:`ObjectSpace.embed`), one
+  batched squared distance over the tree.
+* The result is the path to the cheapest node (the one with the fewest pushes among equally cheap ones; poster:
+  "returns a plan from the starting state to the most optimal reachable state"), extended by :func:`descend` (the
+  steepest single pushes while they lower the cost, the discrete end of DIRECTGD's descent), then :func:`shortcut`:
+  drop any action -- or any pair of opposite actions on one object -- whose removal keeps the plan valid and does
+  not raise the final cost, until none can be dropped ("all paths free of collisions and redundant actions").
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from pliant.termination import Condition, Termination
+
+from pliant_tsrrt.cost import TaskCost
+from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints
+from pliant_tsrrt.models import compose
+from pliant_tsrrt.pushing import PushSettings, paddle_sweeps
+
+N_PRIMITIVES = 6
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """TASK_SPACE_RRT's parameters: ``epsilon`` (probability of a uniform sample, line 6), ``max_nodes`` (line 4),
+    ``gd_step`` (DIRECTGD step, in mean push lengths), ``gd_pool`` and ``gd_tries`` (DIRECTGD's node choice),
+    ``duplicate`` (rho below which a new state counts as an existing node, m)."""
+
+    epsilon: float = 0.1
+    max_nodes: int = 5000
+    gd_step: float = 1.0
+    gd_pool: int = 4
+    gd_tries: int = 4
+    duplicate: float = 1e-3
+
+
+@dataclass
+class ObjectSpace:
+    """The planning domain: footprints ``fp`` of the ``k`` objects, the mean displacements ``means`` ``(k, 6, 3)``,
+    the collision checker, the task cost, the push settings and the scene bounds ``(x0, y0, x1, y1)`` (m) that the
+    paddle must stay inside."""
+
+    fp: Footprints
+    means: np.ndarray
+    checker: CollisionChecker
+    cost: TaskCost
+    push: PushSettings
+    bounds: tuple[float, float, float, float]
+    scale: np.ndarray = field(init=False)
+    period: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.means = np.asarray(self.means, dtype=np.float64)
+        self.k = len(self.fp)
+        self.scale = np.where(self.fp.kind == CIRCLE, 0.0, self.fp.radius)
+        square = np.abs(self.fp.half[:, 0] - self.fp.half[:, 1]) < 1e-9
+        self.period = np.where(square, np.pi / 2, np.pi)
+        self.step_length = float(np.mean(np.linalg.norm(self.means[..., :2], axis=-1)))
+
+    # --- MODEL, rho, IN_COLLISION ------------------------------------------------------------------------------
+
+    def outcomes(self, s: np.ndarray) -> np.ndarray:
+        """MODEL(s, a) for every action ``a = 6 o + p``: ``(6 k, k, 3)``."""
+        out = np.repeat(s[None], self.k * N_PRIMITIVES, axis=0)
+        moved = compose(np.repeat(s, N_PRIMITIVES, axis=0), self.means.reshape(-1, 3))
+        idx = np.arange(self.k * N_PRIMITIVES)
+        out[idx, idx // N_PRIMITIVES] = moved
+        return out
+
+    def step(self, s: np.ndarray, action: int) -> np.ndarray:
+        """MODEL(s, a) for one action (object ``action // 6``, primitive ``action % 6``)."""
+        o, p = divmod(int(action), N_PRIMITIVES)
+        out = s.copy()
+        out[o] = compose(s[o], self.means[o, p])
+        return out
+
+    def embed(self, states: np.ndarray) -> np.ndarray:
+        """Features ``(..., 4 k)`` whose Euclidean distance approximates :meth:`rho` (the angle term as the chord
+        ``2 (r / w) sin(w dtheta / 2)``, ``w = 2 pi / period``): nearest neighbours and duplicates in one batched
+        operation."""
+        w = 2 * np.pi / self.period
+        a = states[..., 2] * w
+        rw = self.scale / w
+        f = np.stack([states[..., 0], states[..., 1], rw * np.cos(a), rw * np.sin(a)], axis=-1)
+        return f.reshape(*states.shape[:-2], 4 * self.k)
+
+    def rho(self, states: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """The distance ``(n,)`` of arrangements ``(n, k, 3)`` from ``target`` ``(k, 3)`` (m)."""
+        d = states - target
+        dtheta = (d[..., 2] + self.period / 2) % self.period - self.period / 2
+        return np.sqrt(np.sum(d[..., 0] ** 2 + d[..., 1] ** 2 + (self.scale * dtheta) ** 2, axis=-1))
+
+    def valid_actions(self, s: np.ndarray, outcomes: np.ndarray, actions: np.ndarray | None = None) -> np.ndarray:
+        """Bool ``(a,)``: which of the outcomes ``(a, k, 3)`` of ``actions`` (default all ``6 k``) from ``s`` are valid
+        (see the module docstring)."""
+        if actions is None:
+            actions = np.arange(self.k * N_PRIMITIVES)
+        return self.valid_steps(np.repeat(s[None], len(actions), axis=0), outcomes, np.asarray(actions))
+
+    def valid_steps(self, before: np.ndarray, after: np.ndarray, actions: np.ndarray) -> np.ndarray:
+        """Bool ``(m,)``: whether each step ``before[j] -a_j-> after[j]`` (``(m, k, 3)`` each) is valid, batched."""
+        m = len(actions)
+        rows = np.arange(m)
+        objs, prims = actions // N_PRIMITIVES, actions % N_PRIMITIVES
+        half = after.copy()
+        half[rows, objs] = compose(before[rows, objs], 0.5 * self.means[objs, prims])
+        ok = ~self.checker.in_collision(after) & ~self.checker.in_collision(half)
+        _, sweep, sweep_half = paddle_sweeps(before, self.fp, self.push)
+        boxes = sweep[rows, objs, prims]
+        sh = sweep_half[objs, prims]
+        ok &= ~self.checker.boxes_hit(before, boxes, sh, objs)
+        corners = _corners(boxes, sh)
+        x0, y0, x1, y1 = self.bounds
+        ok &= np.all((corners[..., 0] >= x0) & (corners[..., 0] <= x1) & (corners[..., 1] >= y0)
+                     & (corners[..., 1] <= y1), axis=-1)
+        return ok
+
+    def random_config(self, rng: np.random.Generator) -> np.ndarray:
+        """RANDOM_CONFIG: every object uniformly on the table (centre within it), any orientation."""
+        x0, y0, x1, y1 = self.checker.table
+        xy = rng.uniform([x0, y0], [x1, y1], size=(self.k, 2))
+        return np.concatenate([xy, rng.uniform(-np.pi, np.pi, (self.k, 1))], axis=1)
+
+    def rollout(self, s0: np.ndarray, actions: list[int]) -> tuple[np.ndarray, bool]:
+        """The predicted states ``(m + 1, k, 3)`` of an action sequence and whether every action was valid."""
+        poses = [list(map(float, p)) for p in s0]
+        means = self.means.tolist()
+        states = [s0]
+        for a in actions:
+            o, p = divmod(int(a), N_PRIMITIVES)
+            x, y, t = poses[o]
+            dx, dy, dt = means[o][p]
+            c, s = math.cos(t), math.sin(t)
+            poses[o] = [x + c * dx - s * dy, y + s * dx + c * dy, (t + dt + math.pi) % (2 * math.pi) - math.pi]
+            states.append([q[:] for q in poses])
+        states = np.array(states, dtype=np.float64)
+        if not len(actions):
+            return states, True
+        return states, bool(np.all(self.valid_steps(states[:-1], states[1:], np.asarray(actions, dtype=np.int64))))
+
+
+def _corners(poses: np.ndarray, half: np.ndarray) -> np.ndarray:
+    from pliant_tsrrt.geometry import box_corners
+
+    return box_corners(poses, half)
+
+
+@dataclass
+class SearchResult:
+    """A plan: ``actions`` (``6 o + p`` each), predicted ``states`` ``(m + 1, k, 3)``, their ``cost`` (the final
+    state's), the tree's ``states`` / ``parents`` / ``costs`` and statistics."""
+
+    actions: list[int]
+    states: np.ndarray
+    cost: float
+    tree_states: np.ndarray
+    tree_parents: np.ndarray
+    tree_costs: np.ndarray
+    statistics: dict
+
+
+def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings: SearchSettings,
+         termination: Condition | None = None) -> SearchResult:
+    """TASK_SPACE_RRT lines 3-14 from ``s0`` ``(k, 3)`` until ``max_nodes`` nodes or ``termination``; returns the
+    (shortcut) plan to the cheapest node.  Ctrl-C inside returns the best plan so far."""
+    t0 = time.perf_counter()
+    k = space.k
+    n_actions = k * N_PRIMITIVES
+    cap = 1024
+    states = np.empty((cap, k, 3))
+    parents = np.full(cap, -1, dtype=np.int64)
+    actions = np.full(cap, -1, dtype=np.int64)
+    costs = np.empty(cap)
+    fails = np.zeros(cap, dtype=np.int64)
+    depth = np.zeros(cap, dtype=np.int64)
+    used = np.zeros((cap, n_actions), dtype=bool)
+    checked = np.zeros(cap, dtype=bool)            # the node's outcomes have been collision-checked (cached)
+    grads: dict[int, np.ndarray] = {}              # DIRECTGD's cost gradients per node (cached)
+    feats = np.empty((cap, 4 * k))
+    states[0] = s0
+    feats[0] = space.embed(s0)
+    costs[0] = float(space.cost.cost(s0[None])[0])
+    n = 1
+    best = 0
+    history = [[0.0, costs[0]]]
+    stats = {"gd_samples": 0, "random_samples": 0, "invalid": 0, "duplicates": 0, "rewired": 0, "exhausted": 0}
+    termination = termination or Termination()
+    iteration = 0
+    with termination.watch():
+        while n < settings.max_nodes and not termination.should_stop(iteration, costs[best], solved=True):
+            iteration += 1
+            gd_node = -1
+            if rng.random() > settings.epsilon:
+                gd_node, sample = _directgd(space, states, costs, fails, used, n, rng, settings, grads)
+            if gd_node < 0:
+                sample = space.random_config(rng)
+                stats["random_samples"] += 1
+            else:
+                stats["gd_samples"] += 1
+            near = int(np.argmin(np.sum((feats[:n] - space.embed(sample)) ** 2, axis=1)))
+            out = space.outcomes(states[near])
+            if not checked[near]:                # invalid actions stay invalid from this node: mark them used
+                used[near] |= ~space.valid_actions(states[near], out)
+                checked[near] = True
+            valid = ~used[near]
+            if not valid.any():
+                stats["invalid"] += 1
+                fails[near] = settings.gd_tries
+                if gd_node >= 0 and gd_node != near:
+                    fails[gd_node] += 1
+                continue
+            rho = np.where(valid, space.rho(out, sample), np.inf)
+            a = int(np.argmin(rho))
+            used[near, a] = True
+            s_new = out[a]
+            f_new = space.embed(s_new)
+            d2 = np.sum((feats[:n] - f_new) ** 2, axis=1)
+            dup = int(np.argmin(d2))
+            if d2[dup] < settings.duplicate ** 2:
+                stats["duplicates"] += 1
+                if depth[near] + 1 < depth[dup] and not _is_ancestor(parents, dup, near):
+                    parents[dup], actions[dup], depth[dup] = near, a, depth[near] + 1   # a shorter way there
+                    stats["rewired"] += 1
+                if gd_node >= 0:
+                    fails[gd_node] += 1
+                continue
+            if n == cap:
+                cap *= 2
+                states, feats = _grow(states, cap), _grow(feats, cap)
+                parents, actions, costs, fails, depth = (_grow(x, cap) for x in (parents, actions, costs, fails, depth))
+                used, checked = _grow(used, cap), _grow(checked, cap)
+            states[n], parents[n], actions[n], feats[n] = s_new, near, a, f_new
+            depth[n] = depth[near] + 1
+            costs[n] = float(space.cost.cost(s_new[None])[0])
+            if gd_node >= 0 and costs[n] >= costs[gd_node]:
+                fails[gd_node] += 1
+            if costs[n] < costs[best] - 1e-12:
+                best = n
+                history.append([time.perf_counter() - t0, costs[n]])
+            elif costs[n] <= costs[best] + 1e-12 and depth[n] < depth[best]:
+                best = n                          # as cheap, fewer pushes
+            n += 1
+        interrupted = termination.interrupted
+    ties = np.nonzero(costs[:n] <= costs[best] + 1e-12)[0][:500]
+    best = int(min(ties, key=lambda i: (_path_length(parents, int(i)), costs[i])))    # fewest pushes among the best
+    plan = []
+    node = best
+    while node > 0:
+        plan.append(int(actions[node]))
+        node = int(parents[node])
+    plan.reverse()
+    tree_time = time.perf_counter() - t0
+    raw_length = len(plan)
+    plan, polished = descend(space, s0, plan)
+    plan, path_states, final = shortcut(space, s0, plan)
+    stats.update(iterations=iteration, nodes=n, time=time.perf_counter() - t0, tree_time=tree_time,
+                 cost_history=history, tree_best_cost=float(costs[best]), actions_before_shortcut=raw_length,
+                 actions=len(plan), polish_pushes=polished, interrupted=interrupted,
+                 exhausted=int(np.sum(fails[:n] >= settings.gd_tries)))
+    return SearchResult(plan, path_states, final, states[:n].copy(), parents[:n].copy(), costs[:n].copy(), stats)
+
+
+def _path_length(parents: np.ndarray, node: int) -> int:
+    count = 0
+    while parents[node] >= 0:
+        node, count = int(parents[node]), count + 1
+    return count
+
+
+def _is_ancestor(parents: np.ndarray, node: int, of: int) -> bool:
+    """Whether ``node`` lies on the path from the root to ``of`` (``of`` itself included)."""
+    while of >= 0:
+        if of == node:
+            return True
+        of = int(parents[of])
+    return False
+
+
+def _grow(x: np.ndarray, cap: int) -> np.ndarray:
+    out = np.zeros((cap, *x.shape[1:]), dtype=x.dtype)
+    out[: len(x)] = x
+    return out
+
+
+def _directgd(space: ObjectSpace, states, costs, fails, used, n, rng, settings, grads) -> tuple[int,
+                                                                                              np.ndarray | None]:
+    """DIRECTGD(T) (line 5): a node among the cheapest non-exhausted ones, moved down the cost gradient; ``-1`` when
+    every node is exhausted."""
+    open_nodes = np.nonzero((fails[:n] < settings.gd_tries) & ~used[:n].all(axis=1))[0]
+    if len(open_nodes) == 0:
+        return -1, None
+    pool = open_nodes[np.argsort(costs[open_nodes], kind="stable")[: settings.gd_pool]]
+    node = int(pool[rng.integers(len(pool))])
+    s = states[node]
+    g = grads.get(node)
+    if g is None:
+        g = grads[node] = space.cost.gradient(s[None])[0]
+    metric = np.sqrt(np.sum(g[:, :2] ** 2) + np.sum((g[:, 2] / np.maximum(space.scale, 1e-9)) ** 2))
+    if not np.isfinite(metric) or metric < 1e-12:
+        fails[node] = settings.gd_tries
+        return -1, None
+    length = settings.gd_step * space.step_length * rng.uniform(0.5, 1.5)
+    direction = g.copy()
+    direction[:, 2] = g[:, 2] / np.maximum(space.scale, 1e-9) ** 2
+    return node, s - length * direction / metric
+
+
+def descend(space: ObjectSpace, s0: np.ndarray, plan: list[int], limit: int = 200) -> tuple[list[int], int]:
+    """From the plan's final state, append the valid action that lowers the cost most, while one does (at most
+    ``limit``): the discrete end of DIRECTGD's descent, so the plan ends in a local minimum over single pushes.
+    Returns the plan and how many pushes were appended."""
+    states, _ = space.rollout(s0, plan)
+    s = states[-1]
+    cost = float(space.cost.cost(s[None])[0])
+    added = 0
+    plan = list(plan)
+    while added < limit:
+        out = space.outcomes(s)
+        c = np.where(space.valid_actions(s, out), space.cost.cost(out), np.inf)
+        a = int(np.argmin(c))
+        if not c[a] < cost - 1e-12:
+            break
+        plan.append(a)
+        s, cost, added = out[a], float(c[a]), added + 1
+    return plan, added
+
+
+def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 4000) -> tuple[list[int], np.ndarray,
+                                                                                              float]:
+    """Drop actions -- single ones, then pairs of opposite actions on one object -- while the plan stays valid and its
+    final cost does not rise, until none can be dropped or ``budget`` trial plans have been checked; returns the plan,
+    its predicted states and its final cost."""
+    plan = list(plan)
+    states, _ = space.rollout(s0, plan)
+    cost = float(space.cost.cost(states[-1][None])[0])
+    trials = 0
+
+    def attempt(drop: tuple[int, ...]) -> bool:
+        nonlocal plan, states, cost, trials
+        trials += 1
+        first = drop[0]
+        trial = [a for i, a in enumerate(plan) if i not in drop]
+        tail, ok = space.rollout(states[first], trial[first:])     # the states before the first drop stay
+        c = float(space.cost.cost(tail[-1][None])[0])
+        if ok and c <= cost + 1e-12:
+            plan, states, cost = trial, np.concatenate([states[:first], tail]), c
+            return True
+        return False
+
+    changed = True
+    while changed and plan and trials < budget:
+        changed = False
+        j = len(plan) - 1
+        while j >= 0 and trials < budget:              # from the end: a drop there changes the fewest states
+            if attempt((j,)):
+                changed = True
+            j = min(j, len(plan)) - 1
+        for i in range(len(plan)):
+            for k in range(i + 1, len(plan)):
+                if trials >= budget or i >= len(plan) or k >= len(plan):
+                    break
+                a, b = plan[i], plan[k]
+                if a // N_PRIMITIVES == b // N_PRIMITIVES and (a % N_PRIMITIVES) ^ 1 == b % N_PRIMITIVES \
+                        and attempt((i, k)):
+                    changed = True
+                    break
+    return plan, states, cost
+
+
+def redundant_actions(space: ObjectSpace, s0: np.ndarray, plan: list[int]) -> int:
+    """How many actions of ``plan`` could be dropped alone with a valid plan of no higher final cost."""
+    states, _ = space.rollout(s0, plan)
+    cost = float(space.cost.cost(states[-1][None])[0])
+    count = 0
+    for j in range(len(plan)):
+        trial_states, ok = space.rollout(s0, plan[:j] + plan[j + 1:])
+        if ok and float(space.cost.cost(trial_states[-1][None])[0]) <= cost + 1e-12:
+            count += 1
+    return count

@@ -1,0 +1,82 @@
+"""TASK_SPACE_RRT (poster ICHR 2010) on hand-made models: plans that must reach a known optimum, the shortcut, and
+the batched validity of actions."""
+
+from __future__ import annotations
+
+import numpy as np
+from pliant.termination import Termination
+from pliant_tsrrt.cost import TaskCost
+from pliant_tsrrt.geometry import BOX, CIRCLE, CollisionChecker, Footprints
+from pliant_tsrrt.pushing import PushSettings
+from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow, redundant_actions, shortcut
+
+TABLE = (0.0, 0.0, 1.0, 0.8)
+BOUNDS = (-0.2, -0.2, 1.2, 1.0)
+NO_OBSTACLES = (Footprints(np.zeros(0, dtype=int), np.zeros((0, 2))), np.zeros((0, 3)))
+
+
+def _space(fp, means, weights, margin=0.0, obstacles=NO_OBSTACLES):
+    checker = CollisionChecker(fp, obstacles[0], obstacles[1], TABLE, margin)
+    return ObjectSpace(fp, np.asarray(means, dtype=float), checker, TaskCost(fp, TABLE, weights), PushSettings(),
+                       BOUNDS)
+
+
+CAN_MODEL = [[0.05, 0, 0], [-0.05, 0, 0], [0, 0.05, 0], [0, -0.05, 0], [-0.01, 0.02, 0], [0.01, 0.02, 0]]
+BOOK_MODEL = [[0.05, 0, 0], [-0.05, 0, 0], [0, 0.05, 0], [0, -0.05, 0], [0, 0, 0.1], [0, 0, -0.1]]
+
+
+def test_one_object_reaches_the_centre_line_in_four_pushes():
+    fp = Footprints([CIRCLE], [[0.05, 0.05]])
+    space = _space(fp, [CAN_MODEL], (0.0, 0.0, 1.0, 0.0))
+    s0 = np.array([[0.2, 0.4, 0.0]])
+    found = grow(space, s0, np.random.default_rng(0), SearchSettings(max_nodes=3000),
+                 Termination(max_iterations=3000))
+    # the best a 5 cm radius can do on a 1.0 x 0.8 table: 0.35 m from every edge, cost 1 - 0.35 / 0.4
+    assert np.isclose(found.cost, 0.125, atol=1e-9)
+    assert len(found.actions) == 4 and set(found.actions) == {0}          # four times push+x
+    assert redundant_actions(space, s0, found.actions) == 0
+
+
+def test_one_box_is_turned_square_to_the_table():
+    fp = Footprints([BOX], [[0.12, 0.08]])
+    space = _space(fp, [BOOK_MODEL], (1.0, 0.0, 0.0, 0.0))
+    s0 = np.array([[0.5, 0.4, 0.3]])
+    found = grow(space, s0, np.random.default_rng(1), SearchSettings(max_nodes=2000),
+                 Termination(max_iterations=2000))
+    assert found.cost < 1e-20
+    assert found.actions == [5, 5, 5]                                       # three turns of -0.1 rad
+    assert np.allclose(found.states[-1], [[0.5, 0.4, 0.0]], atol=1e-12)
+
+
+def test_plans_avoid_obstacles_and_each_other():
+    fp = Footprints([CIRCLE, CIRCLE], [[0.05, 0.05], [0.05, 0.05]])
+    obstacles = (Footprints([BOX], [[0.05, 0.3]]), np.array([[0.5, 0.4, 0.0]]))
+    space = _space(fp, [CAN_MODEL, CAN_MODEL], (0.0, 1.0, 1.0, 0.0), margin=0.005, obstacles=obstacles)
+    s0 = np.array([[0.15, 0.2, 0.0], [0.85, 0.6, 0.0]])
+    found = grow(space, s0, np.random.default_rng(2), SearchSettings(), Termination(max_iterations=1500))
+    assert found.cost < space.cost.cost(s0[None])[0]
+    assert not space.checker.in_collision(found.states).any()
+    _, ok = space.rollout(s0, found.actions)
+    assert ok
+
+
+def test_shortcut_drops_back_and_forth_and_useless_pushes():
+    fp = Footprints([CIRCLE], [[0.05, 0.05]])
+    space = _space(fp, [CAN_MODEL], (0.0, 0.0, 1.0, 0.0))
+    s0 = np.array([[0.2, 0.4, 0.0]])
+    plan = [0, 2, 0, 1, 3, 0, 0, 0, 0]       # +x, +y, +x, -x, -y, +x, +x, +x, +x: two pushes past the optimum
+    short, states, cost = shortcut(space, s0, plan)
+    assert np.isclose(cost, 0.125) and len(short) == 4
+    assert redundant_actions(space, s0, short) == 0
+
+
+def test_valid_steps_match_one_at_a_time():
+    fp = Footprints([BOX, CIRCLE], [[0.12, 0.08], [0.05, 0.05]])
+    space = _space(fp, [BOOK_MODEL, CAN_MODEL], (1.0, 1.0, 1.0, 0.0), margin=0.01)
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        s = space.random_config(rng)
+        out = space.outcomes(s)
+        batch = space.valid_actions(s, out)
+        single = [space.valid_actions(s, out[a:a + 1], np.array([a]))[0] for a in range(len(out))]
+        assert batch.tolist() == single
