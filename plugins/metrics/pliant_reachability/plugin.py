@@ -82,3 +82,10 @@ def _select_command(args) -> int:
                     overrides=args.set, output=args.output)
     print(render(report))
     return 0
+
+
+@hookimpl
+def pliant_reproductions():
+    from pliant_reachability.reproduce import declarations
+
+    return declarations()
