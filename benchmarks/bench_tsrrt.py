@@ -126,7 +126,7 @@ def main() -> None:
     rows, runs = [], []
     for seed in range(seeds):
         rng = np.random.default_rng(1000 + seed)
-        s0 = random_arrangements(space, rng, 1)[0]
+        s0 = random_arrangements(space, rng, 1, clearance=options.start_clearance)[0]
         found = grow(space, s0, rng, search_settings(options), Termination(max_time=args.budget))
         st = found.statistics
         best_at = st["cost_history"][-1][0]
@@ -193,7 +193,7 @@ def main() -> None:
             times, nodes, costs, starts, best_t = [], [], [], [], []
             for seed in range(min(seeds, 3)):
                 rng = np.random.default_rng(2000 + seed)
-                s0 = random_arrangements(sp, rng, 1)[0]
+                s0 = random_arrangements(sp, rng, 1, clearance=ok.start_clearance)[0]
                 found = grow(sp, s0, rng, search_settings(ok), Termination(max_time=120.0))
                 times.append(found.statistics["time"])
                 best_t.append(found.statistics["cost_history"][-1][0])

@@ -86,8 +86,10 @@ def bounds_rect(scene) -> tuple[float, float, float, float]:
     return (float(scene.lower[0]), float(scene.lower[1]), float(scene.upper[0]), float(scene.upper[1]))
 
 
-def obstacles(scene, names: list[str], table) -> tuple[Footprints, np.ndarray, list[str]]:
-    """Fixed obstacles: static objects whose centre lies on the table and movable objects not in ``names``."""
+def obstacles(scene, names: list[str], table, inflate: float = 0.0) -> tuple[Footprints, np.ndarray, list[str]]:
+    """Fixed obstacles: static objects whose centre lies on the table (grown by ``inflate`` m on every side: a
+    simulator built from the scene's voxels, pymunk, sees them up to one voxel larger) and movable objects not in
+    ``names``."""
     x0, y0, x1, y1 = table
     picked = []
     for obj in scene.objects:
@@ -98,7 +100,10 @@ def obstacles(scene, names: list[str], table) -> tuple[Footprints, np.ndarray, l
             picked.append(obj.name)
     if not picked:
         return Footprints(np.zeros(0, dtype=np.int64), np.zeros((0, 2))), np.zeros((0, 3)), []
-    return footprints_from_scene(scene, picked), np.array([scene_pose(scene, n) for n in picked]), picked
+    fp = footprints_from_scene(scene, picked)
+    static = np.array([not scene.object(n).movable for n in picked])
+    half = fp.half + np.where(static, inflate, 0.0)[:, None]
+    return Footprints(fp.kind, half), np.array([scene_pose(scene, n) for n in picked]), picked
 
 
 def parse_relations(relations: tuple[str, ...], names: list[str]) -> np.ndarray:

@@ -1,7 +1,8 @@
 """LEARN_MODEL in a simulator (poster ICHR 2010, "Model Learning"): per object class and primitive, push an object of
 that class repeatedly from its current state until the model's variance falls below ``sigma_ref^2``.
 
-The learning takes place on the table's centre (the *spot*): the object learned is put there (keeping its
+The learning takes place on the table's centre, or the free point of the table farthest from its edges and its fixed
+obstacles (the *spot*): the object learned is put there (keeping its
 orientation), every other object whose footprint could be reached by the paddle is moved out of the way, and the
 object is put back on the spot (still keeping its orientation) whenever it has wandered more than ``wander`` from
 it, so that pushes never run off the table or into another object.  Otherwise each push starts where the last one
@@ -10,7 +11,7 @@ left the object, as in the pseudo code.  At the end every object is put back whe
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pliant.errors import PlanningError
@@ -35,8 +36,9 @@ class LearnSettings:
 
 @dataclass
 class LearningArena:
-    """The world, the movable objects' names and footprints, the table ``(x0, y0, x1, y1)`` and the scene bounds
-    ``(x0, y0, x1, y1)`` (where objects may be parked while another is learned)."""
+    """The world, the movable objects' names and footprints, the table ``(x0, y0, x1, y1)``, the scene bounds
+    ``(x0, y0, x1, y1)`` (where objects may be parked while another is learned), the push settings and the fixed
+    obstacles as circles ``(centre (2,), radius)`` (m)."""
 
     world: object
     names: list[str]
@@ -44,11 +46,21 @@ class LearningArena:
     table: tuple[float, float, float, float]
     bounds: tuple[float, float, float, float]
     push: PushSettings
+    fixed: list[tuple[np.ndarray, float]] = field(default_factory=list)
 
     @property
     def spot(self) -> np.ndarray:
+        """The learning spot: the point of the table farthest from its edges and from the fixed obstacles (given as
+        circles ``(centre, radius)``): the table's centre when nothing stands there."""
         x0, y0, x1, y1 = self.table
-        return np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        u, v = np.meshgrid(np.linspace(x0, x1, 51), np.linspace(y0, y1, 41), indexing="ij")
+        p = np.stack([u.ravel(), v.ravel()], -1)
+        room = np.minimum(np.minimum(p[:, 0] - x0, x1 - p[:, 0]), np.minimum(p[:, 1] - y0, y1 - p[:, 1]))
+        for centre, radius in self.fixed:
+            room = np.minimum(room, np.linalg.norm(p - centre, axis=1) - radius)
+        centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        best = np.nonzero(room >= room.max() - 1e-9)[0]
+        return p[best[np.argmin(np.linalg.norm(p[best] - centre, axis=1))]]
 
     def clear_spot(self, index: int, poses: dict[str, np.ndarray], wander: float,
                    rng: np.random.Generator) -> dict[str, np.ndarray]:
@@ -73,7 +85,7 @@ class LearningArena:
             for _ in range(2000):
                 xy = rng.uniform([bx0 + r + 0.01, by0 + r + 0.01], [bx1 - r - 0.01, by1 - r - 0.01])
                 if np.linalg.norm(xy - self.spot) >= reach + r and all(
-                        np.linalg.norm(xy - c) >= r + rc + 0.01 for c, rc in placed[1:]):
+                        np.linalg.norm(xy - c) >= r + rc + 0.01 for c, rc in placed[1:] + self.fixed):
                     break
             else:
                 raise PlanningError("no room to park the other objects away from the learning spot; enlarge the "

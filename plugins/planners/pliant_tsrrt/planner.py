@@ -4,7 +4,8 @@ cheapest arrangement, execute with monitoring and replanning.
 
 :meth:`TSRRTPlanner.plan` runs TASK_SPACE_RRT: lines 1-2 (LEARN_MODEL per object class, unless the pipeline's
 ``push-models`` learner or a models file supplies the models) and lines 3-14 (:mod:`pliant_tsrrt.search`).  The
-result holds a :class:`PushPlan` policy: the action sequence with its predicted arrangements.  Executing it
+result holds a :class:`PushPlan` policy: the action sequence with its predicted arrangements (and, as its path, the
+paddle's pose before each push, from the scene's start to its goal).  Executing it
 (:meth:`PushPlan.execute`, in any simulator that can place objects) performs each push, compares the observed
 arrangement with the one the plan predicted after that push, and replans from the observed arrangement when an
 object is off by more than ``replan_threshold`` (m) or ``replan_angle`` (rad), or when the plan is done and the
@@ -19,17 +20,17 @@ from dataclasses import dataclass, replace
 from pathlib import Path as FilePath
 
 import numpy as np
-from pliant.errors import ConfigError, PlanningError
+from pliant.errors import ConfigError, PlanningError, SimulationError
 from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
-from pliant.results import PlanResult, Policy, Status
+from pliant.results import Path, PlanResult, Policy, Status
 from pliant.termination import Termination
 
 from pliant_tsrrt import domain
 from pliant_tsrrt.domain import PushOptions
 from pliant_tsrrt.learning import LearningArena, LearnSettings, learn_models
 from pliant_tsrrt.models import PushModels, footprints_from_scene, object_class, scene_pose, wrap
-from pliant_tsrrt.pushing import PRIMITIVES, apply_action
+from pliant_tsrrt.pushing import PRIMITIVES, apply_action, paddle_sweeps
 from pliant_tsrrt.reference import random_arrangements
 from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow
 
@@ -42,6 +43,8 @@ class TSRRTOptions(PushOptions):
                          "simulator now: poster lines 1-2) or a models file (JSON) written by that learner")
     start: str = option("scene", "initial arrangement: the scene's poses, or 'random' collision-free poses drawn "
                         "from the run's generator (placed in the world before execution)", choices=("scene", "random"))
+    start_clearance: float = option(0.06, "random start: the least gap between objects, obstacles and the table's "
+                                    "edge (m), so that the paddle fits between them", minimum=0.0)
     epsilon: float = option(0.1, "probability of a uniform sample instead of DIRECTGD's (poster line 6)",
                             minimum=0.0, maximum=1.0)
     max_nodes: int = option(5000, "tree size limit (poster line 4)", minimum=2)
@@ -110,7 +113,7 @@ class TSRRTPlanner(Planner):
         models, learn_time = self._models(problem, scene, names, rng)
         space = build_space(scene, o, models, names)
         if o.start == "random":
-            s0 = random_arrangements(space, rng, 1)[0]
+            s0 = random_arrangements(space, rng, 1, clearance=o.start_clearance)[0]
         else:
             s0 = np.array([scene_pose(scene, n) for n in names])
         options = self._option_dict()
@@ -124,7 +127,8 @@ class TSRRTPlanner(Planner):
                      start_cost=float(space.cost.cost(s0[None])[0]), total_time=time.perf_counter() - t0)
         policy = PushPlan(names=names, start=s0, actions=found.actions, states=found.states, cost=found.cost,
                           options=options, models=models)
-        return PlanResult(Status.SOLVED, policy=policy, cost=found.cost, statistics=stats, planner=self.name,
+        return PlanResult(Status.SOLVED, path=paddle_path(space, problem, found.states, found.actions), policy=policy,
+                          cost=found.cost, statistics=stats, planner=self.name,
                           options=options, message=f"{len(found.actions)} pushes to an arrangement of cost "
                                                    f"{found.cost:.4g} (start {stats['start_cost']:.4g})")
 
@@ -152,6 +156,19 @@ class TSRRTPlanner(Planner):
         return models, time.perf_counter() - t0
 
 
+def paddle_path(space: ObjectSpace, problem: PlanningProblem, states: np.ndarray, actions: list[int]) -> Path:
+    """The robot's side of a plan: the paddle's pose before each push, from the scene's start to its goal (SE(2))."""
+    poses = [np.asarray(problem.start, dtype=np.float64)]
+    for j, a in enumerate(actions):
+        o, p = divmod(int(a), 6)
+        start, _, _ = paddle_sweeps(states[j][None], space.fp, space.push)
+        q = start[0, o, p].copy()
+        q[2] = float(wrap(q[2]))
+        poses.append(q)
+    poses.append(np.asarray(problem.goal, dtype=np.float64))
+    return Path(np.array(poses), space_kind=problem.space.kind)
+
+
 def search_settings(o: TSRRTOptions) -> SearchSettings:
     return SearchSettings(epsilon=o.epsilon, max_nodes=o.max_nodes, gd_step=o.gd_step, gd_pool=o.gd_pool,
                           gd_tries=o.gd_tries)
@@ -165,15 +182,18 @@ def learn_settings(o) -> LearnSettings:
 def arena(world, scene, o: PushOptions) -> LearningArena:
     """The learning arena over every movable object of the scene (all of them may need parking)."""
     names = domain.movable_names(scene, ())
-    return LearningArena(world, names, footprints_from_scene(scene, names), domain.table_rect(scene, o.table),
-                         domain.bounds_rect(scene), o.push_settings(scene))
+    table = domain.table_rect(scene, o.table)
+    fixed_fp, fixed_poses, _ = domain.obstacles(scene, names, table, scene.resolution)
+    fixed = [(p[:2].copy(), float(r)) for p, r in zip(fixed_poses, fixed_fp.radius)]
+    return LearningArena(world, names, footprints_from_scene(scene, names), table, domain.bounds_rect(scene),
+                         o.push_settings(scene), fixed)
 
 
 def build_space(scene, o: TSRRTOptions, models: PushModels, names: list[str]) -> ObjectSpace:
     """The planning domain for the objects ``names`` of ``scene`` under options ``o``."""
     fp = footprints_from_scene(scene, names)
     table = domain.table_rect(scene, o.table)
-    obs_fp, obs_poses, _ = domain.obstacles(scene, names, table)
+    obs_fp, obs_poses, _ = domain.obstacles(scene, names, table, scene.resolution)
     relations = domain.parse_relations(o.relations, names)
     cost = domain.task_cost(fp, table, (o.w_orth, o.w_area, o.w_edge, o.w_setting), relations, o.setting_scale)
     check = domain.checker(fp, obs_fp, obs_poses, table, o.margin)
@@ -239,6 +259,11 @@ def options_from_dict(values: dict) -> TSRRTOptions:
     return build_options(TSRRTOptions, {k: v for k, v in values.items() if k in known}, source="<plan>")
 
 
+#: margin (m) of the final collision verdict and of replanning from a jammed arrangement: footprints shrunk by 1 mm, so
+#: objects that merely touch (pymunk lets resting contacts overlap slightly) do not count as colliding
+TOUCH = -0.001
+
+
 class _Recording:
     """A world whose steps go to a :class:`pliant.execution.Recorder` (the pushes' control steps)."""
 
@@ -253,6 +278,15 @@ class _Recording:
         self.clock[0] += dt
         self.recorder.add(self.world, q, self.clock[0], velocity, q)
         return q
+
+
+def _room_for(space: ObjectSpace, observed: np.ndarray) -> ObjectSpace:
+    """The space to replan in from ``observed``: the planning space, or -- when noise has brought objects closer than
+    the clearance margin, so that every push would count as a collision -- the same with a margin of :data:`TOUCH`
+    (objects resting against each other in the simulator overlap by a fraction of a millimetre)."""
+    if not space.checker.in_collision(observed)[0]:
+        return space
+    return replace(space, checker=replace(space.checker, margin=TOUCH))
 
 
 def _pose_errors(space: ObjectSpace, observed: np.ndarray, expected: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -288,6 +322,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
     records: list[dict] = []
     replans: list[dict] = []
     outcome = "success"
+    blocked = 0
     j = 0
     while True:
         if j == len(actions):
@@ -303,7 +338,22 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             a = actions[j]
             obj, prim = divmod(a, 6)
             predicted = space.step(observed, a)
-            poses = apply_action(rec_world, all_names, fp_all, all_names.index(plan.names[obj]), prim, push, rng)
+            try:
+                poses = apply_action(rec_world, all_names, fp_all, all_names.index(plan.names[obj]), prim, push, rng)
+            except SimulationError as exc:     # e.g. the noisy paddle placement lands in a wall: skip it, replan
+                blocked += 1
+                records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "skipped": str(exc)})
+                if len(replans) >= o.max_replans:
+                    outcome = "failure"
+                    break
+                reason = "blocked"
+                found = grow(_room_for(space, observed), observed, rng, search_settings(o),
+                             Termination(max_time=o.replan_time))
+                replans.append({"after_action": len(records), "reason": reason,
+                                "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
+                                "actions": len(found.actions)})
+                actions, expected, planned_cost, j = found.actions, found.states, found.cost, 0
+                continue
             observed = np.array([poses[n] for n in plan.names])
             j += 1
             err_t, dth = _pose_errors(space, observed, expected[j])
@@ -316,18 +366,19 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             if not (replan and len(replans) < o.max_replans):
                 continue
             reason = "deviation"
-        found = grow(space, observed, rng, search_settings(o), Termination(max_time=o.replan_time))
+        found = grow(_room_for(space, observed), observed, rng, search_settings(o), Termination(max_time=o.replan_time))
         replans.append({"after_action": len(records), "reason": reason,
                         "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
                         "actions": len(found.actions)})
         actions, expected, planned_cost, j = found.actions, found.states, found.cost, 0
     final_cost = float(space.cost.cost(observed[None])[0])
-    collided = bool(replace(space.checker, margin=0.0).in_collision(observed)[0])
+    collided = bool(replace(space.checker, margin=TOUCH).in_collision(observed)[0])
     if outcome == "success" and collided:
         outcome = "failure"
     recorder.settle(world)
     record = recorder.record(outcome, events=[f"final cost {final_cost:.4g} (first plan {plan.cost:.4g}); "
-                                              f"{len(replans)} replans; collision-free: {not collided}"],
+                                              f"{len(replans)} replans; {blocked} pushes skipped; "
+                                              f"collision-free: {not collided}"],
                              actions=records, adaptations=replans, world=world_name)
     record.final_cost = final_cost
     record.final_state = observed

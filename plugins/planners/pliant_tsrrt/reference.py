@@ -17,12 +17,17 @@ from pliant.errors import PlanningError
 from pliant_tsrrt.search import ObjectSpace
 
 
-def random_arrangements(space: ObjectSpace, rng: np.random.Generator, count: int, tries: int = 2000) -> np.ndarray:
-    """``count`` collision-free arrangements ``(count, k, 3)``, each object uniform on the table with any yaw."""
+def random_arrangements(space: ObjectSpace, rng: np.random.Generator, count: int, tries: int = 2000,
+                        clearance: float = 0.0) -> np.ndarray:
+    """``count`` collision-free arrangements ``(count, k, 3)``, each object uniform on the table with any yaw, every
+    footprint at least ``clearance`` (m) from the others, the obstacles and the table's edge (besides the margin)."""
+    from dataclasses import replace
+
+    checker = replace(space.checker, margin=space.checker.margin + 0.5 * clearance)
     out = []
     for _ in range(tries):
         batch = np.stack([space.random_config(rng) for _ in range(256)])
-        out.extend(batch[~space.checker.in_collision(batch)])
+        out.extend(batch[~checker.in_collision(batch)])
         if len(out) >= count:
             return np.array(out[:count])
     raise PlanningError("could not place the objects without collision on the table", field="objects",

@@ -1,0 +1,111 @@
+"""APPLY_ACTION and LEARN_MODEL (poster ICHR 2010) in pymunk through the core's Simulator interface, the push-models
+learner, and the plan's execution with monitoring."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pliant import load_scene, registry
+from pliant.errors import PliantError, SimulationError
+from pliant.interfaces import Context
+from pliant_tsrrt.learning import learn_models
+from pliant_tsrrt.models import footprints_from_scene, object_class
+from pliant_tsrrt.planner import TSRRTOptions, arena, learn_settings
+from pliant_tsrrt.pushing import PRIMITIVES, PushSettings, apply_action
+
+
+def _world(scene_name="tsrrt-table", **options):
+    scene = load_scene(scene_name)
+    ctx = Context(scene=scene)
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    ctx.simulator = registry.create("simulator", "pymunk", ctx, max_force=50.0, table_friction=0.5, **options)
+    return scene, ctx
+
+
+def test_set_object_poses_places_objects_and_names_bad_input():
+    scene, ctx = _world()
+    sim = ctx.simulator
+    sim.set_object_poses({"can-1": np.array([0.5, 0.4, 0.3])})
+    poses = sim.object_poses()
+    assert np.allclose(poses["can-1"], [0.5, 0.4, 0.3]) and np.allclose(poses["book-1"][:2], [0.22, 0.58])
+    with pytest.raises(SimulationError, match="set_object_poses"):
+        sim.set_object_poses({"table": np.zeros(3)})
+    with pytest.raises(SimulationError, match=r"set_object_poses\.can-1"):
+        sim.set_object_poses({"can-1": np.array([0.5, np.nan, 0.0])})
+    kinematic = registry.create("simulator", "kinematic", ctx)
+    assert not kinematic.can_place_objects
+    with pytest.raises(SimulationError, match="cannot place"):
+        kinematic.set_object_poses({"can-1": np.zeros(3)})
+
+
+def test_a_push_moves_the_object_along_its_own_axis():
+    scene, ctx = _world()
+    names = [o.name for o in scene.objects if o.movable]
+    fp = footprints_from_scene(scene, names)
+    sim = ctx.simulator
+    sim.set_object_poses({"block-1": np.array([0.5, 0.4, np.pi / 2])})
+    before = sim.object_poses()
+    after = apply_action(sim, names, fp, names.index("block-1"), PRIMITIVES.index("push+x"), PushSettings(),
+                         np.random.default_rng(0))
+    moved = after["block-1"] - before["block-1"]
+    # push+x along the block's own x axis, which points along world +y at 90 degrees; depth 5 cm
+    assert 0.03 < moved[1] < 0.055 and abs(moved[0]) < 0.005 and abs(moved[2]) < 0.02
+    assert np.allclose(after["book-1"], before["book-1"]) and np.allclose(after["can-1"], before["can-1"])
+
+
+def test_learn_model_stops_at_sigma_ref_and_restores_the_objects():
+    scene, ctx = _world()
+    sim = ctx.simulator
+    before = sim.object_poses()
+    o = TSRRTOptions(min_pushes=3, max_pushes=6)
+    models, report = learn_models(arena(sim, scene, o), learn_settings(o), np.random.default_rng(0), holdout=2,
+                                  only=["can-1"])
+    assert list(models.models) == ["can"]
+    # without noise pymunk repeats itself: the variance is ~0 after the fewest pushes
+    assert all(d.n == 3 for d in models.models["can"])
+    push = models.models["can"][PRIMITIVES.index("push+y")].mean
+    assert 0.03 < push[1] < 0.055
+    assert report["holdout"]["can"]["push+x"]["translation_error"] < 0.005
+    after = sim.object_poses()
+    assert all(np.allclose(before[n], after[n]) for n in before)
+
+
+def test_learner_component_fits_and_refuses_empty_data():
+    scene, ctx = _world()
+    learner = registry.create("learner", "push-models", ctx, min_pushes=2, max_pushes=3, holdout=1)
+    out = learner.fit(["can-1"], np.random.default_rng(0))
+    assert set(out) == {"can"} and out["can"]["pushes"] == 12
+    assert object_class("can-1") in learner.models.models
+    with pytest.raises(PliantError, match="data"):
+        learner.fit([], np.random.default_rng(0))
+
+
+@pytest.mark.slow
+def test_pipeline_runs_end_to_end(tmp_path):
+    from pliant.pipeline import Pipeline
+
+    record = Pipeline.from_file("tsrrt-demo", overrides=[f'output="{tmp_path}"', "planner.max_time=1.0",
+                                                           "learner.max_pushes=4", "learner.holdout=0",
+                                                           "planner.replan_time=0.3", "planner.max_replans=2"]).run()
+    assert record.result.status.success
+    plan = record.result.policy
+    assert record.result.cost < record.result.statistics["start_cost"]
+    assert record.execution is not None and record.execution.outcome in ("success", "failure")
+    assert len(record.execution.actions) >= 1
+    for name in ("tsrrt.png", "push-models.png", "report.md", "result.json", "execution.json", "learned.json"):
+        assert (tmp_path / name).is_file()
+    from pliant.results import PlanResult
+
+    again = PlanResult.load(tmp_path / "result.json")
+    assert again.policy.actions == plan.actions and np.allclose(again.policy.states, plan.states)
+
+
+def test_planner_options_are_checked():
+    from pliant.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="planner.epsilon"):
+        registry.create("planner", "tsrrt", None, epsilon=2.0)
+    with pytest.raises(ConfigError, match="min_pushes"):
+        registry.create("planner", "tsrrt", None, min_pushes=30, max_pushes=10)
+    with pytest.raises(ConfigError, match="models"):
+        registry.create("planner", "tsrrt", None, models="nowhere.txt")
