@@ -98,12 +98,11 @@ class PiirlLearner(Learner):
         improved, replaced, demo_features, sample_features = [], [], [], []
         for demonstration in demonstrations:
             better, count = self.sampler.improve(demonstration, rng)
-            samples = self.sampler.draw(better, rng)
+            _, drawn_features = self.sampler.draw_with_features(better, rng)
             improved.append(better)
             replaced.append(count)
             demo_features.append(self.features.of_path(better.path))
-            sample_features.append(self.features.of_paths(samples) if samples else
-                                   np.zeros((0, len(self.features.names))))
+            sample_features.append(drawn_features)
         fitted_at = time.perf_counter()
         result = recover(np.array(demo_features).reshape(len(demonstrations), -1), sample_features,
                          _part(self.options, RecoveryOptions))

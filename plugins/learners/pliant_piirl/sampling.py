@@ -19,10 +19,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from pliant.options import option
 
 from pliant_piirl.demonstration import Demonstration
+
+#: the tolerance (m) of :meth:`DemonstrationTask.allows`, which the funnel check applies
+FUNNEL_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -95,35 +99,91 @@ class PathSampler:
         return out
 
     def draw(self, demonstration: Demonstration, rng: np.random.Generator, n: int | None = None) -> list[np.ndarray]:
-        """Up to ``n`` (default :attr:`SampleOptions.samples`) valid sample paths around ``demonstration``."""
+        """Up to ``n`` (default :attr:`SampleOptions.samples`) valid sample paths around ``demonstration``, each
+        ``(waypoints, d)`` (configurations of the robot's space: m, unit quaternions)."""
+        return self.draw_with_features(demonstration, rng, n)[0]
+
+    def draw_with_features(self, demonstration: Demonstration, rng: np.random.Generator,
+                           n: int | None = None) -> tuple[list[np.ndarray], np.ndarray]:
+        """:meth:`draw` and the paths' features ``(len(paths), n_objects)`` (robot points, as
+        :meth:`DeformationFeatures.of_paths` gives them), read once from the states the funnel check measured.
+
+        Each batch of candidates is drawn, retracted and put back on the target as one array.  The funnel is
+        checked first at the waypoints (a waypoint is one of the path's states, to rounding, so a path with one
+        outside beyond rounding fails), then at every state of the survivors, in order, until ``n`` are accepted.
+        Paths, features and the random stream are those of checking candidates one by one."""
         n = self.options.samples if n is None else n
         base = self.resample(demonstration.path)
         task = demonstration.task
-        out: list[np.ndarray] = []
+        chol = self._chol if task.goal is None else self._chol_clamped
+        inner = slice(1, 1 + len(chol))
+        kept: list[np.ndarray] = []
+        kept_states: list[np.ndarray] = []
+        kept_counts: list[int] = []
         budget = n * (1 + self.options.redraws)
-        while len(out) < n and budget > 0:
-            batch = min(budget, 2 * (n - len(out)))
+        while len(kept) < n and budget > 0:
+            batch = min(budget, 2 * (n - len(kept)))
             budget -= batch
-            chol = self._chol if task.goal is None else self._chol_clamped
             noise = np.einsum("ij,bjt->bit", chol, rng.normal(size=(batch, len(chol), len(self._scale))))
-            for eps in noise * self._scale:
-                sample = base.copy()
-                sample[1:1 + len(chol)] = self.space.retract(base[1:1 + len(chol)], eps)
-                if task.goal is None:
-                    sample[-1] = self._onto_target(sample[-1], task.target)
-                else:
-                    sample[-1] = task.goal
-                if task.allows(self.features.outline(self.features.states(sample))).all():
-                    out.append(sample)
-                    if len(out) == n:
-                        break
-        feats = self.features.of_paths(out) if out else np.zeros((0, len(self.features.names)))
-        return [p for p, f in zip(out, feats) if np.all(np.isfinite(f))]
+            samples = np.repeat(base[None], batch, axis=0)
+            samples[:, inner] = self.space.retract(base[inner], noise * self._scale)
+            if task.goal is None:
+                samples[:, -1] = self._onto_targets(samples[:, -1], task.target)
+            else:
+                samples[:, -1] = task.goal
+            b, k, d = samples.shape
+            maybe = self._paths_allowed(samples.reshape(b * k, d), np.full(b, k), task, exact=False)
+            candidates = np.flatnonzero(maybe)
+            while len(candidates) and len(kept) < n:
+                take, candidates = candidates[:n - len(kept)], candidates[n - len(kept):]
+                states, counts = self.features.path_states(samples[take])
+                ok = self._paths_allowed(states, counts, task)
+                starts = np.cumsum(counts) - counts
+                for i in np.flatnonzero(ok):
+                    kept.append(samples[take[i]])
+                    kept_states.append(states[starts[i]:starts[i] + counts[i]])
+                    kept_counts.append(counts[i])
+        if not kept:
+            return [], np.zeros((0, len(self.features.names)))
+        feats = self.features.of_states(np.concatenate(kept_states), np.array(kept_counts))
+        finite = np.all(np.isfinite(feats), axis=1)
+        return [p for p, f in zip(kept, finite) if f], feats[finite]
 
-    def _onto_target(self, q: np.ndarray, target: np.ndarray) -> np.ndarray:
-        rot, _, _ = self.robot.rigid_placement(q[None])
-        q = q.copy()
-        q[:3] = target - rot[0] @ self.tip
+    def _paths_allowed(self, states: np.ndarray, counts: np.ndarray, task, exact: bool = True) -> np.ndarray:
+        """Bool ``(n,)``: whether every state of each path (``counts[i]`` consecutive rows of ``states``) keeps
+        the robot's outline inside the task's collision planes: ``task.allows(outline(states)).all()`` path by
+        path.  A rigid robot is checked by :func:`_funnel_codes`; a path it cannot decide (a point within
+        rounding of a plane) is checked by ``task.allows`` itself, or, when not ``exact``, counted as allowed
+        (a pre-check that may only reject what the exact check would reject)."""
+        counts = np.asarray(counts, dtype=np.int64)
+        starts = np.cumsum(counts) - counts
+        if len(task.planes) == 0 or len(counts) == 0:
+            return np.ones(len(counts), dtype=bool)
+        placement = self.features.outline_placement(states)
+        if placement is None:
+            allowed = task.allows(self.features.outline(states)).all(axis=1)
+            return np.logical_and.reduceat(allowed, starts)
+        rot, pos, hull = placement
+        planes = np.ascontiguousarray(task.planes, dtype=np.float64)
+        limits = planes[:, 3] + FUNNEL_TOLERANCE
+        # a bound on how far this kernel's n . x - limit and numpy's can differ (both round a sum of a few terms
+        # of size at most |p| + |h| + |limit|), with four orders of magnitude to spare
+        margin = 1e-12 * (1.0 + float(np.abs(limits).max()) + 2.0 * float(np.abs(pos).max())
+                          + float(np.linalg.norm(hull, axis=1).max()))
+        codes = np.empty(len(counts), dtype=np.int64)
+        _funnel_codes(np.ascontiguousarray(rot), np.ascontiguousarray(pos), np.ascontiguousarray(hull),
+                      np.ascontiguousarray(planes[:, :3]), limits, margin, counts, codes)
+        if exact:
+            for i in np.flatnonzero(codes < 0):
+                rows = states[starts[i]:starts[i] + counts[i]]
+                codes[i] = int(task.allows(self.features.outline(rows), FUNNEL_TOLERANCE).all())
+        return codes != 0
+
+    def _onto_targets(self, q: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """Configurations ``(b, d)`` moved (positions only) so that the tip is on ``target`` (m)."""
+        rot, _, _ = self.robot.rigid_placement(q)
+        q = np.array(q, dtype=np.float64, copy=True)
+        q[:, :3] = target - np.matmul(rot, self.tip)
         return q
 
     def improve(self, demonstration: Demonstration, rng: np.random.Generator) -> tuple[Demonstration, int]:
@@ -132,10 +192,9 @@ class PathSampler:
         mine = self.features.of_path(current.path)
         replaced = 0
         for _ in range(self.options.rounds):
-            samples = self.draw(current, rng)
+            samples, feats = self.draw_with_features(current, rng)
             if not samples:
                 break
-            feats = self.features.of_paths(samples)
             dominating = np.all(feats <= mine, axis=1) & np.any(feats < mine, axis=1)
             if not dominating.any():
                 break
@@ -144,3 +203,35 @@ class PathSampler:
             mine = feats[best]
             replaced += 1
         return current, replaced
+
+
+@numba.njit(cache=True, nogil=True)
+def _funnel_codes(rotations, positions, hull, normals, limits, margin, counts, out):
+    """For each path ``p``, made of the next ``counts[p]`` placements (``rotations`` ``(M, 3, 3)``, ``positions``
+    ``(M, 3)``, m) of the outline ``hull`` ``(h, 3)`` (body frame, m): ``out[p]`` 0 when some placed vertex
+    ``x`` has ``normals[j] . x - limits[j] > margin`` for some plane ``j`` (outside beyond doubt), 1 when every
+    vertex is below ``-margin`` for every plane (inside beyond doubt), -1 otherwise.  A path stops at its first
+    state outside."""
+    a = 0
+    for p in range(counts.shape[0]):
+        end = a + counts[p]
+        code = 1
+        while a < end and code != 0:
+            r = rotations[a]
+            for v in range(hull.shape[0]):
+                hx, hy, hz = hull[v, 0], hull[v, 1], hull[v, 2]
+                x = r[0, 0] * hx + r[0, 1] * hy + r[0, 2] * hz + positions[a, 0]
+                y = r[1, 0] * hx + r[1, 1] * hy + r[1, 2] * hz + positions[a, 1]
+                z = r[2, 0] * hx + r[2, 1] * hy + r[2, 2] * hz + positions[a, 2]
+                for j in range(normals.shape[0]):
+                    s = normals[j, 0] * x + normals[j, 1] * y + normals[j, 2] * z - limits[j]
+                    if s > margin:
+                        code = 0
+                        break
+                    if s >= -margin:
+                        code = -1
+                if code == 0:
+                    break
+            a += 1
+        a = end
+        out[p] = code
