@@ -31,7 +31,24 @@ $(ROS_STAMP): $(STAMP)
 	  $(BIN)/python -c "import site, pathlib; pathlib.Path(site.getsitepackages()[0], 'zz_debian_ros.pth').write_text('/usr/lib/python3/dist-packages\n')"; fi
 	touch $(ROS_STAMP)
 
-install: $(STAMP) $(ROS_STAMP)
+# Headless Chromium from Debian's packages, for the 3-D viewer's real-browser test and benchmark
+# (plugins/reports/pliant_viewer; selenium drives Debian's chromedriver, nothing is downloaded).  Installed when
+# missing and when we can (root, apt); otherwise that test skips, saying why.
+CHROMIUM_DEBS := chromium chromium-driver
+CHROMIUM_STAMP := $(VENV)/.chromium
+
+$(CHROMIUM_STAMP): $(STAMP)
+	@if [ ! -x /usr/bin/chromium ] || [ ! -x /usr/bin/chromedriver ]; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	    echo "installing headless Chromium from Debian: $(CHROMIUM_DEBS)"; \
+	    (apt-get install -y --no-install-recommends $(CHROMIUM_DEBS) >/dev/null 2>&1 || \
+	     (apt-get update -qq >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
+	      --no-install-recommends $(CHROMIUM_DEBS) >/dev/null)) || echo "could not install Chromium; the viewer's browser test skips"; \
+	  else echo "Chromium is missing and cannot be installed here (not root or no apt); the viewer's browser test skips"; fi; \
+	fi
+	touch $(CHROMIUM_STAMP)
+
+install: $(STAMP) $(ROS_STAMP) $(CHROMIUM_STAMP)
 
 demo: $(STAMP) $(ROS_STAMP)
 	$(BIN)/pliant run demo
@@ -43,14 +60,14 @@ demo: $(STAMP) $(ROS_STAMP)
 robot-demo: $(STAMP) $(ROS_STAMP)
 	$(BIN)/python -m pliant_ros1.demo iiwa-policy
 
-lint: $(STAMP) $(ROS_STAMP)
+lint: $(STAMP) $(ROS_STAMP) $(CHROMIUM_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
 
 test: lint
 	$(BIN)/pytest -q
 
-bench: $(STAMP) $(ROS_STAMP)
+bench: $(STAMP) $(ROS_STAMP) $(CHROMIUM_STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[bench]"   # the peers (OMPL) the benchmarks compare against
 	$(BIN)/pliant bench
 

@@ -129,7 +129,7 @@ def cmd_run(args) -> int:
     if args.output is not None:
         overrides.append(f"output={json.dumps(args.output)}")     # a JSON string is a TOML basic string
     pipeline = Pipeline.from_file(args.pipeline, overrides=overrides)
-    record = pipeline.run()
+    record = pipeline.run(on_step=getattr(args, "on_step", None))     # a plugin's listener (pliant run --view)
     width = max(len(k) for k, _ in record.summary_rows())
     for key, value in record.summary_rows():
         print(f"{key:<{width}}  {value}")

@@ -1,0 +1,252 @@
+"""What the viewer shows, as plain arrays: the translation from pliant's scenes and results to 3-D primitives.
+
+Nothing here imports viser, so the translation is tested without a browser.  Every function reads the core's
+data only (:class:`~pliant.scene.Scene`, :class:`~pliant.voxelgrid.VoxelGrid`, the ``RobotModel`` interface, the
+JSON of results, policies and executions) -- never another plugin.
+
+Colours (RGB, 0-255):
+
+- a voxel object's colour is its material: deformability 0 (rigid) is slate blue, 1 (free to deform) is green,
+  in between a blend; ``nan`` deformability or sensitivity (forbidden) is dark red.  Where a voxel object holds
+  per-voxel materials (a voxel-array shape) every voxel has its own colour.
+- the planned path is orange, the executed trajectory blue, the belief tree grey with its particles coloured
+  by the node's probability to reach the goal; a Pareto front's paths run from purple to yellow.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path as FilePath
+
+import numpy as np
+from pliant.voxelgrid import FREE, VoxelGrid
+
+RIGID = np.array([70, 90, 160], dtype=np.float64)        # deformability 0
+SOFT = np.array([90, 200, 110], dtype=np.float64)        # deformability 1
+FORBIDDEN = np.array([140, 20, 30], dtype=np.uint8)       # nan material
+PATH_COLOUR = (255, 140, 0)
+TRAJECTORY_COLOUR = (30, 110, 255)
+TREE_COLOUR = (150, 150, 150)
+
+
+def material_colours(deformability: np.ndarray, sensitivity: np.ndarray) -> np.ndarray:
+    """``(n, 3)`` uint8 colours of voxels with these materials (see the module's docstring)."""
+    d = np.asarray(deformability, dtype=np.float64)
+    s = np.asarray(sensitivity, dtype=np.float64)
+    bad = ~np.isfinite(d) | ~np.isfinite(s)
+    t = np.clip(np.nan_to_num(d), 0.0, 1.0)[:, None]
+    rgb = np.rint(RIGID * (1.0 - t) + SOFT * t).astype(np.uint8)
+    rgb[bad] = FORBIDDEN
+    return rgb
+
+
+@dataclass
+class VoxelObject:
+    """The voxels of one scene object: ``centres`` ``(n, 3)`` (m), ``colours`` ``(n, 3)`` uint8, the number of voxels
+    it occupies in all (``total``; only its surface voxels -- those with a free face neighbour -- are drawn)."""
+
+    name: str
+    centres: np.ndarray
+    colours: np.ndarray
+    total: int
+    deformability: float
+    sensitivity: float
+
+
+def voxel_objects(grid: VoxelGrid, surface_only: bool = True) -> list[VoxelObject]:
+    """One :class:`VoxelObject` per object of ``grid`` that occupies any voxel, in the grid's object order."""
+    ids = grid.object_id
+    keep = ids != FREE
+    if surface_only:
+        # a voxel is drawn when one of its six neighbours is not the same object (or it is on the grid's edge)
+        padded = np.pad(ids, 1, constant_values=FREE - 1)
+        interior = np.ones(ids.shape, dtype=bool)
+        for axis in range(3):
+            for shift in (-1, 1):
+                neighbour = np.roll(padded, shift, axis=axis)[1:-1, 1:-1, 1:-1]
+                interior &= neighbour == ids
+        keep &= ~interior
+    out = []
+    totals = np.bincount(ids[ids != FREE].ravel(), minlength=len(grid.object_names))
+    for k, name in enumerate(grid.object_names):
+        if totals[k] == 0:
+            continue
+        index = np.argwhere(keep & (ids == k))
+        d = grid.deformability[tuple(index.T)]
+        s = grid.sensitivity[tuple(index.T)]
+        mine = ids == k
+        out.append(VoxelObject(name, grid.centres(index), material_colours(d, s), int(totals[k]),
+                               float(np.mean(grid.deformability[mine])), float(np.mean(grid.sensitivity[mine]))))
+    return out
+
+
+class Tracer:
+    """Where a configuration is in 3-D, for drawing paths, trajectories and trees.
+
+    A free-flying body (R^3, SE(2), SE(3)) is drawn at its translation, so a path's polyline is the path's own
+    positions.  An articulated robot is drawn at its *tip*: the body point that moves farthest between the
+    scene's start and goal (the hand, for a reaching arm), through ``RobotModel.body_points``.
+    """
+
+    def __init__(self, space_kind: str, robot=None, start: np.ndarray | None = None,
+                 goal: np.ndarray | None = None, z: float = 0.0) -> None:
+        self.space_kind = space_kind
+        self.robot = robot
+        self.z = z
+        self.tip: int | None = None
+        if space_kind not in ("r3", "se2", "se3") and robot is not None:
+            ends = robot.body_points(np.stack([np.asarray(start, float), np.asarray(goal, float)]))
+            self.tip = int(np.argmax(np.linalg.norm(ends[1] - ends[0], axis=1)))
+
+    def points(self, q: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` positions of configurations ``(n, d)``."""
+        q = np.atleast_2d(np.asarray(q, dtype=np.float64))
+        if self.space_kind in ("r3", "se3"):
+            return q[:, :3].copy()
+        if self.space_kind == "se2":
+            return np.column_stack([q[:, 0], q[:, 1], np.full(len(q), self.z)])
+        if self.tip is None:
+            raise ValueError(f"cannot place configurations of a '{self.space_kind}' space without a robot")
+        out = np.empty((len(q), 3))
+        for i in range(0, len(q), 2048):        # body_points is batched; keep memory bounded
+            out[i:i + 2048] = self.robot.body_points(q[i:i + 2048], np.array([self.tip]))[:, 0]
+        return out
+
+
+@dataclass
+class Tree:
+    """A belief tree / partial policy as drawn: node positions ``(n, 3)``, edges ``(e, 2)`` node indices,
+    particles ``(p, 3)`` with the node each belongs to, per-node probability of reaching the goal, the nodes of the
+    solutions, and action targets ``(a, 3)``."""
+
+    nodes: np.ndarray
+    edges: np.ndarray
+    particles: np.ndarray
+    particle_node: np.ndarray
+    probability: np.ndarray
+    solution_nodes: np.ndarray
+    action_targets: np.ndarray
+
+
+def policy_tree(policy: dict, tracer: Tracer, max_particles: int = 50_000) -> Tree:
+    """The tree of a partial policy's JSON (``PartialPolicy.to_dict``: ``nodes`` with ``particles``, ``parent``,
+    ``expected``...; ``actions`` with ``target``; ``solutions``), placed by ``tracer``.
+
+    A node sits at its expected configuration (the mean of its particles when it has none).  At most
+    ``max_particles`` particles are kept (every k-th, evenly), so a huge tree stays drawable.
+    """
+    nodes = policy.get("nodes") or []
+    centres, parents, probs, parts, owner = [], [], [], [], []
+    for i, node in enumerate(nodes):
+        particles = np.asarray(node.get("particles") or [], dtype=np.float64)
+        expected = node.get("expected")
+        centre = np.asarray(expected, dtype=np.float64) if expected is not None else particles.mean(axis=0)
+        centres.append(centre)
+        parents.append(node.get("parent"))
+        probs.append(float(node.get("path_probability", node.get("probability", 0.0)) or 0.0))
+        if particles.size:
+            parts.append(particles.reshape(len(particles), -1))
+            owner.append(np.full(len(particles), i))
+    q = np.array(centres) if centres else np.zeros((0, len(policy.get("goal") or [0, 0, 0])))
+    positions = tracer.points(q) if len(q) else np.zeros((0, 3))
+    edges = np.array([[p, i] for i, p in enumerate(parents) if p is not None and 0 <= p < len(nodes)],
+                     dtype=np.int64).reshape(-1, 2)
+    if parts:
+        allp = np.concatenate(parts)
+        owners = np.concatenate(owner)
+        if len(allp) > max_particles:
+            keep = np.linspace(0, len(allp) - 1, max_particles).astype(np.int64)
+            allp, owners = allp[keep], owners[keep]
+        particle_xyz = tracer.points(allp)
+    else:
+        particle_xyz, owners = np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+    solution_nodes = np.unique(np.array([i for s in policy.get("solutions") or [] for i in s], dtype=np.int64))
+    targets = [a["target"] for a in policy.get("actions") or [] if a.get("target") is not None]
+    action_xyz = tracer.points(np.array(targets)) if targets else np.zeros((0, 3))
+    return Tree(positions, edges, particle_xyz, owners.astype(np.int64), np.array(probs), solution_nodes,
+                action_xyz)
+
+
+def probability_colours(p: np.ndarray) -> np.ndarray:
+    """``(n, 3)`` uint8: red (0) through yellow to green (1)."""
+    p = np.clip(np.nan_to_num(np.asarray(p, dtype=np.float64)), 0.0, 1.0)[:, None]
+    low, mid, high = np.array([220, 50, 40.0]), np.array([240, 200, 40.0]), np.array([40, 180, 60.0])
+    rgb = np.where(p < 0.5, low + (mid - low) * (p / 0.5), mid + (high - mid) * ((p - 0.5) / 0.5))
+    return np.rint(rgb).astype(np.uint8)
+
+
+def pareto_paths(statistics: dict, grid_lower: np.ndarray, resolution: float) -> list[dict]:
+    """The Pareto-optimal paths of an ``astar-pareto`` result (``statistics["pareto"]`` and ``["pareto_paths"]``,
+    lattice cells of the scene's voxel grid) as world polylines with their length and deformation."""
+    front = statistics.get("pareto") or []
+    cells = statistics.get("pareto_paths") or []
+    out = []
+    for point, c in zip(front, cells):
+        xyz = np.asarray(grid_lower, dtype=np.float64) + (np.asarray(c, dtype=np.float64) + 0.5) * resolution
+        out.append({"points": xyz, "length_voxels": float(point["length_voxels"]),
+                    "deformation": float(point["deformation"]), "p_values": list(point["p_values"])})
+    return out
+
+
+def front_colours(n: int) -> np.ndarray:
+    """``(n, 3)`` uint8 colours from purple to yellow for ``n`` Pareto paths."""
+    t = np.linspace(0.0, 1.0, max(n, 1))[:n, None]
+    return np.rint(np.array([90, 20, 140.0]) * (1 - t) + np.array([250, 210, 40.0]) * t).astype(np.uint8)
+
+
+@dataclass
+class RunData:
+    """What a run folder (``out/<name>/``) holds, read as JSON: the pipeline (``run.json``), the result
+    (``result.json``: status, path, policy, statistics) and the execution (``execution.json``)."""
+
+    folder: FilePath | None = None
+    pipeline: dict = field(default_factory=dict)
+    result: dict | None = None
+    execution: dict | None = None
+
+    @property
+    def scene_name(self) -> str | None:
+        return self.pipeline.get("scene")
+
+    @property
+    def robot_name(self) -> str | None:
+        robot = self.pipeline.get("robot")
+        if isinstance(robot, dict):
+            return robot.get("name")
+        return robot
+
+    @property
+    def path(self) -> np.ndarray | None:
+        p = (self.result or {}).get("path")
+        return None if not p else np.asarray(p["configurations"], dtype=np.float64)
+
+    @property
+    def policy(self) -> dict | None:
+        return (self.result or {}).get("policy")
+
+    @property
+    def trajectory(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(times (k,), configurations (k, d))`` of the execution, or ``None``."""
+        if not self.execution or not self.execution.get("configurations"):
+            return None
+        return (np.asarray(self.execution["times"], dtype=np.float64),
+                np.asarray(self.execution["configurations"], dtype=np.float64))
+
+
+def read_json(path: FilePath) -> dict:
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def read_run(folder: FilePath) -> RunData:
+    """Read a run folder written by ``pliant run`` (missing files are left out)."""
+    folder = FilePath(folder)
+    data = RunData(folder)
+    if (folder / "run.json").is_file():
+        data.pipeline = read_json(folder / "run.json").get("pipeline") or {}
+    if (folder / "result.json").is_file():
+        data.result = read_json(folder / "result.json")
+    if (folder / "execution.json").is_file():
+        data.execution = read_json(folder / "execution.json")
+    return data

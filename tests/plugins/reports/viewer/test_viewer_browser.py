@@ -1,0 +1,101 @@
+"""The viewer in a real headless Chromium (Debian's chromium + chromium-driver through selenium): the page loads
+from a server on 127.0.0.1, the client's own scene tree holds the nodes the server sent, its WebGL render is not
+blank and shows the objects' material colour, moving the time slider in the page moves the robot, and screenshots
+are saved (under out/viewer-test/, kept for the docs)."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pliant
+import pytest
+from pliant_viewer import browser, content
+from pliant_viewer.viewer import Viewer, build_content
+
+pytestmark = pytest.mark.slow
+SHOTS = Path("out/viewer-test")
+
+
+@pytest.fixture(scope="module")
+def chromium():
+    reason = browser.missing()
+    if reason:
+        pytest.skip(reason)
+    b = browser.Browser(width=1280, height=800)
+    yield b
+    b.quit()
+
+
+@pytest.fixture(scope="module")
+def maze_run(tmp_path_factory):
+    """A planned and executed run of the maze-slide pipeline (a few seconds), with a small policy tree over it."""
+    out = tmp_path_factory.mktemp("maze-slide")
+    pipeline = pliant.Pipeline.from_file("maze-slide", overrides=[f'output="{out}"'])
+    pipeline.run()
+    return out
+
+
+def _render(viewer, timeout=60.0):
+    t0 = time.perf_counter()
+    while not viewer.server.get_clients():
+        assert time.perf_counter() - t0 < timeout, "no client connected"
+        time.sleep(0.05)
+    client = next(iter(viewer.server.get_clients().values()))
+    return client.get_render(height=400, width=640, transport_format="png", timeout=timeout)[..., :3]
+
+
+def test_page_shows_the_run_and_the_slider_moves_the_robot(chromium, maze_run):
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    run = content.read_run(maze_run)
+    scene = pliant.load_scene(run.scene_name)
+    path = run.path
+    policy = {"nodes": [{"particles": [list(q)] * 3, "parent": i - 1 if i else None, "expected": list(q),
+                         "path_probability": 1.0 - 0.2 * i} for i, q in enumerate(path)],
+              "actions": [{"target": list(q)} for q in path[1:]], "solutions": [list(range(len(path)))]}
+    view = build_content(scene, run=run, policy=policy)
+    viewer = Viewer(host="127.0.0.1")
+    try:
+        assert viewer.url.startswith("http://127.0.0.1:")
+        viewer.show(view)
+        d = chromium.driver
+        d.get(viewer.url)
+        browser.wait_for_text(d, f"pliant -- {scene.name}")
+        browser.dismiss_notifications(d)
+        # the client's own scene tree: every top-level node the server sent
+        t0 = time.perf_counter()
+        while not {"/scene", "/robot", "/path", "/policy"} <= set(browser.scene_tree(d)):
+            assert time.perf_counter() - t0 < 30, browser.scene_tree(d)
+            time.sleep(0.1)
+        assert "walls: 1280 voxels" in d.find_element(By.TAG_NAME, "body").text
+        # the browser's WebGL render: not blank, with the walls' material colour on screen
+        image = _render(viewer)
+        assert image.std() > 5 and len(np.unique(image.reshape(-1, 3), axis=0)) > 50, "blank page"
+        wall = content.material_colours(np.array([0.0]), np.array([1.0]))[0].astype(int)
+        near = np.abs(image.astype(int) - wall).sum(axis=2) < 120      # lit and shaded, but that hue
+        assert near.sum() > 200, "the walls are not drawn"
+        SHOTS.mkdir(parents=True, exist_ok=True)
+        d.save_screenshot(str(SHOTS / "maze-start.png"))
+        before = np.asarray(viewer.robot_drawing.frame.position).copy()
+        # move the time slider in the page, as a user would (keyboard on the slider's thumb)
+        (thumb,) = d.find_elements(By.CSS_SELECTOR, '[role="slider"]')
+        thumb.click()
+        thumb.send_keys(Keys.END)
+        t0 = time.perf_counter()
+        while viewer.slider.value < viewer.slider.max - 1e-6:
+            assert time.perf_counter() - t0 < 20, "the slider's move did not reach the server"
+            time.sleep(0.05)
+        assert viewer.slider_moves >= 1
+        time.sleep(0.3)
+        after = np.asarray(viewer.robot_drawing.frame.position)
+        _, executed = run.trajectory
+        np.testing.assert_allclose(after[:2], executed[-1, :2], atol=1e-6)
+        assert np.linalg.norm(after - before) > 1.0
+        moved = _render(viewer)
+        assert np.abs(moved.astype(int) - image.astype(int)).sum(axis=2).astype(bool).sum() > 100
+        d.save_screenshot(str(SHOTS / "maze-end.png"))
+    finally:
+        viewer.stop()

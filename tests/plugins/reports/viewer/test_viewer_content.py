@@ -1,0 +1,160 @@
+"""The scene-to-viewer translation (no browser): voxel counts and colours per object, polylines equal to the path,
+the policy tree, the Pareto front, run folders, and the viser scene graph the page receives."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pliant
+import pytest
+from pliant.scene import Scene
+from pliant.voxelgrid import VoxelGrid
+from pliant_viewer import content
+from pliant_viewer.commands import resolve
+from pliant_viewer.viewer import Viewer, build_content
+
+
+def small_scene() -> Scene:
+    """A 10 x 10 x 10 grid of 0.1 m voxels: a rigid 4 x 4 x 4 cube, a soft 2 x 3 x 1 slab and a forbidden voxel."""
+    return Scene.from_dict({
+        "name": "known", "start": [0.05, 0.05, 0.95], "goal": [0.95, 0.95, 0.95],
+        "bounds": {"lower": [0, 0, 0], "upper": [1, 1, 1], "resolution": 0.1},
+        "objects": [
+            {"name": "cube", "cells": [[1, 5], [1, 5], [1, 5]], "deformability": 0.0, "sensitivity": 1.0},
+            {"name": "slab", "cells": [[6, 8], [6, 9], [0, 1]], "deformability": 1.0, "sensitivity": 0.2},
+            {"name": "forbidden", "cells": [[9, 10], [0, 1], [0, 1]], "deformability": 0.0,
+             "sensitivity": float("nan")},
+        ],
+        "robot": {"kind": "rigid", "name": "dot", "space": "r3", "deformability": 0.0, "sensitivity": 1.0,
+                  "parts": [{"cells": [[0, 1], [0, 1], [0, 1]]}]},
+    })
+
+
+def test_material_colours_known_answers():
+    rgb = content.material_colours(np.array([0.0, 1.0, 0.5, np.nan, 0.3]), np.array([1.0, 0.0, 1.0, 1.0, np.nan]))
+    assert rgb.dtype == np.uint8
+    np.testing.assert_array_equal(rgb[0], content.RIGID)
+    np.testing.assert_array_equal(rgb[1], content.SOFT)
+    np.testing.assert_array_equal(rgb[2], np.rint((content.RIGID + content.SOFT) / 2))
+    np.testing.assert_array_equal(rgb[3], content.FORBIDDEN)
+    np.testing.assert_array_equal(rgb[4], content.FORBIDDEN)
+
+
+def test_voxel_objects_counts_and_colours():
+    grid = VoxelGrid.from_scene(small_scene())
+    objects = {o.name: o for o in content.voxel_objects(grid)}
+    assert list(objects) == ["cube", "slab", "forbidden"]
+    assert objects["cube"].total == 64 and len(objects["cube"].centres) == 64 - 8      # a 2x2x2 core is hidden
+    assert objects["slab"].total == 6 and len(objects["slab"].centres) == 6
+    assert objects["forbidden"].total == 1
+    np.testing.assert_array_equal(objects["cube"].colours, np.tile(content.RIGID, (56, 1)))
+    np.testing.assert_array_equal(objects["slab"].colours, np.tile(content.SOFT, (6, 1)))
+    np.testing.assert_array_equal(objects["forbidden"].colours, [content.FORBIDDEN])
+    # the slab's voxel centres, exactly
+    expected = {(x + 0.05, y + 0.05, 0.05) for x in (0.6, 0.7) for y in (0.6, 0.7, 0.8)}
+    assert {tuple(np.round(c, 9)) for c in objects["slab"].centres} == {tuple(np.round(e, 9)) for e in expected}
+    full = {o.name: o for o in content.voxel_objects(grid, surface_only=False)}
+    assert len(full["cube"].centres) == 64
+
+
+def test_tracer_places_free_flyers_at_their_translation():
+    q = np.array([[0.1, 0.2, 0.3, 0, 0, 0, 1], [0.4, 0.5, 0.6, 0, 0, 0, 1]])
+    np.testing.assert_array_equal(content.Tracer("se3").points(q), q[:, :3])
+    np.testing.assert_array_equal(content.Tracer("se2", z=0.5).points(q[:, :3]), [[0.1, 0.2, 0.5], [0.4, 0.5, 0.5]])
+
+
+def test_policy_tree_from_json():
+    policy = {"nodes": [
+        {"particles": [[0, 0, 0], [0.2, 0, 0]], "parent": None, "expected": [0.1, 0, 0], "path_probability": 1.0},
+        {"particles": [[1, 1, 1]], "parent": 0, "expected": None, "path_probability": 0.25},
+        {"particles": [], "parent": 1, "expected": [2, 2, 2], "path_probability": 0.0}],
+        "actions": [{"target": [1, 1, 1]}, {"target": [2, 2, 2]}], "solutions": [[0, 1, 2]]}
+    tree = content.policy_tree(policy, content.Tracer("r3"))
+    np.testing.assert_allclose(tree.nodes, [[0.1, 0, 0], [1, 1, 1], [2, 2, 2]])
+    np.testing.assert_array_equal(tree.edges, [[0, 1], [1, 2]])
+    np.testing.assert_array_equal(tree.particle_node, [0, 0, 1])
+    np.testing.assert_allclose(tree.action_targets, [[1, 1, 1], [2, 2, 2]])
+    np.testing.assert_array_equal(tree.solution_nodes, [0, 1, 2])
+    colours = content.probability_colours(tree.probability)
+    assert colours[0, 1] > colours[0, 0] and colours[2, 0] > colours[2, 1]       # green at 1, red at 0
+
+
+def test_pareto_paths_are_world_positions_of_cells():
+    stats = {"pareto": [{"p_values": [0.1], "length_voxels": 3.0, "deformation": 2.5}],
+             "pareto_paths": [[[0, 0, 0], [1, 0, 0], [1, 1, 0]]]}
+    (front,) = content.pareto_paths(stats, np.array([1.0, 2.0, 3.0]), 0.5)
+    np.testing.assert_allclose(front["points"], [[1.25, 2.25, 3.25], [1.75, 2.25, 3.25], [1.75, 2.75, 3.25]])
+
+
+@pytest.fixture
+def viewer():
+    v = Viewer(host="127.0.0.1")
+    yield v
+    v.stop()
+
+
+def test_viewer_scene_graph_of_a_run(tmp_path, viewer):
+    """A scene with a planned path and an execution: the nodes sent to the page, the polyline equal to the path,
+    and the time slider moving the robot."""
+    scene = small_scene()
+    path = np.array([[0.05, 0.05, 0.95], [0.5, 0.5, 0.95], [0.95, 0.95, 0.95]])
+    times = np.array([0.0, 0.5, 1.0, 1.5])
+    executed = np.array([[0.05, 0.05, 0.95], [0.3, 0.3, 0.95], [0.6, 0.6, 0.95], [0.9, 0.9, 0.95]])
+    (tmp_path / "run.json").write_text(json.dumps({"pipeline": {"name": "t", "scene": "known.toml"}}))
+    (tmp_path / "result.json").write_text(json.dumps({"status": "solved", "planner": "x", "statistics": {},
+                                                      "path": {"configurations": path.tolist()}}))
+    (tmp_path / "execution.json").write_text(json.dumps({"times": times.tolist(), "outcome": "success",
+                                                         "configurations": executed.tolist(), "world": "w"}))
+    view = build_content(scene, run=content.read_run(tmp_path))
+    viewer.show(view)
+    for name in ("/scene/objects/cube", "/scene/objects/slab", "/scene/objects/forbidden", "/scene/start",
+                 "/scene/goal", "/robot", "/path/planned", "/path/executed", "/path/now"):
+        assert name in viewer.nodes, name
+    cube = viewer.nodes["/scene/objects/cube"]
+    assert len(cube.batched_positions) == 56
+    np.testing.assert_array_equal(cube.batched_colors, np.tile(content.RIGID, (56, 1)))
+    segments = np.asarray(viewer.nodes["/path/planned"].points)
+    np.testing.assert_allclose(segments[:, 0], path[:-1], atol=1e-6)
+    np.testing.assert_allclose(segments[:, 1], path[1:], atol=1e-6)
+    segments = np.asarray(viewer.nodes["/path/executed"].points)
+    np.testing.assert_allclose(np.vstack([segments[:, 0], segments[-1:, 1]]), executed, atol=1e-6)
+    assert viewer.slider is not None and viewer.slider.max == pytest.approx(1.5)
+    viewer.slider.value = 1.0                    # the server-side slider drives the robot like a page's would
+    viewer.set_time(1.0)
+    np.testing.assert_allclose(viewer.nodes["/path/now"].position, executed[2], atol=1e-6)
+    np.testing.assert_allclose(viewer.robot_drawing.frame.position, executed[2], atol=1e-6)
+
+
+def test_live_steps_move_the_robot(viewer):
+    from pliant.execution import ExecutionStep
+
+    scene = small_scene()
+    viewer.show(build_content(scene))
+    for i, q in enumerate(np.linspace([0.05, 0.05, 0.95], [0.5, 0.5, 0.95], 5)):
+        viewer._live_sent = 0.0              # do not throttle in the test
+        viewer.on_step(ExecutionStep(0.1 * i, q, np.zeros(3), q, False, {}))
+    np.testing.assert_allclose(viewer.robot_drawing.frame.position, [0.5, 0.5, 0.95], atol=1e-6)
+    assert viewer.live_steps == 5 and "/path/live" in viewer.nodes
+
+
+def test_resolve_targets(tmp_path):
+    scene, run, policy = resolve("triple-wall", None)
+    assert scene.name == "triple-wall" and run is None and policy is None
+    (tmp_path / "run.json").write_text(json.dumps({"pipeline": {"scene": "triple-wall"}}))
+    (tmp_path / "policy.json").write_text(json.dumps({"nodes": [], "actions": []}))
+    scene, run, policy = resolve(str(tmp_path / "policy.json"), None)
+    assert scene.name == "triple-wall" and policy == {"nodes": [], "actions": []}
+    scene, run, policy = resolve(str(tmp_path), None)
+    assert run.scene_name == "triple-wall"
+    with pytest.raises(pliant.errors.PliantError):
+        resolve(str(tmp_path / "policy.json").replace("policy", "nothing"), None)
+
+
+def test_view_command_exports_html(tmp_path):
+    from pliant.cli import main
+
+    out = tmp_path / "view.html"
+    assert main(["view", "triple-wall", "--export", str(out)]) == 0
+    text = out.read_text()
+    assert "__VISER_EMBED_DATA__" in text and "http://" not in text.replace("http://www.w3.org", "")
