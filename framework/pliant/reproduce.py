@@ -98,9 +98,10 @@ class Row:
 
     @property
     def difference(self) -> float | None:
-        """``ours - thesis`` where both are numbers."""
+        """``ours - thesis`` where both are numbers (None if either is missing or NaN: nothing to compare)."""
         if isinstance(self.thesis, (int, float)) and isinstance(self.ours, (int, float)):
-            return float(self.ours) - float(self.thesis)
+            d = float(self.ours) - float(self.thesis)
+            return None if math.isnan(d) else d
         return None
 
     @property

@@ -42,6 +42,7 @@ def test_rows_mark_differences_beyond_tolerance_and_headlines_check_their_range(
     assert Row("x", 61, 61.4, tolerance=1.0).marked is False
     assert Row("x", 683, 600.0, tolerance=34.0).marked is True
     assert Row("x", None, 3.0).marked is False and Row("x", "n/a", 3.0, tolerance=1).difference is None
+    assert Row("x", 0.0, float("nan"), tolerance=0.1).marked is False            # nothing to compare
     assert Headline("h", 1.0, 0.5, 1.5).ok and not Headline("h", float("nan"), 0, 1).ok
     outcome = Outcome([Row("a", 1.0, 2.0, tolerance=0.5)], [Headline("h", 2.0, 0.0, 1.0, 1.0)], {"k": 1})
     text = render(Reproduction("t", "T", "m:f", {"quick": "q"}), "quick", outcome, {"pliant": "x"}, 1.0, Path("."))

@@ -63,3 +63,10 @@ def _experiment_command(args) -> int:
         print("  ".join(c.ljust(w) for c, w in zip(row, widths)))
     print(f"\nwritten: {Path(args.output) / args.name}/runs.jsonl, summary.json")
     return 0
+
+
+@hookimpl
+def pliant_reproductions():
+    from pliant_belief.reproduce import declarations
+
+    return declarations()
