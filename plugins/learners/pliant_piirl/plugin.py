@@ -250,3 +250,10 @@ def _deformability_command(args) -> int:
     print(render_table81(run_table81(repetitions=args.repetitions, force=args.force, seed=args.seed,
                                      output=Path(args.output))))
     return 0
+
+
+@hookimpl
+def pliant_reproductions():
+    from pliant_piirl.reproduce import declarations
+
+    return declarations()
