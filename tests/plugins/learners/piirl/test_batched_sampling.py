@@ -187,7 +187,7 @@ def test_the_batched_funnel_check_equals_the_exact_one_even_on_the_boundary(cube
 # --- whole draws ------------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("options", [SampleOptions(samples=15),
-                                     SampleOptions(samples=10, translation=0.02, rotation=0.3, redraws=1)])
+                                     SampleOptions(samples=10, redraws=1)])
 def test_the_batched_draw_equals_the_sample_by_sample_reference(cube, options):
     features, shown = cube
     sampler = PathSampler(features, TIP, options)
@@ -196,15 +196,30 @@ def test_the_batched_draw_equals_the_sample_by_sample_reference(cube, options):
     expected, expected_feats = reference_draw(sampler, shown, reference_rng)
     assert _same(paths, expected) and np.array_equal(feats, expected_feats)
     assert rng.bit_generator.state == reference_rng.bit_generator.state            # the same random stream
-    assert np.array_equal(feats, features.of_paths(paths)) if paths else feats.shape == (0, len(features.names))
+    assert len(paths) > 0 and np.array_equal(feats, features.of_paths(paths))
     assert _same(sampler.draw(shown, np.random.default_rng(11)), paths)
 
 
-def test_the_second_option_set_runs_out_of_budget_like_the_reference(cube):
-    features, shown = cube
-    sampler = PathSampler(features, TIP, SampleOptions(samples=10, translation=0.02, rotation=0.3, redraws=1))
-    paths, _ = sampler.draw_with_features(shown, np.random.default_rng(11))
-    assert len(paths) < 10                                          # the wide noise leaves the funnel often
+def test_few_redraws_run_out_before_n_paths(cube):
+    features, shown = cube                                          # so the test above covers the budget's end too
+    sampler = PathSampler(features, TIP, SampleOptions(samples=10, redraws=1))
+    paths, feats = sampler.draw_with_features(shown, np.random.default_rng(11))
+    assert 0 < len(paths) < 10 and feats.shape == (len(paths), len(features.names))
+
+
+def test_samples_leaving_the_grid_are_dropped_as_the_reference_drops_them(cube):
+    features, _ = cube
+    grid = features.cost.grid
+    top = grid.lower[2] + grid.resolution * grid.shape[2]
+    down = rotation_onto([0.0, 0.0, -1.0])                          # the probe upright, its top 4 mm below the grid's
+    start, end = np.r_[0.2, 0.2, top - 0.09, down], np.r_[0.2, 0.2, top - 0.064, down]
+    rot, _, _ = features.robot.rigid_placement(end[None])
+    demo = Demonstration(DemonstrationTask(start, end[:3] + rot[0] @ TIP), np.array([start, end]))   # no funnel
+    sampler = PathSampler(features, TIP, SampleOptions(samples=20, rotation=0.2))
+    paths, feats = sampler.draw_with_features(demo, np.random.default_rng(0))
+    expected, expected_feats = reference_draw(sampler, demo, np.random.default_rng(0))
+    assert 0 < len(paths) < 20 and np.all(np.isfinite(feats))      # some tilted past the grid's top: NaN, dropped
+    assert _same(paths, expected) and np.array_equal(feats, expected_feats)
 
 
 def test_the_batched_draw_of_a_goal_task_equals_the_reference(planar):
