@@ -80,12 +80,40 @@ def _table(run: ReproductionRun) -> Outcome:
                      Headline("24 particles, gamma 1/8: P_exec", b["p_exec"], 0.5, 1.0, 0.99,
                               "ours 1.00 in the 3-plan runs of docs/plugins/belief.md")]
     directory = run.output / name
+    ompl = _ompl(run, directory, settings["plan_time"])
     notes = ("Executions run in pybullet, the thesis's in Gazebo; on se3-peg-in-hole (30% clearance) every row of ours "
              "plans and executes nearly always, so the thesis's ordering between rows is not reproduced (see "
              "docs/plugins/belief.md and the tight-hole experiments table-5.1-tight / table-5.2-tight).")
     return Outcome(rows, headlines, {"experiment": name, "mode": run.mode, **settings},
-                   records=[directory / "runs.jsonl", directory / "summary.json", directory / "settings.json"],
+                   records=[directory / "runs.jsonl", directory / "summary.json", directory / "settings.json", *ompl],
                    notes=notes)
+
+
+def _ompl(run: ReproductionRun, directory, plan_time: float) -> list:
+    """The planning runs in OMPL's benchmark log and database: one planner configuration per row, the policy's
+    goal probability as the run's ``goal probability``."""
+    from pliant.experiment import PlannerRuns, ompl_database, run_properties, write_ompl_log
+    from pliant.files import read_jsonl
+
+    records, _ = read_jsonl(directory / "runs.jsonl")
+    planners = []
+    for variant in dict.fromkeys(r["variant"] for r in records):
+        runs = []
+        for r in (r for r in records if r["variant"] == variant):
+            s = r.get("statistics", {})
+            props = run_properties({"status": "solved" if r["planned"] else "timeout", "time": r["plan_seconds"],
+                                    "cost": None, "nodes": s.get("nodes"), "iterations": s.get("iterations"),
+                                    "time_to_first": s.get("time_to_first"), "seed": r["seed"]})
+            props["goal probability REAL"] = s.get("best_probability")
+            props["particles simulated INTEGER"] = s.get("particles_simulated")
+            runs.append(props)
+        planners.append(PlannerRuns(variant, {"planner": "belief"}, runs))
+    if not planners:
+        return []
+    log = write_ompl_log(run.output / "benchmark.log", run.reproduction.name, planners, time_limit=plan_time,
+                         total_time=sum(r["plan_seconds"] for r in records), setup=f"pliant belief-experiment "
+                         f"{run.reproduction.name}")
+    return [log, ompl_database(run.output / "benchmark.db", [log])]
 
 
 def table_51(run: ReproductionRun) -> Outcome:

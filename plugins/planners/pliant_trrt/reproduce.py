@@ -94,4 +94,18 @@ def table_31(run: ReproductionRun) -> Outcome:
              "solution, then shortcut): differences beyond the thesis's std are expected there and marked. "
              "T-RRT's cost is above the thesis's at nFailMax 10; docs/plugins/trrt.md shows the anytime and "
              "perturbation variants that meet it.")
-    return Outcome(rows, headlines, settings, records=[log], notes=notes)
+    ompl_log, ompl_db = _ompl(run, records, fails, max_time)
+    return Outcome(rows, headlines, settings, records=[log, ompl_log, ompl_db], notes=notes)
+
+
+def _ompl(run: ReproductionRun, records: list[dict], fails, max_time: float):
+    """The runs in OMPL's benchmark log and database (Planner Arena reads ``benchmark.db``)."""
+    from pliant.experiment import PlannerRuns, ompl_database, run_properties, write_ompl_log
+
+    planners = [PlannerRuns(f"{planner} nFailMax {n}", {"pipeline": "cube-wall-trrt", "n_fail_max": n},
+                            [run_properties(r) for r in records if r["planner"] == planner and r["n_fail_max"] == n])
+                for planner in ("trrt", "gradient-trrt") for n in fails]
+    log = write_ompl_log(run.output / "benchmark.log", "cube-wall table 3.1", planners, time_limit=max_time,
+                         total_time=sum(r["time"] for r in records), setup="pliant pipeline cube-wall-trrt; "
+                         "costs in the thesis's unit (path_cost / resolution)")
+    return log, ompl_database(run.output / "benchmark.db", [log])
