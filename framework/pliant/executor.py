@@ -36,7 +36,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from pliant.errors import ConfigError, PliantError
-from pliant.termination import Condition, task_progress
+from pliant.termination import Condition, snapshot, task_progress
 
 #: how often a waiting executor checks its stop condition and cancel requests (s)
 POLL = 0.1
@@ -60,14 +60,65 @@ class TaskResult:
     seconds: float = 0.0
 
 
-def call_task(work: Callable[..., dict], args: tuple) -> tuple[dict, dict, str, float, str]:
-    """Run one task where the executor placed it: ``(record, progress, node, seconds, pliant version)``."""
+def call_task(work: Callable[..., dict], args: tuple, board=None, index: int = -1,
+              interval: float = 1.0) -> tuple[dict, dict, str, float, str]:
+    """Run one task where the executor placed it: ``(record, progress, node, seconds, pliant version)``.
+
+    ``board``: a Ray actor (:class:`ProgressBoard`) the task reports its progress values to every ``interval``
+    seconds while it runs; its answer says whether the executor cancelled the task, which then terminates every
+    stop condition the task polls (:func:`pliant.termination.task_progress`)."""
     import pliant
 
     t0 = time.perf_counter()
-    with task_progress() as sink:
-        record = work(*args)
-    return record, dict(sink), _node(), time.perf_counter() - t0, pliant.__version__
+    node = _node()
+    cancel = threading.Event()
+    done = threading.Event()
+
+    def report(sink: dict) -> None:
+        import ray
+
+        while not done.wait(interval):
+            try:
+                if ray.get(board.report.remote(index, node, snapshot(sink))):
+                    cancel.set()
+            except Exception:                   # the board is gone (the run ended): stop reporting
+                return
+
+    with task_progress(cancel) as sink:
+        if board is not None:
+            threading.Thread(target=report, args=(sink,), name="pliant-progress", daemon=True).start()
+        try:
+            record = work(*args)
+        finally:
+            done.set()
+    return record, snapshot(sink), node, time.perf_counter() - t0, pliant.__version__
+
+
+class ProgressBoard:
+    """Where running tasks on a cluster report their progress values, and learn that they were cancelled (a Ray
+    actor of no CPU, one per run)."""
+
+    def __init__(self) -> None:
+        self.running: dict[int, tuple[str, dict]] = {}
+        self.cancelled = False
+
+    def report(self, index: int, node: str, values: dict) -> bool:
+        """A running task's latest values; returns whether the run was cancelled."""
+        self.running[index] = (node, values)
+        return self.cancelled
+
+    def finished(self, indices: list[int]) -> None:
+        """Forget finished tasks."""
+        for index in indices:
+            self.running.pop(index, None)
+
+    def snapshot(self) -> dict[int, tuple[str, dict]]:
+        """Every running task's node and latest values."""
+        return dict(self.running)
+
+    def cancel(self) -> None:
+        """Cancel every task of the run (each stops at its next check)."""
+        self.cancelled = True
 
 
 def _node() -> str:
@@ -98,6 +149,10 @@ class Executor(ABC):
     def __init__(self) -> None:
         self._cancel = threading.Event()
         self.stopped = False
+        #: the running tasks' latest progress, ``index -> (node, values)`` (live where the executor supports it)
+        self.running: dict[int, tuple[str, dict]] = {}
+        #: called with :attr:`running` whenever it is refreshed (e.g. to draw a progress line)
+        self.on_progress: Callable[[dict], object] | None = None
 
     def cancel(self) -> None:
         """Stop a running :meth:`run` at its next check and cancel its tasks; safe from any thread."""
@@ -214,13 +269,14 @@ class RayExecutor(Executor):
     retries: how many times a task whose worker process or node died is run again (Ray's ``max_retries``).
     grace: seconds a cancelled running task gets to stop by itself before its worker is killed.
     cpus: CPUs each task asks for.
+    interval: seconds between a running task's progress reports (:attr:`Executor.running`, live).
     """
 
     name = "ray"
     remote = True
 
     def __init__(self, address: str | None = None, *, retries: int = 3, grace: float = 5.0, cpus: float = 1.0,
-                 ray_options: dict | None = None) -> None:
+                 interval: float = 1.0, ray_options: dict | None = None) -> None:
         super().__init__()
         if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
             raise ConfigError("must be a non-negative integer", field="retries", value=retries)
@@ -228,9 +284,11 @@ class RayExecutor(Executor):
         self.retries = retries
         self.grace = grace
         self.cpus = cpus
+        self.interval = interval
         self.ray_options = dict(ray_options or {})
         self._ray = None
         self._remote = None
+        self._board = None
         self._owns_connection = False
 
     def _connect(self):
@@ -283,9 +341,12 @@ class RayExecutor(Executor):
         if stop is not None:
             stop.start()
         work_ref = ray.put(work)                    # shipped once, not with every task
-        refs = {self._remote.remote(work_ref, tuple(task)): k for k, task in enumerate(tasks)}
+        self._board = ray.remote(num_cpus=0)(ProgressBoard).remote()
+        refs = {self._remote.remote(work_ref, tuple(task), self._board, k, self.interval): k
+                for k, task in enumerate(tasks)}
         pending = list(refs)
         finished = 0
+        polled = time.monotonic()
         try:
             while pending:
                 if self._should_stop(stop, finished):
@@ -293,6 +354,13 @@ class RayExecutor(Executor):
                     self._cancel_refs(pending)
                     return
                 done, pending = ray.wait(pending, num_returns=1, timeout=POLL)
+                if time.monotonic() - polled >= self.interval:
+                    polled = time.monotonic()
+                    self.running = ray.get(self._board.snapshot.remote())
+                    if self.on_progress is not None:
+                        self.on_progress(self.running)
+                if done:
+                    self._board.finished.remote([refs[ref] for ref in done])
                 for ref in done:
                     try:
                         record, progress, node, seconds, version = ray.get(ref)
@@ -311,14 +379,20 @@ class RayExecutor(Executor):
         except BaseException:
             self._cancel_refs(pending)
             raise
+        finally:
+            self.running = {}
+            self._board = None                  # the actor ends with its last handle
 
     def _cancel_refs(self, refs: list) -> None:
-        """Interrupt the tasks (KeyboardInterrupt in a running one), then kill those still running after ``grace``."""
+        """Cancel the tasks: a running one's stop conditions terminate (through the progress board) and the queued
+        ones never start; those still running after ``grace`` seconds are killed.  Their results are dropped (a
+        cancelled task's record is not the one a complete run gives)."""
         ray = self._ray
-        for ref in refs:
-            ray.cancel(ref, force=False)
         if not refs:
             return
+        ray.get(self._board.cancel.remote())
+        for ref in refs:                        # queued: never starts; running: a KeyboardInterrupt (Ctrl-C) too
+            ray.cancel(ref, force=False)
         _, left = ray.wait(refs, num_returns=len(refs), timeout=self.grace)
         for ref in left:
             try:

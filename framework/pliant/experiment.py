@@ -21,6 +21,7 @@ from pathlib import Path
 from pliant.errors import ConfigError
 from pliant.executor import Executor, LocalExecutor, current, stop_pool, worker_init
 from pliant.files import append_jsonl, read_jsonl, rewrite_jsonl, write_json, write_text
+from pliant.progress import ProgressLine
 from pliant.termination import Condition
 
 __all__ = ["PlannerRuns", "check_settings", "ompl_database", "open_log", "run_properties", "run_tasks", "stop_pool",
@@ -79,9 +80,22 @@ def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, l
     tasks = list(tasks)
     own = executor is None and current() is None
     executor = executor or current() or LocalExecutor(jobs)
+    line = ProgressLine("tasks")
+    finished = 0
+
+    def show(running: dict) -> None:                 # live, where the executor reports running tasks (Ray)
+        fields = {"done": f"{finished}/{len(tasks)}", "running": len(running),
+                  "nodes": len({node.split()[1] if node.startswith("node ") else node for node, _ in running.values()})}
+        for index, (_, values) in sorted(running.items())[:2]:
+            fields[f"task {index}"] = " ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                                               for k, v in values.items() if k in ("iterations", "best_cost", "nodes"))
+        line.update(**fields)
+
+    previous, executor.on_progress = executor.on_progress, show
     try:
         with log.open("a") as sink:
             for k, result in enumerate(executor.run(work, tasks, stop), start=1):
+                finished = k
                 records.append(result.record)
                 append_jsonl(sink, result.record)
                 where = f" [{result.node}]" if executor.remote else ""
@@ -91,6 +105,8 @@ def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, l
         echo(f"interrupted: the {len(records)} finished tasks are in {log}; run the same command again to resume")
         raise
     finally:
+        line.close()
+        executor.on_progress = previous
         if own:
             executor.close()
     if executor.stopped:

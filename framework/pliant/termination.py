@@ -17,7 +17,8 @@ Ctrl-C into ``terminate()`` while the loop runs (main thread only), so the plann
 Progress values: ``should_stop(iteration, best_cost, solved)`` publishes ``iterations``, ``best_cost`` and
 ``solved``; a planner may :meth:`Condition.publish` more (``nodes=...``).  :meth:`Condition.progress` returns a
 snapshot from any thread.  Inside a task run by an executor (:mod:`pliant.executor`), every published value also
-goes to that task's progress, which the executor collects with the task's record.
+goes to that task's progress, which the executor collects (live on a Ray cluster, and with the task's record), and
+the executor can cancel the task: every condition the task polls then terminates (:func:`task_progress`).
 """
 
 from __future__ import annotations
@@ -32,8 +33,10 @@ from dataclasses import dataclass
 
 from pliant.errors import ConfigError
 
-#: the progress values of the task an executor is running in this process (see :func:`task_progress`)
+#: the progress values of the task an executor is running in this process, and the event by which the executor
+#: cancels it (see :func:`task_progress`)
 _task_sink: dict | None = None
+_task_cancel: threading.Event | None = None
 _task_lock = threading.Lock()
 
 
@@ -95,6 +98,8 @@ class Condition:
         """Whether the loop should stop before ``iteration``, with the best cost so far (NaN: none) and whether a
         solution exists; also publishes them as progress values (``iterations``, ``best_cost``, ``solved``)."""
         self.publish(iterations=iteration, best_cost=best_cost, solved=solved)
+        if _task_cancel is not None and _task_cancel.is_set():       # the executor cancelled the task
+            self._event.set()
         return self._holds(iteration, best_cost, solved)
 
     def _holds(self, iteration: int, best_cost: float, solved: bool) -> bool:
@@ -285,15 +290,25 @@ def never() -> Termination:
 
 
 @contextmanager
-def task_progress() -> Iterator[dict]:
+def task_progress(cancel: threading.Event | None = None) -> Iterator[dict]:
     """Collect the progress values every condition publishes in this process while the block runs (the executor
-    wraps each task in it); yields the dict they are written to (read it after the block)."""
-    global _task_sink
+    wraps each task in it); yields the dict they are written to (read it after the block, or from another thread).
+
+    ``cancel``: an event the executor sets to cancel the task: every condition polled in the block then terminates
+    (:attr:`Condition.interrupted` becomes True), so an anytime planner returns its best result so far."""
+    global _task_sink, _task_cancel
     sink: dict = {}
     with _task_lock:
-        previous, _task_sink = _task_sink, sink
+        previous = _task_sink, _task_cancel
+        _task_sink, _task_cancel = sink, cancel
     try:
         yield sink
     finally:
         with _task_lock:
-            _task_sink = previous
+            _task_sink, _task_cancel = previous
+
+
+def snapshot(values: dict) -> dict:
+    """A copy of a task's progress values (:func:`task_progress`), safe while conditions publish from other threads."""
+    with _task_lock:
+        return dict(values)

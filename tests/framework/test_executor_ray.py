@@ -68,6 +68,33 @@ def test_a_stop_condition_cancels_the_tasks_left_on_the_cluster(cluster, tmp_pat
         executor.close()
 
 
+def test_running_tasks_report_progress_live_and_a_cancel_stops_them_by_their_own_conditions(cluster, tmp_path):
+    from pliant.testing.tasks import anytime
+
+    executor = RayExecutor(cluster.address, grace=10.0, interval=0.5)
+    executor.wait_for_cpus(2)
+    seen = []
+
+    def on_progress(running: dict) -> None:
+        seen.append(running)
+        if len(running) == 2 and all(values.get("iterations", 0) > 5 for _, values in running.values()):
+            executor.cancel()                                   # from the progress callback, as a viewer would
+
+    executor.on_progress = on_progress
+    markers = [tmp_path / f"task{k}" for k in range(4)]
+    t0 = time.monotonic()
+    try:
+        results = list(executor.run(anytime, [(k, 60.0, str(markers[k])) for k in range(4)]))
+    finally:
+        executor.close()
+    assert executor.stopped and results == [] and time.monotonic() - t0 < 40.0
+    live = seen[-1]
+    assert {node.split()[1] for node, _ in live.values()} and len({node.split()[1] for node, _ in live.values()}) == 2
+    assert all(values["best_cost"] < 100 and values["nodes"] > 5 for _, values in live.values())
+    # the two running tasks ended through their Termination (interrupted), the two queued ones never started
+    assert sorted(m.read_text() for m in markers if m.exists()) == ["interrupted", "interrupted"]
+
+
 def test_a_killed_worker_node_loses_no_task_and_the_records_equal_the_local_pools(cluster, tmp_path):
     from pliant_reachability.tables import _evaluate
 

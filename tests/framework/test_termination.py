@@ -169,3 +169,16 @@ def test_a_planner_takes_a_combined_condition():
     result = planner.plan(problem, np.random.default_rng(0), stop)
     assert result.status.value == "solved"
     assert stop.progress()["solved"] and stop.progress()["iterations"] < 3000 and not stop.interrupted
+
+
+def test_a_cancelled_task_terminates_every_condition_it_polls():
+    cancel = threading.Event()
+    with task_progress(cancel):
+        t = Termination(max_iterations=10**9)
+        t.start()
+        assert not t.should_stop(0)
+        cancel.set()                                   # the executor cancels the task
+        assert t.should_stop(1) and t.interrupted
+    fresh = Termination(max_iterations=10**9)         # outside the task: not affected
+    fresh.start()
+    assert not fresh.should_stop(2)
