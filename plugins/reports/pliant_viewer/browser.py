@@ -103,3 +103,34 @@ def dismiss_notifications(driver) -> None:
     driver.execute_script(
         "document.querySelectorAll('.mantine-Notification-closeButton, [class*=Notification] button')"
         ".forEach(b => b.click());")
+
+
+def start_frame_counter(driver) -> None:
+    """Count the page's animation frames from now on (read with :func:`read_frame_counter`)."""
+    driver.execute_script("""
+        window.__pliantFrames = 0; window.__pliantT0 = performance.now();
+        (function tick() { window.__pliantFrames++; requestAnimationFrame(tick); })();""")
+
+
+def read_frame_counter(driver) -> float:
+    """Frames per second since :func:`start_frame_counter`."""
+    frames, ms = driver.execute_script("return [window.__pliantFrames, performance.now() - window.__pliantT0];")
+    return frames / (ms / 1000.0)
+
+
+def orbit(driver, seconds: float) -> int:
+    """Drag the 3-D view with the mouse for ``seconds`` (small back-and-forth strokes on the canvas, as a user
+    turning the camera); returns the strokes made."""
+    import time
+
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    canvas = driver.find_element(By.TAG_NAME, "canvas")
+    strokes, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        dx = 40 if strokes % 2 == 0 else -40
+        ActionChains(driver, duration=50).move_to_element_with_offset(canvas, -150, 0).click_and_hold() \
+            .move_by_offset(dx, 10).move_by_offset(dx, -10).release().perform()
+        strokes += 1
+    return strokes

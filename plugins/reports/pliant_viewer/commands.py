@@ -18,6 +18,8 @@ def _address_arguments(p, prefix: str = "") -> None:
     p.add_argument(f"--{prefix}port", type=int, default=0, help="port (default: a free one)")
     p.add_argument(f"--{prefix}hold", type=float, default=None, metavar="SECONDS",
                    help="keep serving this long, then exit (default: until Ctrl-C)")
+    p.add_argument(f"--{prefix}robot-meshes", choices=("collision", "visual"), default="collision",
+                   help="a URDF robot's meshes: collision (light, the default) or visual (detailed, slow to draw)")
 
 
 def add_commands(subparsers) -> None:
@@ -45,6 +47,8 @@ def add_commands(subparsers) -> None:
         group.add_argument("--view-port", type=int, default=0, help="port of the live page (default: a free one)")
         group.add_argument("--view-hold", type=float, default=None, metavar="SECONDS",
                            help="after the run, keep serving the finished run this long (default: until Ctrl-C)")
+        group.add_argument("--view-robot-meshes", choices=("collision", "visual"), default="collision",
+                           help="a URDF robot's meshes in the live page (default collision)")
         original = run.get_default("handler")
         run.set_defaults(handler=lambda args: run_with_view(args, original))
 
@@ -85,14 +89,19 @@ def _load_scene(pliant, name: str, base: Path):
 
 
 def cmd_view(args) -> int:
+    from pliant.voxelgrid import VoxelGrid
+
+    from pliant_viewer.content import voxel_objects
     from pliant_viewer.viewer import Viewer, build_content
 
     t0 = time.perf_counter()
     scene, run, policy = resolve(args.target, args.scene)
-    view = build_content(scene, run=run, policy=policy)
-    viewer = Viewer(host=args.host, port=args.port or None)
+    viewer = Viewer(host=args.host, port=args.port or None, robot_meshes=args.robot_meshes)
     try:
-        viewer.show(view)
+        # the page can draw the scene's objects while the robot model and the rest are built
+        grid = VoxelGrid.from_scene(scene)
+        viewer.show_objects(scene, voxel_objects(grid))
+        viewer.show(build_content(scene, run=run, policy=policy, grid=grid))
         if args.export:
             out = viewer.export_html(Path(args.export), frames=args.frames)
             print(f"exported {out} ({out.stat().st_size / 1e6:.1f} MB)")
@@ -135,7 +144,7 @@ def run_with_view(args, original) -> int:
     scene = pipeline.load_scene()
     spec = pipeline.components.get("robot")
     robot = make_robot(scene, spec.name if spec and spec.name else None, spec.options if spec else None)
-    viewer = Viewer(host=args.view_host, port=args.view_port or None)
+    viewer = Viewer(host=args.view_host, port=args.view_port or None, robot_meshes=args.view_robot_meshes)
     try:
         viewer.show(build_content(scene, robot))
         print(f"viewer: {viewer.url}  (live; the execution streams in when it starts)", flush=True)
@@ -143,11 +152,13 @@ def run_with_view(args, original) -> int:
         code = original(args)
         folder = pipeline.output
         if (folder / "run.json").is_file():
+            viewer.robot_drawing.ready.wait(30)
             viewer.server.scene.reset()
             viewer.server.gui.reset()
             viewer.nodes.clear()
             viewer.show(build_content(scene, robot, run=read_run(folder)))
-        print(f"viewer: {viewer.url}  (the finished run; Ctrl-C to stop)", flush=True)
+        print(f"viewer: {viewer.url}  (the finished run; {len(viewer._live)} steps streamed live; Ctrl-C to stop)",
+              flush=True)
         sys.stdout.flush()
         _hold(args.view_hold)
     finally:

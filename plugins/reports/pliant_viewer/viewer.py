@@ -100,7 +100,7 @@ def make_tracer(scene, robot) -> content.Tracer:
 
 
 def build_content(scene, robot=None, *, run: content.RunData | None = None, policy: dict | None = None,
-                  grid: VoxelGrid | None = None) -> ViewContent:
+                  grid: VoxelGrid | None = None, max_particles: int = 50_000) -> ViewContent:
     """Translate a scene (and a run's path / policy / execution, or a policy file's JSON) into what is drawn."""
     robot = robot if robot is not None else make_robot(scene, run.robot_name if run else None)
     grid = grid if grid is not None else VoxelGrid.from_scene(scene)
@@ -120,7 +120,7 @@ def build_content(scene, robot=None, *, run: content.RunData | None = None, poli
         if run.execution:
             view.notes.append(f"execution: {run.execution.get('outcome')} in {run.execution.get('world')}")
     if policy is not None and policy.get("nodes"):
-        view.tree = content.policy_tree(policy, tracer)
+        view.tree = content.policy_tree(policy, tracer, max_particles=max_particles)
     if view.trajectory is None and view.path is not None and len(view.path) > 1:
         # no execution: the slider walks the planned path (one waypoint per second)
         view.trajectory = Timeline(np.arange(len(view.path), dtype=np.float64), view.path, label="planned path")
@@ -130,9 +130,10 @@ def build_content(scene, robot=None, *, run: content.RunData | None = None, poli
 class RobotDrawing:
     """The robot in the page: a URDF's meshes posed by joint values, or a rigid body's voxels posed as one frame."""
 
-    def __init__(self, server, robot, q0: np.ndarray, resolution: float) -> None:
+    def __init__(self, server, robot, q0: np.ndarray, resolution: float, meshes: str = "collision") -> None:
         self.server = server
         self.robot = robot
+        self.meshes = meshes
         self.urdf = None
         self.ready = threading.Event()
         self.error: BaseException | None = None
@@ -188,10 +189,14 @@ class RobotDrawing:
                             return str(candidate)
             return yourdfpy.filename_handler_magic(fname, dir=FilePath(description.urdf).parent)
 
-        urdf = yourdfpy.URDF.load(str(description.urdf), build_scene_graph=True, load_meshes=True,
-                                  build_collision_scene_graph=False, load_collision_meshes=False,
+        # collision meshes by default: Baxter's visual meshes are 412,633 triangles in 59 pieces (2.6 s to parse, under
+        # 1 frame/s in software WebGL), its collision meshes 18,955 in 37 (0.3 s)
+        visual = self.meshes == "visual"
+        urdf = yourdfpy.URDF.load(str(description.urdf), build_scene_graph=visual, load_meshes=visual,
+                                  build_collision_scene_graph=not visual, load_collision_meshes=not visual,
                                   filename_handler=handler)
-        self.urdf = ViserUrdf(self.server, urdf, root_node_name="/robot")
+        self.urdf = ViserUrdf(self.server, urdf, root_node_name="/robot", load_meshes=visual,
+                              load_collision_meshes=not visual, collision_mesh_color_override=(0.75, 0.22, 0.2))
         self.joint_names = list(self.urdf.get_actuated_joint_names())
         base = np.zeros(len(self.joint_names))
         for i, name in enumerate(self.joint_names):
@@ -234,13 +239,17 @@ def _wxyz(R: np.ndarray) -> np.ndarray:
 class Viewer:
     """A viser server drawing one :class:`ViewContent`; ``host`` is loopback unless asked otherwise."""
 
-    def __init__(self, host: str = "127.0.0.1", port: int | None = None) -> None:
+    def __init__(self, host: str = "127.0.0.1", port: int | None = None, robot_meshes: str = "collision") -> None:
         import viser
 
+        self.robot_meshes = robot_meshes
         self.host = host
         self.port = port or free_port(host)
         self.server = viser.ViserServer(host=host, port=self.port, verbose=False)
+        # no share button: viser's share links tunnel through an outside server; the page stays on this machine
         self.server.gui.configure_theme(control_width="medium", show_share_button=False)
+        # shadows cost most of a software-rendered frame (headless Chromium: 42 -> 30 fps on triple-wall)
+        self.server.scene.configure_default_lights(True, cast_shadow=False)
         self.nodes: dict[str, object] = {}
         self.view: ViewContent | None = None
         self.robot_drawing: RobotDrawing | None = None
@@ -264,32 +273,36 @@ class Viewer:
     def _add(self, name: str, handle) -> None:
         self.nodes[name] = handle
 
-    def show(self, view: ViewContent) -> None:
-        """Draw ``view`` (replacing what was drawn)."""
-        s = self.server.scene
-        self.view = view
-        scene = view.scene
+    def show_objects(self, scene, objects: list[content.VoxelObject]) -> None:
+        """Draw the scene's voxel objects and aim the camera (the first thing a page shows; :meth:`show` then adds
+        the rest without drawing them again)."""
         with self.server.atomic():
             centre = (scene.lower + scene.upper) / 2.0
             extent = float(np.max(scene.upper - scene.lower))
             self.server.initial_camera.position = tuple(centre + np.array([-0.45, -0.85, 0.6]) * extent)
             self.server.initial_camera.look_at = tuple(centre)
             self.server.initial_camera.up = (0.0, 0.0, 1.0)
-            s.set_up_direction("+z")
-            v, f = _cube(scene.resolution * 0.96)
-            for obj in view.objects:
-                name = f"/scene/objects/{obj.name}"
-                self._add(name, s.add_batched_meshes_simple(
-                    name, v, f, batched_wxyzs=np.tile([1.0, 0, 0, 0], (len(obj.centres), 1)),
-                    batched_positions=obj.centres.astype(np.float32), batched_colors=obj.colours, lod="off",
-                    cast_shadow=False, receive_shadow=False))
+            self.server.scene.set_up_direction("+z")
+            for obj in objects:
+                self._add(f"/scene/objects/{obj.name}", self._voxel_mesh(f"/scene/objects/{obj.name}", obj))
+
+    def show(self, view: ViewContent) -> None:
+        """Draw ``view`` (its objects unless :meth:`show_objects` drew them)."""
+        s = self.server.scene
+        self.view = view
+        scene = view.scene
+        if not any(n.startswith("/scene/objects/") for n in self.nodes):
+            self.show_objects(scene, view.objects)
+        extent = float(np.max(scene.upper - scene.lower))
+        with self.server.atomic():
             ends = view.tracer.points(np.stack([scene.start, scene.goal]))
             radius = max(scene.resolution, 0.01 * extent)
             self._add("/scene/start", s.add_icosphere("/scene/start", radius=radius, color=(40, 200, 60),
                                                       position=ends[0]))
             self._add("/scene/goal", s.add_icosphere("/scene/goal", radius=radius, color=(220, 40, 200),
                                                      position=ends[1]))
-            self.robot_drawing = RobotDrawing(self.server, view.robot, scene.start, scene.resolution)
+            self.robot_drawing = RobotDrawing(self.server, view.robot, scene.start, scene.resolution,
+                                              meshes=self.robot_meshes)
             self._add("/robot", self.robot_drawing)
             if view.path is not None and len(view.path) > 1:
                 self._polyline("/path/planned", view.tracer.points(view.path), content.PATH_COLOUR, 4.0)
@@ -302,6 +315,20 @@ class Viewer:
             for i, front in enumerate(view.pareto):
                 self._polyline(f"/pareto/{i}", front["points"], tuple(int(c) for c in colours[i]), 3.0)
         self._gui(view)
+
+    def _voxel_mesh(self, name: str, obj: content.VoxelObject):
+        """One mesh of the object's exposed voxel faces: one colour (``add_mesh_simple``), or per-voxel materials
+        as vertex colours (through trimesh, which viser sends as GLB)."""
+        colours = np.unique(obj.vertex_colours, axis=0)
+        if len(colours) <= 1:
+            colour = tuple(int(c) for c in (colours[0] if len(colours) else obj.colours[0]))
+            return self.server.scene.add_mesh_simple(name, obj.vertices.astype(np.float32), obj.faces,
+                                                     color=colour, side="double", flat_shading=True,
+                                                     cast_shadow=False, receive_shadow=False)
+        import trimesh
+
+        mesh = trimesh.Trimesh(obj.vertices, obj.faces, vertex_colors=obj.vertex_colours, process=False)
+        return self.server.scene.add_mesh_trimesh(name, mesh, cast_shadow=False, receive_shadow=False)
 
     def _polyline(self, name: str, points: np.ndarray, colour, width: float) -> None:
         pts = np.asarray(points, dtype=np.float32)
@@ -368,8 +395,10 @@ class Viewer:
         for n in names:
             handle = self.nodes[n]
             if isinstance(handle, RobotDrawing):
-                if handle.urdf is not None:
+                if handle.urdf is not None and handle.meshes == "visual":
                     handle.urdf.show_visual = event.target.value
+                elif handle.urdf is not None:
+                    handle.urdf.show_collision = event.target.value
                 elif hasattr(handle, "frame"):
                     handle.frame.visible = event.target.value
             else:
@@ -418,6 +447,24 @@ class Viewer:
             if len(self._live) > 1:
                 self._polyline("/path/live", self.view.tracer.points(np.array(self._live)), (0, 170, 255), 3.0)
             self.live_steps = len(self._live)
+
+    def show_particles(self, q: np.ndarray, trail: bool = True) -> None:
+        """Draw particles ``(n, d)`` (e.g. the belief's particles during an execution) as points at their tips, and
+        with ``trail`` extend each particle's trail."""
+        xyz = self.view.tracer.points(q).astype(np.float32)
+        self.nodes["/live/particles"] = self.server.scene.add_point_cloud(
+            "/live/particles", xyz, colors=(230, 80, 30), point_size=max(self.view.scene.resolution, 0.01),
+            point_shape="circle")
+        if trail:
+            self._trails = getattr(self, "_trails", [])
+            self._trails.append(xyz)
+            if len(self._trails) > 1:
+                a, b = self._trails[-2], self._trails[-1]
+                self._trail_segments = getattr(self, "_trail_segments", [])
+                self._trail_segments.append(np.stack([a, b], axis=1))
+                self.nodes["/live/trails"] = self.server.scene.add_line_segments(
+                    "/live/trails", np.concatenate(self._trail_segments), colors=(230, 120, 60), thickness=1.0,
+                    thickness_units="screen")
 
     # --- export -------------------------------------------------------------------------------------------------
 

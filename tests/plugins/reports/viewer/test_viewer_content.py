@@ -58,6 +58,22 @@ def test_voxel_objects_counts_and_colours():
     assert len(full["cube"].centres) == 64
 
 
+def _area(obj) -> float:
+    tri = obj.vertices[obj.faces]
+    return float(np.sum(np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)) / 2)
+
+
+def test_voxel_meshes_are_the_exposed_faces_merged_into_strips():
+    objects = {o.name: o for o in content.voxel_objects(VoxelGrid.from_scene(small_scene()))}
+    cube, slab = objects["cube"], objects["slab"]
+    assert _area(cube) == pytest.approx(6 * 0.4 * 0.4)
+    assert _area(slab) == pytest.approx(2 * (0.2 * 0.3 + 0.2 * 0.1 + 0.3 * 0.1))
+    assert len(cube.faces) == 2 * 6 * 4                 # each 4 x 4 side: four strips of four faces
+    np.testing.assert_allclose(cube.vertices.min(axis=0), [0.1, 0.1, 0.1])
+    np.testing.assert_allclose(cube.vertices.max(axis=0), [0.5, 0.5, 0.5])
+    np.testing.assert_array_equal(np.unique(cube.vertex_colours, axis=0), [content.RIGID])
+
+
 def test_tracer_places_free_flyers_at_their_translation():
     q = np.array([[0.1, 0.2, 0.3, 0, 0, 0, 1], [0.4, 0.5, 0.6, 0, 0, 0, 1]])
     np.testing.assert_array_equal(content.Tracer("se3").points(q), q[:, :3])
@@ -112,8 +128,7 @@ def test_viewer_scene_graph_of_a_run(tmp_path, viewer):
                  "/scene/goal", "/robot", "/path/planned", "/path/executed", "/path/now"):
         assert name in viewer.nodes, name
     cube = viewer.nodes["/scene/objects/cube"]
-    assert len(cube.batched_positions) == 56
-    np.testing.assert_array_equal(cube.batched_colors, np.tile(content.RIGID, (56, 1)))
+    assert len(cube.faces) == 48 and tuple(cube.color) == tuple(content.RIGID)
     segments = np.asarray(viewer.nodes["/path/planned"].points)
     np.testing.assert_allclose(segments[:, 0], path[:-1], atol=1e-6)
     np.testing.assert_allclose(segments[:, 1], path[1:], atol=1e-6)

@@ -1,0 +1,224 @@
+"""The 3-D viewer (plugins/reports/pliant_viewer) in headless Chromium: time to first frame, frames per second.
+
+1. Time to first frame, baxter-reach with its policy: ``pliant view RUN`` is started as a command (a new Python
+   process) while a headless Chromium (Debian's, through selenium; started before, as a user's browser is open)
+   keeps loading its address.  First frame = the page holds the viewer's summary (sent after every scene node:
+   voxel objects, path, policy tree) and one animation frame has been drawn after it.  Also: when the robot's
+   meshes are in (the client's scene tree holds ``/robot``).  Figure to reach: <= 2 s after the command.
+2. A 10,000-node tree: a synthetic belief tree over Baxter's 7 joints (random extensions from the start, 24
+   particles a node; 50,000 of its 240,000 particles drawn) on baxter-reach; frames per second while the page is
+   left alone and while the mouse orbits the camera.
+3. 10 s of a 24-particle execution, live: the Baxter execution of the run (or a synthetic one) streamed through
+   :meth:`Viewer.on_step` at its own rate (25 Hz) with 24 particles (the executed configuration plus noise) drawn
+   and trailed every step; frames per second during the stream and how many steps reached the page.
+
+    pliant bench viewer [-- --run out/viewer/baxter-policy --repeats 3]
+
+Chromium renders in software here (SwiftShader; no GPU), 1280 x 800, and the machine's other load counts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import pliant
+from _common import print_table, write_json
+from pliant.execution import ExecutionStep
+from pliant_viewer import browser
+from pliant_viewer.content import read_run
+from pliant_viewer.viewer import Viewer, build_content, free_port
+
+SHOTS = Path("out/bench/viewer")
+
+
+def first_frame(run: Path, b: browser.Browser, timeout: float = 120.0) -> dict:
+    """Seconds from starting ``pliant view RUN`` to its first frame in the browser, and to the robot's meshes."""
+    from selenium.common.exceptions import WebDriverException
+
+    d = b.driver
+    d.get("about:blank")
+    port = free_port()
+    url = f"http://127.0.0.1:{port}/"
+    exe = shutil.which("pliant") or str(Path(sys.executable).with_name("pliant"))
+    t0 = time.perf_counter()
+    proc = subprocess.Popen([exe, "view", str(run), "--port", str(port), "--hold", "120"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        loaded = False
+        while not loaded:
+            if time.perf_counter() - t0 > timeout:
+                raise TimeoutError("the page did not load")
+            try:
+                d.get(url)
+                loaded = "viser" in d.title.lower() or d.execute_script("return !!document.getElementById('root')")
+            except WebDriverException:
+                time.sleep(0.05)
+        t_page = time.perf_counter() - t0
+        browser.wait_for_text(d, "policy:", timeout)
+        d.set_script_timeout(30)
+        d.execute_async_script("const done = arguments[0]; requestAnimationFrame(() => done(1));")
+        t_first = time.perf_counter() - t0
+        d.save_screenshot(str(SHOTS / "first-frame.png"))
+        while "/robot" not in browser.scene_tree(d):
+            if time.perf_counter() - t0 > timeout:
+                raise TimeoutError("the robot did not arrive")
+            time.sleep(0.02)
+        t_robot = time.perf_counter() - t0
+        time.sleep(1.0)
+        browser.dismiss_notifications(d)
+        d.save_screenshot(str(SHOTS / "robot-in.png"))
+        return {"page": t_page, "first_frame": t_first, "robot": t_robot}
+    finally:
+        proc.terminate()
+        proc.wait(10)
+
+
+def synthetic_tree(scene, nodes: int, particles: int, rng: np.random.Generator) -> dict:
+    """A belief tree of ``nodes`` nodes grown by random extensions from the start (steps of 0.15 rad a joint, kept
+    in the joints' range) with ``particles`` particles each (the node plus 0.02 rad noise)."""
+    d = len(scene.start)
+    q = np.empty((nodes, d))
+    parent = np.full(nodes, -1)
+    q[0] = scene.start
+    for i in range(1, nodes):
+        parent[i] = rng.integers(0, i)
+        q[i] = np.clip(q[parent[i]] + rng.normal(0.0, 0.15, d), -2.5, 2.5)
+    out = []
+    for i in range(nodes):
+        parts = q[i] + rng.normal(0.0, 0.02, (particles, d))
+        out.append({"particles": parts.tolist(), "parent": None if i == 0 else int(parent[i]),
+                    "expected": q[i].tolist(), "path_probability": float(rng.uniform())})
+    return {"nodes": out, "actions": [{"target": q[i].tolist()} for i in range(1, nodes, 10)], "solutions": []}
+
+
+def open_page(viewer: Viewer, b: browser.Browser, text: str) -> None:
+    d = b.driver
+    d.get(viewer.url)
+    browser.wait_for_text(d, text, 120)
+    viewer.robot_drawing.ready.wait(120)
+    t0 = time.perf_counter()
+    while "/robot" not in browser.scene_tree(d) and time.perf_counter() - t0 < 60:
+        time.sleep(0.05)
+    time.sleep(2.0)
+    browser.dismiss_notifications(d)
+
+
+def tree_fps(scene, robot, b: browser.Browser, seconds: float, rng) -> dict:
+    t0 = time.perf_counter()
+    policy = synthetic_tree(scene, 10_000, 24, rng)
+    view = build_content(scene, robot, policy=policy)
+    viewer = Viewer()
+    try:
+        viewer.show(view)
+        build = time.perf_counter() - t0
+        open_page(viewer, b, "policy: 10000 nodes")
+        loaded = time.perf_counter() - t0
+        idle = b.frames_per_second(seconds)
+        browser.start_frame_counter(b.driver)
+        strokes = browser.orbit(b.driver, seconds)
+        orbiting = browser.read_frame_counter(b.driver)
+        b.driver.save_screenshot(str(SHOTS / "tree-10000.png"))
+        return {"nodes": len(view.tree.nodes), "particles_drawn": len(view.tree.particles), "build_s": build,
+                "page_s": loaded, "fps_idle": idle, "fps_orbit": orbiting, "strokes": strokes}
+    finally:
+        viewer.stop()
+
+
+def execution_fps(scene, robot, run, b: browser.Browser, rng, seconds: float = 10.0, rate: float = 25.0) -> dict:
+    view = build_content(scene, robot)
+    viewer = Viewer()
+    try:
+        viewer.show(view)
+        open_page(viewer, b, f"pliant -- {scene.name}")
+        if run is not None and run.trajectory is not None:
+            _, executed = run.trajectory
+        else:
+            executed = np.linspace(scene.start, scene.goal, int(seconds * rate))
+        steps = int(seconds * rate)
+        idx = np.minimum(np.arange(steps) * len(executed) // steps, len(executed) - 1)
+        offsets = rng.normal(0.0, 0.03, (24, len(scene.start)))
+        browser.start_frame_counter(b.driver)
+        t0 = time.perf_counter()
+        late = 0.0
+        for k in range(steps):
+            q = executed[idx[k]]
+            viewer._live_sent = 0.0                   # every step goes to the page (no throttling)
+            viewer.on_step(ExecutionStep(k / rate, q, np.zeros(len(q)), q, False, {}))
+            viewer.show_particles(q + offsets)
+            wait = t0 + (k + 1) / rate - time.perf_counter()
+            if wait > 0:
+                time.sleep(wait)
+            else:
+                late = max(late, -wait)
+        wall = time.perf_counter() - t0
+        fps = browser.read_frame_counter(b.driver)
+        b.driver.save_screenshot(str(SHOTS / "execution-24.png"))
+        return {"steps": steps, "particles": 24, "stream_s": wall, "max_lag_s": late, "fps": fps}
+    finally:
+        viewer.stop()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--run", default=None,
+                        help="run folder of baxter-reach with a policy (default: out/viewer/baxter-policy, else "
+                             "out/baxter-policy; make one with `pliant run baxter-policy`)")
+    parser.add_argument("--repeats", type=int, default=3, help="time-to-first-frame repeats (default 3)")
+    parser.add_argument("--seconds", type=float, default=5.0, help="fps measuring window (default 5 s)")
+    args = parser.parse_args()
+    reason = browser.missing()
+    if reason:
+        print(f"skipped: {reason}")
+        return
+    candidates = [Path(args.run)] if args.run else [Path("out/viewer/baxter-policy"), Path("out/baxter-policy"),
+                                                      Path("out/viewer/baxter-contact")]
+    run_dir = next((c for c in candidates if (c / "result.json").is_file() and read_run(c).policy), None)
+    if run_dir is None:
+        print(f"no baxter-reach run with a policy in {', '.join(map(str, candidates))}: "
+              "run `pliant run baxter-policy` first")
+        return
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    run = read_run(run_dir)
+    scene = pliant.load_scene(run.scene_name)
+    rng = np.random.default_rng(0)
+    results: dict = {"run": str(run_dir), "policy_nodes": len(run.policy["nodes"]),
+                     "result_status": (run.result or {}).get("status")}
+    with browser.Browser(1280, 800) as b:
+        ttff = [first_frame(run_dir, b) for _ in range(args.repeats)]
+        results["first_frame"] = ttff
+        from pliant_viewer.viewer import make_robot
+
+        robot = make_robot(scene)
+        results["tree"] = tree_fps(scene, robot, b, args.seconds, rng)
+        results["execution"] = execution_fps(scene, robot, run, b, rng)
+    med = {k: statistics.median(r[k] for r in ttff) for k in ("page", "first_frame", "robot")}
+    print_table(f"time to first frame: pliant view {run_dir} (baxter-reach, {results['policy_nodes']}-node policy), "
+                f"median of {args.repeats}, headless Chromium 1280x800 (software WebGL)",
+                ("measure", "seconds", "runs", "target"),
+                [("page served", f"{med['page']:.2f}", " ".join(f"{r['page']:.2f}" for r in ttff), ""),
+                 ("first frame (scene, path, policy)", f"{med['first_frame']:.2f}",
+                  " ".join(f"{r['first_frame']:.2f}" for r in ttff), "<= 2 s"),
+                 ("robot meshes in", f"{med['robot']:.2f}", " ".join(f"{r['robot']:.2f}" for r in ttff), "")])
+    t, e = results["tree"], results["execution"]
+    print_table("interactivity in headless Chromium (frames per second)", ("case", "content", "fps"),
+                [("10,000-node tree, idle", f"{t['nodes']} nodes, {t['particles_drawn']} particles drawn",
+                  f"{t['fps_idle']:.1f}"),
+                 ("10,000-node tree, orbiting", f"{t['strokes']} mouse strokes in {args.seconds:.0f} s",
+                  f"{t['fps_orbit']:.1f}"),
+                 ("24-particle execution, live", f"{e['steps']} steps at 25 Hz in {e['stream_s']:.1f} s "
+                  f"(largest lag {e['max_lag_s']:.2f} s)", f"{e['fps']:.1f}")])
+    print(f"\ntree: built in {t['build_s']:.1f} s, in the page after {t['page_s']:.1f} s; screenshots in {SHOTS}/")
+    print(f"wrote {write_json('viewer', results)}")
+
+
+if __name__ == "__main__":
+    main()
