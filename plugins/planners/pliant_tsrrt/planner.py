@@ -52,8 +52,8 @@ class TSRRTOptions(PushOptions):
     max_iterations: int | None = option(None, "iteration budget; None for no limit", minimum=1)
     gd_step: float = option(1.0, "DIRECTGD's step along the negative cost gradient, in mean push lengths",
                             minimum=1e-3)
-    gd_pool: int = option(4, "DIRECTGD descends from one of this many cheapest open nodes", minimum=1)
-    gd_tries: int = option(4, "descents without a cheaper child after which a node is exhausted", minimum=1)
+    gd_pool: int = option(64, "DIRECTGD descends from one of this many cheapest open nodes", minimum=1)
+    gd_tries: int = option(2, "descents without a cheaper child after which a node is exhausted", minimum=1)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
     w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)

@@ -67,8 +67,8 @@ class SearchSettings:
     epsilon: float = 0.1
     max_nodes: int = 5000
     gd_step: float = 1.0
-    gd_pool: int = 4
-    gd_tries: int = 4
+    gd_pool: int = 64
+    gd_tries: int = 2
     duplicate: float = 1e-3
 
 

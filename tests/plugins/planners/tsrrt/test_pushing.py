@@ -23,7 +23,7 @@ def _world(scene_name="tsrrt-table", **options):
 
 
 def test_set_object_poses_places_objects_and_names_bad_input():
-    scene, ctx = _world()
+    _, ctx = _world()
     sim = ctx.simulator
     sim.set_object_poses({"can-1": np.array([0.5, 0.4, 0.3])})
     poses = sim.object_poses()
@@ -71,7 +71,7 @@ def test_learn_model_stops_at_sigma_ref_and_restores_the_objects():
 
 
 def test_learner_component_fits_and_refuses_empty_data():
-    scene, ctx = _world()
+    _, ctx = _world()
     learner = registry.create("learner", "push-models", ctx, min_pushes=2, max_pushes=3, holdout=1)
     out = learner.fit(["can-1"], np.random.default_rng(0))
     assert set(out) == {"can"} and out["can"]["pushes"] == 12
@@ -103,7 +103,7 @@ def test_pipeline_runs_end_to_end(tmp_path):
 def test_planner_options_are_checked():
     from pliant.errors import ConfigError
 
-    with pytest.raises(ConfigError, match="planner.epsilon"):
+    with pytest.raises(ConfigError, match=r"planner\.epsilon"):
         registry.create("planner", "tsrrt", None, epsilon=2.0)
     with pytest.raises(ConfigError, match="min_pushes"):
         registry.create("planner", "tsrrt", None, min_pushes=30, max_pushes=10)

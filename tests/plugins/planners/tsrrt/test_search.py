@@ -65,7 +65,7 @@ def test_shortcut_drops_back_and_forth_and_useless_pushes():
     space = _space(fp, [CAN_MODEL], (0.0, 0.0, 1.0, 0.0))
     s0 = np.array([[0.2, 0.4, 0.0]])
     plan = [0, 2, 0, 1, 3, 0, 0, 0, 0]       # +x, +y, +x, -x, -y, +x, +x, +x, +x: two pushes past the optimum
-    short, states, cost = shortcut(space, s0, plan)
+    short, _, cost = shortcut(space, s0, plan)
     assert np.isclose(cost, 0.125) and len(short) == 4
     assert redundant_actions(space, s0, short) == 0
 
