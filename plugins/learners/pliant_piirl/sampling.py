@@ -8,7 +8,9 @@ of the path, where an insertion's deformation happens.  A task that ends at a go
 the end as well: the noise vanishes at both ends.  Each tangent coordinate is scaled so that its largest
 standard deviation is ``translation`` (m) or ``rotation`` (rad).  The last waypoint is then moved so that the
 tip is back on the task's target: a sample is another way of doing the same task.  Samples that leave the
-collision planes or are infeasible (NaN features) are redrawn.
+collision planes are redrawn (at most ``redraws`` times per sample asked for); those that are infeasible (NaN
+features) are dropped.  Candidates are drawn, moved and checked a batch at a time, in arrays; the result is the
+one of checking them one by one.
 
 The local optimiser replaces a demonstration by the sample of least total deformation among those that
 *strictly dominate* it (every feature no larger, one smaller), and repeats with new samples around the
