@@ -99,3 +99,27 @@ def test_page_shows_the_run_and_the_slider_moves_the_robot(chromium, maze_run):
         d.save_screenshot(str(SHOTS / "maze-end.png"))
     finally:
         viewer.stop()
+
+
+def test_static_export_plays_in_the_browser(chromium, maze_run, tmp_path):
+    """``pliant view RUN --export page.html``: one self-contained file that Chromium opens from disk (file://, no
+    server) and plays the execution back; the page is not blank."""
+    import io
+
+    import matplotlib.image as mpimg
+    from pliant.cli import main
+
+    page = tmp_path / "maze.html"
+    assert main(["view", str(maze_run), "--export", str(page), "--frames", "20"]) == 0
+    d = chromium.driver
+    d.get(page.as_uri())
+    t0 = time.perf_counter()
+    while not d.execute_script("return document.querySelectorAll('canvas').length"):
+        assert time.perf_counter() - t0 < 30, "no canvas"
+        time.sleep(0.1)
+    time.sleep(3.0)
+    browser.dismiss_notifications(d)
+    shot = mpimg.imread(io.BytesIO(d.get_screenshot_as_png()), format="png")[..., :3]
+    assert shot.std() > 0.02 and len(np.unique((shot * 255).astype(np.uint8).reshape(-1, 3), axis=0)) > 50
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    d.save_screenshot(str(SHOTS / "maze-export.png"))

@@ -173,3 +173,18 @@ def test_view_command_exports_html(tmp_path):
     assert main(["view", "triple-wall", "--export", str(out)]) == 0
     text = out.read_text()
     assert "__VISER_EMBED_DATA__" in text and "http://" not in text.replace("http://www.w3.org", "")
+
+
+def test_run_with_view_streams_the_execution(tmp_path, capsys):
+    """``pliant run maze-slide --view``: the page is served on loopback, every step streams through the execution
+    hook, then the finished run is shown (here for 0 s)."""
+    import re
+
+    from pliant.cli import main
+
+    assert main(["run", "maze-slide", "--output", str(tmp_path / "run"), "--view", "--view-hold", "0"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"viewer: http://127\.0\.0\.1:\d+/  \(live", out)
+    steps = int(re.search(r"the finished run; (\d+) steps streamed live", out).group(1))
+    execution = json.loads((tmp_path / "run" / "execution.json").read_text())
+    assert steps == len(execution["times"]) - 1 > 10           # every step after the initial state
