@@ -60,13 +60,13 @@ class TaskResult:
     seconds: float = 0.0
 
 
-def call_task(work: Callable[..., dict], args: tuple, board=None, index: int = -1,
+def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, index: int = -1,
               interval: float = 1.0) -> tuple[dict, dict, str, float, str]:
     """Run one task where the executor placed it: ``(record, progress, node, seconds, pliant version)``.
 
-    ``board``: a Ray actor (:class:`ProgressBoard`) the task reports its progress values to every ``interval``
-    seconds while it runs; its answer says whether the executor cancelled the task, which then terminates every
-    stop condition the task polls (:func:`pliant.termination.task_progress`)."""
+    ``board``: the name of a Ray actor (:class:`ProgressBoard`) the task reports its progress values to every
+    ``interval`` seconds while it runs; its answer says whether the executor cancelled the task, which then
+    terminates every stop condition the task polls (:func:`pliant.termination.task_progress`)."""
     import pliant
 
     t0 = time.perf_counter()
@@ -77,9 +77,11 @@ def call_task(work: Callable[..., dict], args: tuple, board=None, index: int = -
     def report(sink: dict) -> None:
         import ray
 
-        while not done.wait(interval):
+        actor = None
+        while not done.wait(interval):          # a task shorter than ``interval`` never reports
             try:
-                if ray.get(board.report.remote(index, node, snapshot(sink))):
+                actor = actor or ray.get_actor(board)
+                if ray.get(actor.report.remote(index, node, snapshot(sink))):
                     cancel.set()
             except Exception:                   # the board is gone (the run ended): stop reporting
                 return
@@ -106,11 +108,6 @@ class ProgressBoard:
         """A running task's latest values; returns whether the run was cancelled."""
         self.running[index] = (node, values)
         return self.cancelled
-
-    def finished(self, indices: list[int]) -> None:
-        """Forget finished tasks."""
-        for index in indices:
-            self.running.pop(index, None)
 
     def snapshot(self) -> dict[int, tuple[str, dict]]:
         """Every running task's node and latest values."""
@@ -337,12 +334,17 @@ class RayExecutor(Executor):
         import pliant
 
         ray = self._connect()
+        from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
         self.stopped = False
         if stop is not None:
             stop.start()
         work_ref = ray.put(work)                    # shipped once, not with every task
-        self._board = ray.remote(num_cpus=0)(ProgressBoard).remote()
-        refs = {self._remote.remote(work_ref, tuple(task), self._board, k, self.interval): k
+        board = f"pliant-progress-{os.getpid()}-{time.time_ns()}"
+        # on this machine's node: the board must not die with a worker node
+        here = NodeAffinitySchedulingStrategy(ray.get_runtime_context().get_node_id(), soft=True)
+        self._board = ray.remote(num_cpus=0)(ProgressBoard).options(name=board, scheduling_strategy=here).remote()
+        refs = {self._remote.remote(work_ref, tuple(task), board, k, self.interval): k
                 for k, task in enumerate(tasks)}
         pending = list(refs)
         finished = 0
@@ -356,11 +358,14 @@ class RayExecutor(Executor):
                 done, pending = ray.wait(pending, num_returns=1, timeout=POLL)
                 if time.monotonic() - polled >= self.interval:
                     polled = time.monotonic()
-                    self.running = ray.get(self._board.snapshot.remote())
+                    still = {refs[ref] for ref in pending}
+                    try:
+                        board_now = ray.get(self._board.snapshot.remote(), timeout=5.0)
+                    except (ray.exceptions.RayError, TimeoutError):       # progress is best effort
+                        board_now = self.running
+                    self.running = {k: v for k, v in board_now.items() if k in still}
                     if self.on_progress is not None:
                         self.on_progress(self.running)
-                if done:
-                    self._board.finished.remote([refs[ref] for ref in done])
                 for ref in done:
                     try:
                         record, progress, node, seconds, version = ray.get(ref)
@@ -390,7 +395,10 @@ class RayExecutor(Executor):
         ray = self._ray
         if not refs:
             return
-        ray.get(self._board.cancel.remote())
+        try:
+            ray.get(self._board.cancel.remote(), timeout=5.0)
+        except (ray.exceptions.RayError, TimeoutError):
+            pass                                # the tasks are still interrupted and, after the grace, killed
         for ref in refs:                        # queued: never starts; running: a KeyboardInterrupt (Ctrl-C) too
             ray.cancel(ref, force=False)
         _, left = ray.wait(refs, num_returns=len(refs), timeout=self.grace)
