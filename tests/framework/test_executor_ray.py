@@ -52,6 +52,19 @@ def _connected(address: str, cpus: float) -> RayExecutor:
     return executor
 
 
+def test_the_pliant_command_runs_a_reproduction_on_the_cluster(cluster, tmp_path, capsys):
+    """``pliant reproduce table-3.1 --ci --executor ray --address ...``: the command-line path end to end."""
+    from pliant.cli import main
+
+    RayExecutor(cluster.address).wait_for_cpus(2)
+    ray.shutdown()
+    assert main(["reproduce", "table-3.1", "--ci", "--output", str(tmp_path), "--executor", "ray",
+                 "--address", cluster.address]) == 0
+    out = capsys.readouterr().out
+    assert out.count("[node ") == 6 and "report:" in out                  # six runs, each naming its Ray node
+    assert (tmp_path / "table-3.1" / "ci" / "benchmark.db").exists()
+
+
 def test_a_stop_condition_cancels_the_tasks_left_on_the_cluster(cluster, tmp_path):
     from pliant_reachability.tables import _evaluate
 
