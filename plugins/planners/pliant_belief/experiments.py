@@ -36,13 +36,14 @@ from __future__ import annotations
 import itertools
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from pliant.errors import ConfigError
-from pliant.experiment import check_settings, open_log, run_tasks, stop_pool, worker_init
+from pliant.executor import LocalExecutor
+from pliant.executor import current as current_executor
+from pliant.experiment import check_settings, open_log, run_tasks
 from pliant.files import rewrite_jsonl
 
 
@@ -349,23 +350,23 @@ def _replay(records: list[dict], variants: list[Variant], executions: int, exec_
         if not path.is_file() and (log.parent / "policies" / path.name).is_file():
             records[k] = {**records[k], "policy_file": str(log.parent / "policies" / path.name)}
     echo(f"replaying {len(todo)} saved policies, {jobs} at a time")
-    pool = ProcessPoolExecutor(max_workers=jobs, initializer=worker_init, initargs=(os.getpid(),))
+    own = current_executor() is None
+    executor = current_executor() or LocalExecutor(jobs)       # `--executor ray`: on the cluster
     try:
-        futures = {pool.submit(replay_task, by_label[records[k]["variant"]], records[k], executions, exec_time): k
-                   for k in todo}
-        for n, future in enumerate(as_completed(futures), start=1):
-            k = futures[future]
-            records[k] = future.result()
+        tasks = [(by_label[records[k]["variant"]], records[k], executions, exec_time) for k in todo]
+        for n, result in enumerate(executor.run(replay_task, tasks), start=1):
+            k = todo[result.index]
+            records[k] = result.record
             rewrite_jsonl(log, records)
             outcome = {w: f"{sum(e['outcome'] == 'success' for e in runs)}/{len(runs)}"
                        for w, runs in records[k]["executions"].items()}
             echo(f"[{n}/{len(todo)}] {records[k]['variant']} seed {records[k]['seed']}: executions {outcome}")
     except KeyboardInterrupt:
-        stop_pool(pool)
         echo("interrupted: the tasks replayed so far are on file")
         raise
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        if own:
+            executor.close()
 
 
 def _summary(name: str, records: list[dict], variants: list[Variant], settings: dict,
