@@ -169,6 +169,7 @@ def test_a_planner_takes_a_combined_condition():
     result = planner.plan(problem, np.random.default_rng(0), stop)
     assert result.status.value == "solved"
     assert stop.progress()["solved"] and stop.progress()["iterations"] < 3000 and not stop.interrupted
+    assert stop.progress()["nodes"] > 1                       # the planner publishes its tree size
 
 
 def test_a_cancelled_task_terminates_every_condition_it_polls():

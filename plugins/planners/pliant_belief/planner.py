@@ -164,6 +164,7 @@ class BeliefPlanner(Planner):
                         break
                     near = new[0]
                 progress.update(iterations=iteration, nodes=len(tree.nodes), solutions=len(tree.solutions))
+                termination.publish(nodes=len(tree.nodes), solutions=len(tree.solutions))
         progress.close()
         stats = {"iterations": iteration, "nodes": len(tree.nodes),
                  "particles_stored": int(sum(len(nd.particles) for nd in tree.nodes)),

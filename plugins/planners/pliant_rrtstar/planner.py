@@ -163,6 +163,7 @@ class RRTStarPlanner(Planner):
                         best, best_node = float(costs[i]), self.goal_nodes[i]
                         history.append([termination.elapsed, best])
                 progress.update(iterations=iteration, nodes=len(self.tree), best=best, r=radius)
+                termination.publish(nodes=len(self.tree))
         progress.close()
         stats = dict(self.stats, iterations=iteration, nodes=len(self.tree), time=time.perf_counter() - t0,
                      time_to_first=first, cost_history=history, gamma=self.gamma, radius=radius,

@@ -165,6 +165,7 @@ class TRRTPlanner(Planner):
                         n_expand = n_refine = 0
                         stats["trees"] += 1
                 progress.update(iterations=iteration, nodes=len(self.tree), best=best, T=self.test.temperature)
+                termination.publish(nodes=len(self.tree))
             stats["iterations"] = iteration
         progress.close()
         stats.update(nodes=len(self.tree), time=time.perf_counter() - t0, time_to_first=first,
