@@ -267,10 +267,36 @@ def main() -> None:
                      f"{np.mean([r['iterations'] for r in rs]):.0f}"))
     print_table(f"{SCENE}: best path cost, mean (std) over {args.seeds} seeds, single core",
                 ("planner", *(f"{b:g} s" for b in budgets), "iterations"), rows)
-    write_json("rrtstar" if SCENE == "cube-wall" else f"rrtstar-{SCENE}",
-               {"scene": SCENE, "budgets": budgets, "seeds": args.seeds, "max_step": SCENES[SCENE],
-                "length_weight": LENGTH_WEIGHT,
-                           "goal_bias": GOAL_BIAS, "check_step": step, "runs": runs})
+    name = "rrtstar" if SCENE == "cube-wall" else f"rrtstar-{SCENE}"
+    path = write_json(name, {"scene": SCENE, "budgets": budgets, "seeds": args.seeds, "max_step": SCENES[SCENE],
+                             "length_weight": LENGTH_WEIGHT,
+                             "goal_bias": GOAL_BIAS, "check_step": step, "runs": runs})
+    write_ompl(path.with_suffix(".log"), runs, budgets)
+
+
+def write_ompl(log: Path, runs: dict[str, list[dict]], budgets: list[float]) -> None:
+    """The runs in OMPL's benchmark log and database (``.log``, ``.db`` beside the JSON): one planner
+    configuration per planner spec, one run per seed, the best cost at each budget as the run's progress, so
+    Planner Arena plots pliant's planners and OMPL's RRT* side by side."""
+    from pliant.experiment import PlannerRuns, ompl_database, write_ompl_log
+
+    planners = []
+    for name, rs in runs.items():
+        rows, progress = [], []
+        for seed, r in enumerate(rs):
+            best = r["best"][-1]
+            rows.append({"time REAL": max(budgets), "solved BOOLEAN": int(math.isfinite(best)),
+                         "status ENUM": 6 if math.isfinite(best) else 4,
+                         "best cost REAL": best if math.isfinite(best) else None,
+                         "iterations INTEGER": r["iterations"], "graph states INTEGER": r.get("nodes"),
+                         "seed INTEGER": seed})
+            progress.append([{"time REAL": b, "best cost REAL": c if math.isfinite(c) else None}
+                             for b, c in zip(budgets, r["best"])])
+        planners.append(PlannerRuns(name, {"scene": SCENE, "length_weight": LENGTH_WEIGHT}, rows, progress))
+    write_ompl_log(log, f"{SCENE} rrtstar", planners, time_limit=max(budgets),
+                   total_time=max(budgets) * sum(len(rs) for rs in runs.values()),
+                   setup=f"pliant benchmarks/bench_rrtstar.py, scene {SCENE}")
+    print(f"wrote {log} and {ompl_database(log.with_suffix('.db'), [log])} (OMPL's benchmark formats)")
 
 
 if __name__ == "__main__":
