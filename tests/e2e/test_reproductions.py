@@ -15,15 +15,22 @@ AVAILABLE = reproductions()
 CI_MINUTES = 3.0
 
 
+@pytest.fixture(scope="module")
+def output(tmp_path_factory):
+    """One output directory for all of them, so reproductions that share records (tables 6.1 / 6.3 and 6.2 / 6.4
+    read the same evaluations) run them once."""
+    return tmp_path_factory.mktemp("reproduce")
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(AVAILABLE))
-def test_the_smallest_reproduction_keeps_its_headline_numbers(name, tmp_path):
+def test_the_smallest_reproduction_keeps_its_headline_numbers(name, output):
     reproduction = AVAILABLE[name]
     mode = "ci" if "ci" in reproduction.modes else "quick"
     minutes = reproduction.minutes.get(mode, 0.0)
     if minutes > CI_MINUTES and not os.environ.get("PLIANT_REPRODUCE_ALL"):
         pytest.skip(f"{name} --{mode} takes about {minutes:g} min (> {CI_MINUTES:g}); PLIANT_REPRODUCE_ALL=1 runs it")
-    outcome, directory = run_reproduction(name, mode=mode, output=tmp_path, echo=lambda _: None)
+    outcome, directory = run_reproduction(name, mode=mode, output=output, echo=lambda _: None)
     assert (directory / "report.md").exists() and outcome.rows and outcome.headlines
     out = [(h.name, h.ours, (h.low, h.high)) for h in outcome.headlines if not h.ok]
     assert not out, f"{name} ({mode}): headline numbers out of range: {out}; see {directory / 'report.md'}"
