@@ -239,17 +239,27 @@ def _wxyz(R: np.ndarray) -> np.ndarray:
 class Viewer:
     """A viser server drawing one :class:`ViewContent`; ``host`` is loopback unless asked otherwise."""
 
-    def __init__(self, host: str = "127.0.0.1", port: int | None = None, robot_meshes: str = "collision") -> None:
+    def __init__(self, host: str = "127.0.0.1", port: int | None = None, robot_meshes: str = "collision",
+                 tree_limit: int = 2000) -> None:
         import viser
 
         self.robot_meshes = robot_meshes
+        self.tree_limit = tree_limit
+        self.tree_drawn = 0
         self.host = host
         self.port = port or free_port(host)
         self.server = viser.ViserServer(host=host, port=self.port, verbose=False)
         # no share button: viser's share links tunnel through an outside server; the page stays on this machine
         self.server.gui.configure_theme(control_width="medium", show_share_button=False)
-        # shadows cost most of a software-rendered frame (headless Chromium: 42 -> 30 fps on triple-wall)
+        # No image-based lighting and no shadows: in software WebGL (headless Chromium, SwiftShader) viser's default
+        # HDRI environment map held the page at 0.2-2 frames/s for many seconds after loading (baxter-reach with its
+        # policy; 46 without it) and delayed every later message; shadows cost 42 -> 30 fps on triple-wall.  A
+        # hemisphere and an ambient light keep the faces that look away from the default lights readable.
+        self.server.scene.configure_environment_map(hdri=None)
         self.server.scene.configure_default_lights(True, cast_shadow=False)
+        self.server.scene.add_light_hemisphere("/lights/sky", sky_color=(255, 255, 255), ground_color=(90, 90, 110),
+                                               intensity=1.2)
+        self.server.scene.add_light_ambient("/lights/ambient", intensity=0.6)
         self.nodes: dict[str, object] = {}
         self.view: ViewContent | None = None
         self.robot_drawing: RobotDrawing | None = None
@@ -336,25 +346,44 @@ class Viewer:
         self._add(name, self.server.scene.add_line_segments(name, segments, colors=colour, thickness=width,
                                                                          thickness_units="screen"))
 
-    def _draw_tree(self, tree: content.Tree, radius: float) -> None:
+    def _draw_tree(self, tree: content.Tree, radius: float, whole: bool = False) -> None:
+        """Draw the tree; beyond ``tree_limit`` nodes only its first ``tree_limit`` nodes (the tree as it was when it
+        had that many: a connected subtree from the root) and every solution's nodes, unless ``whole``."""
         s = self.server.scene
-        if len(tree.edges):
-            segments = np.stack([tree.nodes[tree.edges[:, 0]], tree.nodes[tree.edges[:, 1]]], axis=1)
+        n = len(tree.nodes)
+        keep = np.ones(n, dtype=bool)
+        if not whole and n > self.tree_limit:
+            keep[:] = False
+            keep[: self.tree_limit] = True
+            keep[tree.solution_nodes[tree.solution_nodes < n]] = True
+        self.tree_drawn = int(keep.sum())
+        edges = tree.edges[keep[tree.edges[:, 0]] & keep[tree.edges[:, 1]]] if len(tree.edges) else tree.edges
+        if len(edges):
+            # line segments: in headless Chromium (software WebGL) 10,000 of them drew at 35 frames/s where the same
+            # edges as a mesh of crossed ribbons drew at 2
+            segments = np.stack([tree.nodes[edges[:, 0]], tree.nodes[edges[:, 1]]], axis=1)
             self._add("/policy/edges", s.add_line_segments("/policy/edges", segments.astype(np.float32),
                                                            colors=content.TREE_COLOUR, thickness=1.0,
                                                            thickness_units="screen"))
         node_colours = content.probability_colours(tree.probability)
-        self._add("/policy/nodes", s.add_point_cloud("/policy/nodes", tree.nodes.astype(np.float32),
-                                                     colors=node_colours, point_size=radius * 0.8,
+        self._add("/policy/nodes", s.add_point_cloud("/policy/nodes", tree.nodes[keep].astype(np.float32),
+                                                     colors=node_colours[keep], point_size=radius * 0.8,
                                                      point_shape="circle"))
-        if len(tree.particles):
+        parts = keep[tree.particle_node] if len(tree.particles) else np.zeros(0, dtype=bool)
+        if parts.any():
             self._add("/policy/particles", s.add_point_cloud(
-                "/policy/particles", tree.particles.astype(np.float32),
-                colors=node_colours[tree.particle_node], point_size=radius * 0.35, point_shape="square"))
+                "/policy/particles", tree.particles[parts].astype(np.float32),
+                colors=node_colours[tree.particle_node[parts]], point_size=radius * 0.35, point_shape="square"))
         if len(tree.action_targets):
             self._add("/policy/actions", s.add_point_cloud("/policy/actions", tree.action_targets.astype(np.float32),
                                                            colors=(30, 30, 30), point_size=radius * 0.5,
                                                            point_shape="diamond"))
+
+    def _whole_tree(self, event) -> None:
+        radius = max(self.view.scene.resolution, 0.01 * float(np.max(self.view.scene.upper - self.view.scene.lower)))
+        for name in [k for k in self.nodes if k.startswith("/policy/")]:
+            self.nodes.pop(name).remove()
+        self._draw_tree(self.view.tree, radius, whole=event.target.value)
 
     def _gui(self, view: ViewContent) -> None:
         g = self.server.gui
@@ -363,7 +392,8 @@ class Viewer:
         if view.path is not None:
             lines.append(f"- planned path: {len(view.path)} waypoints")
         if view.tree is not None:
-            lines.append(f"- policy: {len(view.tree.nodes)} nodes, {len(view.tree.particles)} particles")
+            lines.append(f"- policy: {len(view.tree.nodes)} nodes, {len(view.tree.particles)} particles"
+                         + (f" ({self.tree_drawn} nodes drawn)" if self.tree_drawn < len(view.tree.nodes) else ""))
         if view.pareto:
             lines.append(f"- Pareto front: {len(view.pareto)} paths")
             lines += [f"  - {i}: length {p['length_voxels']:.1f} voxels, deformation {p['deformation']:.4g}"
@@ -377,6 +407,9 @@ class Viewer:
                     continue
                 box = g.add_checkbox(prefix.strip("/").replace("/", " "), initial_value=True)
                 box.on_update(partial(self._toggle, names))
+        if view.tree is not None and len(view.tree.nodes) > self.tree_limit:
+            whole = g.add_checkbox(f"whole tree ({len(view.tree.nodes)} nodes)", initial_value=False)
+            whole.on_update(self._whole_tree)
         if view.trajectory is not None and len(view.trajectory.times) > 1:
             tl = view.trajectory
             step = round(float(np.median(np.diff(tl.times))), 3) or 0.01
@@ -456,15 +489,12 @@ class Viewer:
             "/live/particles", xyz, colors=(230, 80, 30), point_size=max(self.view.scene.resolution, 0.01),
             point_shape="circle")
         if trail:
+            # trails as points (a point cloud stays cheap where thousands of line segments do not)
             self._trails = getattr(self, "_trails", [])
             self._trails.append(xyz)
-            if len(self._trails) > 1:
-                a, b = self._trails[-2], self._trails[-1]
-                self._trail_segments = getattr(self, "_trail_segments", [])
-                self._trail_segments.append(np.stack([a, b], axis=1))
-                self.nodes["/live/trails"] = self.server.scene.add_line_segments(
-                    "/live/trails", np.concatenate(self._trail_segments), colors=(230, 120, 60), thickness=1.0,
-                    thickness_units="screen")
+            self.nodes["/live/trails"] = self.server.scene.add_point_cloud(
+                "/live/trails", np.concatenate(self._trails), colors=(240, 160, 110),
+                point_size=max(self.view.scene.resolution, 0.01) * 0.4, point_shape="circle")
 
     # --- export -------------------------------------------------------------------------------------------------
 
