@@ -10,7 +10,7 @@ paddle's pose before each push, from the scene's start to its goal).  Executing 
 arrangement with the one the plan predicted after that push, and replans from the observed arrangement when an
 object is off by more than ``replan_threshold`` (m) or ``replan_angle`` (rad), or when the plan is done and the
 arrangement costs more than ``1 + finish_tolerance`` times the plan's cost ("Robot monitored error and replanned as
-necessary").
+necessary").  A replanning tree starts with the rest of the plan it replaces as one branch.
 """
 
 from __future__ import annotations
@@ -348,7 +348,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                     break
                 reason = "blocked"
                 found = grow(_room_for(space, observed), observed, rng, search_settings(o),
-                             Termination(max_time=o.replan_time))
+                             Termination(max_time=o.replan_time), seed_plan=actions[j + 1:])
                 replans.append({"after_action": len(records), "reason": reason,
                                 "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
                                 "actions": len(found.actions)})
@@ -366,7 +366,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             if not (replan and len(replans) < o.max_replans):
                 continue
             reason = "deviation"
-        found = grow(_room_for(space, observed), observed, rng, search_settings(o), Termination(max_time=o.replan_time))
+        found = grow(_room_for(space, observed), observed, rng, search_settings(o), Termination(max_time=o.replan_time),
+                     seed_plan=actions[j:])
         replans.append({"after_action": len(records), "reason": reason,
                         "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
                         "actions": len(found.actions)})

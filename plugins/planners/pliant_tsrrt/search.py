@@ -198,9 +198,11 @@ class SearchResult:
 
 
 def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings: SearchSettings,
-         termination: Condition | None = None) -> SearchResult:
+         termination: Condition | None = None, seed_plan: list[int] | None = None) -> SearchResult:
     """TASK_SPACE_RRT lines 3-14 from ``s0`` ``(k, 3)`` until ``max_nodes`` nodes or ``termination``; returns the
-    (shortcut) plan to the cheapest node.  Ctrl-C inside returns the best plan so far."""
+    (shortcut) plan to the cheapest node.  Ctrl-C inside returns the best plan so far.  ``seed_plan``: actions whose
+    valid prefix, rolled out from ``s0``, starts the tree as one branch (replanning during execution seeds the tree
+    with the rest of the plan it replaces, so a new plan is never worse than carrying on)."""
     t0 = time.perf_counter()
     k = space.k
     n_actions = k * N_PRIMITIVES
@@ -222,6 +224,17 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     best = 0
     history = [[0.0, costs[0]]]
     stats = {"gd_samples": 0, "random_samples": 0, "invalid": 0, "duplicates": 0, "rewired": 0, "exhausted": 0}
+    for a in seed_plan or ():
+        prev = n - 1
+        s_new = space.step(states[prev], a)
+        if n >= cap or used[prev, a] or not space.valid_actions(states[prev], s_new[None], np.array([a]))[0]:
+            break
+        used[prev, a] = True
+        states[n], parents[n], actions[n], feats[n], depth[n] = s_new, prev, a, space.embed(s_new), depth[prev] + 1
+        costs[n] = float(space.cost.cost(s_new[None])[0])
+        if costs[n] < costs[best] - 1e-12:
+            best = n
+        n += 1
     termination = termination or Termination()
     iteration = 0
     with termination.watch():

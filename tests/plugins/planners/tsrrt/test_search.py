@@ -80,3 +80,12 @@ def test_valid_steps_match_one_at_a_time():
         batch = space.valid_actions(s, out)
         single = [space.valid_actions(s, out[a:a + 1], np.array([a]))[0] for a in range(len(out))]
         assert batch.tolist() == single
+
+
+def test_a_seed_plan_starts_the_tree_so_replanning_is_never_worse():
+    fp = Footprints([CIRCLE], [[0.05, 0.05]])
+    space = _space(fp, [CAN_MODEL], (0.0, 0.0, 1.0, 0.0))
+    s0 = np.array([[0.2, 0.4, 0.0]])
+    found = grow(space, s0, np.random.default_rng(0), SearchSettings(), Termination(max_iterations=1),
+                 seed_plan=[0, 0, 0, 0, 1])
+    assert np.isclose(found.cost, 0.125) and found.actions == [0, 0, 0, 0]
