@@ -373,7 +373,10 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                         "actions": len(found.actions)})
         actions, expected, planned_cost, j = found.actions, found.states, found.cost, 0
     final_cost = float(space.cost.cost(observed[None])[0])
-    collided = bool(replace(space.checker, margin=TOUCH).in_collision(observed)[0])
+    # the verdict: overlaps deeper than 2 mm with each other, the obstacles as the scene gives them, or off the table
+    exact_fp, exact_poses, _ = domain.obstacles(scene, plan.names, space.checker.table)
+    verdict = replace(space.checker, obstacles=exact_fp, obstacle_poses=exact_poses, margin=TOUCH)
+    collided = bool(verdict.in_collision(observed)[0])
     if outcome == "success" and collided:
         outcome = "failure"
     recorder.settle(world)
