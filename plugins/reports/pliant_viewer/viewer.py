@@ -307,6 +307,13 @@ class Viewer:
         with self.server.atomic():
             ends = view.tracer.points(np.stack([scene.start, scene.goal]))
             radius = max(scene.resolution, 0.01 * extent)
+            if view.tracer.tip is not None:
+                # an arm in a large workspace: frame the base and the task rather than the whole grid
+                focus = (ends[0] + ends[1]) / 2.0
+                reach = max(float(np.max(np.linalg.norm(ends, axis=1))), 0.3)
+                direction = np.array([-0.3, -0.9, 0.35]) / np.linalg.norm([-0.3, -0.9, 0.35])
+                self.server.initial_camera.position = tuple(focus + direction * 1.9 * reach)
+                self.server.initial_camera.look_at = tuple(focus * 0.75)
             self._add("/scene/start", s.add_icosphere("/scene/start", radius=radius, color=(40, 200, 60),
                                                       position=ends[0]))
             self._add("/scene/goal", s.add_icosphere("/scene/goal", radius=radius, color=(220, 40, 200),
@@ -477,24 +484,40 @@ class Viewer:
             self._live_sent = now
             q = self._live[-1]
             self.robot_drawing.set(q)
-            if len(self._live) > 1:
-                self._polyline("/path/live", self.view.tracer.points(np.array(self._live)), (0, 170, 255), 3.0)
+            # only the configurations not yet placed go through the tracer (a robot model's kinematics)
+            placed = getattr(self, "_live_xyz", [])
+            placed.extend(self.view.tracer.points(np.array(self._live[len(placed):])))
+            self._live_xyz = placed
+            if len(placed) > 1:
+                pts = np.asarray(placed, dtype=np.float32)
+                segments = np.stack([pts[:-1], pts[1:]], axis=1)
+                handle = self.nodes.get("/path/live")
+                if handle is None:
+                    self._polyline("/path/live", pts, (0, 170, 255), 3.0)
+                else:
+                    handle.points = segments
             self.live_steps = len(self._live)
 
     def show_particles(self, q: np.ndarray, trail: bool = True) -> None:
         """Draw particles ``(n, d)`` (e.g. the belief's particles during an execution) as points at their tips, and
         with ``trail`` extend each particle's trail."""
         xyz = self.view.tracer.points(q).astype(np.float32)
-        self.nodes["/live/particles"] = self.server.scene.add_point_cloud(
-            "/live/particles", xyz, colors=(230, 80, 30), point_size=max(self.view.scene.resolution, 0.01),
-            point_shape="circle")
+        handle = self.nodes.get("/live/particles")
+        if handle is not None and len(handle.points) == len(xyz):
+            handle.points = xyz                     # an update of the existing cloud, not a new scene node
+        else:
+            self.nodes["/live/particles"] = self.server.scene.add_point_cloud(
+                "/live/particles", xyz, colors=(230, 80, 30), point_size=max(self.view.scene.resolution, 0.01),
+                point_shape="circle")
         if trail:
-            # trails as points (a point cloud stays cheap where thousands of line segments do not)
+            # trails as points (a point cloud stays cheap where thousands of line segments do not), re-sent every
+            # fifth call
             self._trails = getattr(self, "_trails", [])
             self._trails.append(xyz)
-            self.nodes["/live/trails"] = self.server.scene.add_point_cloud(
-                "/live/trails", np.concatenate(self._trails), colors=(240, 160, 110),
-                point_size=max(self.view.scene.resolution, 0.01) * 0.4, point_shape="circle")
+            if len(self._trails) % 5 == 1:
+                self.nodes["/live/trails"] = self.server.scene.add_point_cloud(
+                    "/live/trails", np.concatenate(self._trails), colors=(240, 160, 110),
+                    point_size=max(self.view.scene.resolution, 0.01) * 0.4, point_shape="circle")
 
     # --- export -------------------------------------------------------------------------------------------------
 
