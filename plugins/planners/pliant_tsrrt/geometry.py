@@ -9,8 +9,10 @@ arrangement, vectorised over the batch and the object pairs (no Python loop over
   closest point of a box for a box and a circle, the centre distance for two circles;
 * the table: every footprint (its extreme points) inside the table rectangle.
 
-A ``margin`` (m) inflates every footprint: two footprints closer than ``2 * margin``... count as colliding when
-``margin > 0`` (the planner keeps that clearance between model predictions, so noisy pushes do not touch).
+A ``margin`` (m) grows every footprint by that much on every side: two footprints closer than ``2 * margin`` count
+as colliding, and a footprint must stay ``margin`` inside the table (the planner keeps that clearance between model
+predictions, so that noisy pushes do not make objects touch).  A negative margin shrinks the footprints (the
+execution's collision verdict tolerates the slight overlap of resting contacts in the simulator).
 """
 
 from __future__ import annotations

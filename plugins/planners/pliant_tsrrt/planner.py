@@ -89,10 +89,11 @@ class TSRRTOptions(PushOptions):
 class TSRRTPlanner(Planner):
     """TS-RRT over the joint poses of the scene's movable objects (poster ICHR 2010).
 
-    Statistics: ``iterations``, ``nodes`` (tree size), ``time`` (s, tree growth and shortcut), ``tree_time``,
-    ``learn_time`` (s, when the models were learned here), ``actions``, ``actions_before_shortcut``,
-    ``start_cost``, ``tree_best_cost``, ``gd_samples``, ``random_samples``, ``invalid``, ``duplicates``,
-    ``exhausted``, ``cost_history``, ``interrupted``.
+    Statistics: ``iterations``, ``nodes`` (tree size), ``time`` (s, tree growth, descent and shortcut),
+    ``tree_time``, ``total_time`` (s, with learning), ``learn_time`` (s, when the models were learned here),
+    ``actions``, ``actions_before_shortcut``, ``polish_pushes`` (appended by the final descent), ``start_cost``,
+    ``tree_best_cost``, ``gd_samples``, ``random_samples``, ``invalid``, ``duplicates``, ``rewired``, ``exhausted``,
+    ``cost_history`` (``[[t, best cost], ...]``), ``interrupted`` (Ctrl-C: the best plan so far is returned).
     """
 
     SPECS = PlannerSpecs(needs_simulator=True, needs_scene=True, returns_policy=True, anytime=True, spaces=("se2",))

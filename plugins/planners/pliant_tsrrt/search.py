@@ -51,7 +51,7 @@ import numpy as np
 from pliant.termination import Condition, Termination
 
 from pliant_tsrrt.cost import TaskCost
-from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints
+from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corners
 from pliant_tsrrt.models import compose
 from pliant_tsrrt.pushing import PushSettings, paddle_sweeps
 
@@ -147,7 +147,7 @@ class ObjectSpace:
         boxes = sweep[rows, objs, prims]
         sh = sweep_half[objs, prims]
         ok &= ~self.checker.boxes_hit(before, boxes, sh, objs)
-        corners = _corners(boxes, sh)
+        corners = box_corners(boxes, sh)
         x0, y0, x1, y1 = self.bounds
         ok &= np.all((corners[..., 0] >= x0) & (corners[..., 0] <= x1) & (corners[..., 1] >= y0)
                      & (corners[..., 1] <= y1), axis=-1)
@@ -175,12 +175,6 @@ class ObjectSpace:
         if not len(actions):
             return states, True
         return states, bool(np.all(self.valid_steps(states[:-1], states[1:], np.asarray(actions, dtype=np.int64))))
-
-
-def _corners(poses: np.ndarray, half: np.ndarray) -> np.ndarray:
-    from pliant_tsrrt.geometry import box_corners
-
-    return box_corners(poses, half)
 
 
 @dataclass

@@ -89,3 +89,22 @@ def test_a_seed_plan_starts_the_tree_so_replanning_is_never_worse():
     found = grow(space, s0, np.random.default_rng(0), SearchSettings(), Termination(max_iterations=1),
                  seed_plan=[0, 0, 0, 0, 1])
     assert np.isclose(found.cost, 0.125) and found.actions == [0, 0, 0, 0]
+
+
+def test_terminating_from_outside_returns_the_best_plan_so_far():
+    fp = Footprints([CIRCLE], [[0.05, 0.05]])
+    space = _space(fp, [CAN_MODEL], (0.0, 0.0, 1.0, 0.0))
+    s0 = np.array([[0.2, 0.4, 0.0]])
+    stop = Termination()
+
+    def interrupt(iteration, best):           # what Ctrl-C does inside Termination.watch()
+        if iteration >= 3:
+            stop.terminate()
+        return False
+
+    stop.callback = interrupt
+    found = grow(space, s0, np.random.default_rng(0), SearchSettings(), stop)
+    assert found.statistics["interrupted"] and found.statistics["iterations"] <= 4
+    assert found.cost <= space.cost.cost(s0[None])[0]
+    _, ok = space.rollout(s0, found.actions)
+    assert ok
