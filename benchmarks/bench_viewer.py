@@ -245,7 +245,7 @@ def main() -> None:
                  ("24-particle execution, live", f"{e['steps']} steps at 25 Hz in {e['stream_s']:.1f} s "
                   f"(largest lag {e['max_lag_s']:.2f} s)", f"{e['fps']:.1f}")])
     print(f"\ntree: built in {t['build_s']:.1f} s, in the page after {t['page_s']:.1f} s; screenshots in {SHOTS}/")
-    print(f"wrote {write_json('viewer', results)}")
+    write_json("viewer", results)
 
 
 if __name__ == "__main__":
