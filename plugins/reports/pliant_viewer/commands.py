@@ -96,6 +96,7 @@ def cmd_view(args) -> int:
 
     t0 = time.perf_counter()
     scene, run, policy = resolve(args.target, args.scene)
+    _warn_if_exposed(args.host)
     viewer = Viewer(host=args.host, port=args.port or None, robot_meshes=args.robot_meshes)
     try:
         # the page can draw the scene's objects while the robot model and the rest are built
@@ -116,6 +117,11 @@ def cmd_view(args) -> int:
     finally:
         viewer.stop()
     return 0
+
+
+def _warn_if_exposed(host: str) -> None:
+    if host not in (LOOPBACK, "::1", "localhost"):
+        print(f"note: the page is served on {host}, not only on this machine (no authentication)", file=sys.stderr)
 
 
 def _hold(seconds: float | None) -> None:
@@ -144,6 +150,7 @@ def run_with_view(args, original) -> int:
     scene = pipeline.load_scene()
     spec = pipeline.components.get("robot")
     robot = make_robot(scene, spec.name if spec and spec.name else None, spec.options if spec else None)
+    _warn_if_exposed(args.view_host)
     viewer = Viewer(host=args.view_host, port=args.view_port or None, robot_meshes=args.view_robot_meshes)
     try:
         viewer.show(build_content(scene, robot))

@@ -17,6 +17,8 @@ execution loop's per-step hook) and moves the robot and the trail live.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import itertools
 import logging
 import socket
@@ -248,7 +250,8 @@ class Viewer:
         self.tree_drawn = 0
         self.host = host
         self.port = port or free_port(host)
-        self.server = viser.ViserServer(host=host, port=self.port, verbose=False)
+        with contextlib.redirect_stdout(io.StringIO()):      # viser's banner; the commands print the address
+            self.server = viser.ViserServer(host=host, port=self.port, verbose=False)
         # no share button: viser's share links tunnel through an outside server; the page stays on this machine
         self.server.gui.configure_theme(control_width="medium", show_share_button=False)
         # No image-based lighting and no shadows: in software WebGL (headless Chromium, SwiftShader) viser's default
@@ -276,7 +279,8 @@ class Viewer:
         return f"http://{host}:{self.port}/"
 
     def stop(self) -> None:
-        self.server.stop()
+        with contextlib.redirect_stdout(io.StringIO()):
+            self.server.stop()
 
     # --- drawing ----------------------------------------------------------------------------------------------
 
