@@ -66,7 +66,8 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
 
     ``board``: the name of a Ray actor (:class:`ProgressBoard`) the task reports its progress values to every
     ``interval`` seconds while it runs; its answer says whether the executor cancelled the task, which then
-    terminates every stop condition the task polls (:func:`pliant.termination.task_progress`)."""
+    terminates every stop condition the task polls (:func:`pliant.termination.task_progress`).  In a local pool's
+    worker the pool's queue and event (:func:`worker_init`) do the same."""
     import pliant
 
     t0 = time.perf_counter()
@@ -86,9 +87,24 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
             except Exception:                   # the board is gone (the run ended): stop reporting
                 return
 
+    def report_local(sink: dict) -> None:
+        queue, cancelled = _channel
+        last = time.monotonic()
+        while not done.wait(POLL):
+            if cancelled.is_set():
+                cancel.set()
+            if time.monotonic() - last >= interval:
+                last = time.monotonic()
+                try:
+                    queue.put_nowait((index, node, snapshot(sink)))
+                except Exception:               # the pool is ending: stop reporting
+                    return
+
     with task_progress(cancel) as sink:
         if board is not None:
             threading.Thread(target=report, args=(sink,), name="pliant-progress", daemon=True).start()
+        elif _channel is not None and index >= 0:
+            threading.Thread(target=report_local, args=(sink,), name="pliant-progress", daemon=True).start()
         try:
             record = work(*args)
         finally:
@@ -178,10 +194,18 @@ class Executor(ABC):
         self.close()
 
 
-def worker_init(parent: int) -> None:
+#: in a local pool's worker: the pool's ``(progress queue, cancel event)`` (set by :func:`worker_init`)
+_channel = None
+
+
+def worker_init(parent: int, channel=None) -> None:
     """Pool workers: leave Ctrl-C to the parent (it cancels the queue and ends the workers), and die with the parent
-    (Linux: the kernel sends SIGTERM when it exits, even by kill -9; elsewhere a watcher thread polls)."""
+    (Linux: the kernel sends SIGTERM when it exits, even by kill -9; elsewhere a watcher thread polls).
+    ``channel``: the pool's ``(queue, event)``: tasks put their progress on the queue, the event cancels them."""
+    global _channel
     import signal
+
+    _channel = channel
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
@@ -215,17 +239,24 @@ def stop_pool(pool: ProcessPoolExecutor) -> None:
 
 
 class LocalExecutor(Executor):
-    """``jobs`` worker processes on this machine (one task each at a time); the default executor."""
+    """``jobs`` worker processes on this machine (one task each at a time); the default executor.
+
+    grace: seconds the running tasks get to stop by themselves when the run is stopped or cancelled (their stop
+    conditions terminate), before the workers are ended; Ctrl-C ends them at once.
+    interval: seconds between a running task's progress reports (:attr:`Executor.running`).
+    """
 
     name = "local"
 
-    def __init__(self, jobs: int | None = None) -> None:
+    def __init__(self, jobs: int | None = None, *, grace: float = 5.0, interval: float = 1.0) -> None:
         super().__init__()
         if jobs is None:
             jobs = os.cpu_count() or 1
         if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
             raise ConfigError("must be a positive integer", field="--jobs", value=jobs)
         self.jobs = jobs
+        self.grace = grace
+        self.interval = interval
 
     def describe(self) -> str:
         """``local pool of N``."""
@@ -237,17 +268,40 @@ class LocalExecutor(Executor):
         self.stopped = False
         if stop is not None:
             stop.start()
-        pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=worker_init, initargs=(os.getpid(),))
+        import multiprocessing
+        import queue as queues
+
+        context = multiprocessing.get_context()
+        channel = (context.Queue(), context.Event())
+        pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=context, initializer=worker_init,
+                                   initargs=(os.getpid(), channel))
         try:
-            futures = {pool.submit(call_task, work, tuple(task)): k for k, task in enumerate(tasks)}
+            futures = {pool.submit(call_task, work, tuple(task), None, k, self.interval): k
+                       for k, task in enumerate(tasks)}
             pending = set(futures)
             finished = 0
             while pending:
                 if self._should_stop(stop, finished):
                     self.stopped = True
-                    stop_pool(pool)
+                    pool.shutdown(wait=False, cancel_futures=True)       # queued tasks never start
+                    channel[1].set()                                      # running ones stop by themselves ...
+                    wait_futures(pending, timeout=self.grace)
+                    stop_pool(pool)                                       # ... or are ended
                     return
                 done, pending = wait_futures(pending, timeout=POLL, return_when=FIRST_COMPLETED)
+                reports = False
+                while True:
+                    try:
+                        index, node, values = channel[0].get_nowait()
+                    except (queues.Empty, OSError, ValueError):
+                        break
+                    self.running[index] = (node, values)
+                    reports = True
+                still = {futures[f] for f in pending}
+                if reports or len(self.running) != len(still & set(self.running)):
+                    self.running = {k: v for k, v in self.running.items() if k in still}
+                    if self.on_progress is not None:
+                        self.on_progress(self.running)
                 for future in done:
                     record, progress, node, seconds, _ = future.result()
                     finished += 1
@@ -257,6 +311,9 @@ class LocalExecutor(Executor):
             raise
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
+            self.running = {}
+            channel[0].close()
+            channel[0].cancel_join_thread()
 
 
 class RayExecutor(Executor):

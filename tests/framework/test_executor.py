@@ -108,3 +108,26 @@ def test_the_pliant_command_passes_the_executor_to_the_experiment(monkeypatch, c
 
     assert main(["metric-table", "se2-through-passage", "--executor", "local", "--address", "h:1"]) == 2
     assert "--address" in capsys.readouterr().err
+
+
+def test_the_local_pool_shows_running_tasks_and_a_cancel_stops_them_by_their_own_conditions(tmp_path):
+    from pliant.testing.tasks import anytime
+
+    pool = LocalExecutor(2, grace=10.0, interval=0.2)
+    seen = []
+
+    def on_progress(running: dict) -> None:
+        seen.append(running)
+        if len(running) == 2 and all(values.get("iterations", 0) > 5 for _, values in running.values()):
+            pool.cancel()
+
+    pool.on_progress = on_progress
+    markers = [tmp_path / f"task{k}" for k in range(4)]
+    t0 = time.perf_counter()
+    results = list(pool.run(anytime, [(k, 60.0, str(markers[k])) for k in range(4)]))
+    assert results == [] and pool.stopped and time.perf_counter() - t0 < 20.0
+    assert all(values["nodes"] > 5 and values["best_cost"] < 100 for _, values in seen[-1].values())
+    # the running tasks ended through their Termination; of the queued ones, at most the one the pool had already
+    # handed to a worker starts, and it stops at its first check
+    ended = [m.read_text() for m in markers if m.exists()]
+    assert set(ended) == {"interrupted"} and 2 <= len(ended) <= 3
