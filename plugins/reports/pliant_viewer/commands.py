@@ -36,6 +36,8 @@ def add_commands(subparsers) -> None:
                    help="write a self-contained HTML page of the view (plays the timeline back) and exit")
     p.add_argument("--frames", type=int, default=60, help="poses of the timeline in an export (default 60)")
     p.add_argument("--open", action="store_true", help="open the page in the default browser")
+    p.add_argument("--no-cache", action="store_true",
+                   help="neither read nor write the run folder's view-cache.npz (kept for articulated robots)")
     p.set_defaults(handler=cmd_view)
 
     run = subparsers.choices.get("run")
@@ -91,6 +93,7 @@ def _load_scene(pliant, name: str, base: Path):
 def cmd_view(args) -> int:
     from pliant.voxelgrid import VoxelGrid
 
+    from pliant_viewer import cache
     from pliant_viewer.content import voxel_objects
     from pliant_viewer.viewer import Viewer, build_content
 
@@ -99,10 +102,18 @@ def cmd_view(args) -> int:
     _warn_if_exposed(args.host)
     viewer = Viewer(host=args.host, port=args.port or None, robot_meshes=args.robot_meshes)
     try:
-        # the page can draw the scene's objects while the robot model and the rest are built
-        grid = VoxelGrid.from_scene(scene)
-        viewer.show_objects(scene, voxel_objects(grid))
-        viewer.show(build_content(scene, run=run, policy=policy, grid=grid))
+        folder = Path(args.target) if run is not None and Path(args.target).is_dir() else None
+        view = cache.load(folder, scene) if folder is not None and not args.no_cache else None
+        if view is None:
+            # the page can draw the scene's objects while the robot model and the rest are built
+            grid = VoxelGrid.from_scene(scene)
+            viewer.show_objects(scene, voxel_objects(grid))
+            view = build_content(scene, run=run, policy=policy, grid=grid)
+            viewer.show(view)
+            if folder is not None and view.articulated and not args.no_cache:
+                cache.save(view, folder)        # the next view of this run needs no robot model
+        else:
+            viewer.show(view)
         if args.export:
             out = viewer.export_html(Path(args.export), frames=args.frames)
             print(f"exported {out} ({out.stat().st_size / 1e6:.1f} MB)")

@@ -62,18 +62,22 @@ class Timeline:
     configurations: np.ndarray
     label: str = "execution"
 
+    def index(self, t: float) -> int:
+        return int(np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 1))
+
     def at(self, t: float) -> np.ndarray:
-        i = int(np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 1))
-        return self.configurations[i]
+        return self.configurations[self.index(t)]
 
 
 @dataclass
 class ViewContent:
-    """Everything one view draws, built by :func:`build_content` (no viser involved)."""
+    """Everything one view draws, built by :func:`build_content` (no viser involved), with every configuration
+    already placed in 3-D (``ends``: start and goal, ``path_xyz``, ``timeline_xyz``), so that a view read back from
+    a cache (:mod:`pliant_viewer.cache`, ``robot`` and ``tracer`` then ``None``) draws without the robot model."""
 
     scene: object
     robot: object
-    tracer: content.Tracer
+    tracer: content.Tracer | None
     objects: list[content.VoxelObject]
     path: np.ndarray | None = None                 # (k, d) planned configurations
     trajectory: Timeline | None = None
@@ -81,6 +85,11 @@ class ViewContent:
     pareto: list[dict] = field(default_factory=list)
     title: str = ""
     notes: list[str] = field(default_factory=list)
+    ends: np.ndarray | None = None                 # (2, 3)
+    path_xyz: np.ndarray | None = None
+    timeline_xyz: np.ndarray | None = None
+    articulated: bool = False
+    urdf: object = None                            # the robot's UrdfDescription, or None
 
 
 def make_robot(scene, robot_name: str | None = None, robot_options: dict | None = None):
@@ -126,13 +135,19 @@ def build_content(scene, robot=None, *, run: content.RunData | None = None, poli
     if view.trajectory is None and view.path is not None and len(view.path) > 1:
         # no execution: the slider walks the planned path (one waypoint per second)
         view.trajectory = Timeline(np.arange(len(view.path), dtype=np.float64), view.path, label="planned path")
+    view.ends = tracer.points(np.stack([scene.start, scene.goal]))
+    view.path_xyz = tracer.points(view.path) if view.path is not None else None
+    view.timeline_xyz = tracer.points(view.trajectory.configurations) if view.trajectory is not None else None
+    view.urdf = robot.urdf_description()
+    view.articulated = tracer.tip is not None
     return view
 
 
 class RobotDrawing:
     """The robot in the page: a URDF's meshes posed by joint values, or a rigid body's voxels posed as one frame."""
 
-    def __init__(self, server, robot, q0: np.ndarray, resolution: float, meshes: str = "collision") -> None:
+    def __init__(self, server, robot, q0: np.ndarray, resolution: float, meshes: str = "collision",
+                 description=None) -> None:
         self.server = server
         self.robot = robot
         self.meshes = meshes
@@ -141,7 +156,7 @@ class RobotDrawing:
         self.error: BaseException | None = None
         self._q = np.asarray(q0, dtype=np.float64)
         self._set_lock = threading.Lock()
-        description = robot.urdf_description()
+        description = description if robot is None else robot.urdf_description()
         if description is not None:
             # meshes take seconds to parse (yourdfpy, trimesh): the rest of the scene is drawn meanwhile
             self.thread = threading.Thread(target=self._load_urdf_safely, args=(description,), daemon=True)
@@ -172,9 +187,10 @@ class RobotDrawing:
             log.warning("robot meshes not loaded: %s: %s", type(exc).__name__, exc)
             self.error = exc
         finally:
-            self.ready.set()
-            if self.urdf is not None:
-                self.set(self._q)
+            with self._set_lock:
+                if self.urdf is not None:
+                    self._apply(self._q)
+                self.ready.set()
 
     def _load_urdf(self, description) -> None:
         import yourdfpy
@@ -309,9 +325,9 @@ class Viewer:
             self.show_objects(scene, view.objects)
         extent = float(np.max(scene.upper - scene.lower))
         with self.server.atomic():
-            ends = view.tracer.points(np.stack([scene.start, scene.goal]))
+            ends = view.ends
             radius = max(scene.resolution, 0.01 * extent)
-            if view.tracer.tip is not None:
+            if view.articulated:
                 # an arm in a large workspace: frame the base and the task rather than the whole grid
                 focus = (ends[0] + ends[1]) / 2.0
                 reach = max(float(np.max(np.linalg.norm(ends, axis=1))), 0.3)
@@ -323,12 +339,12 @@ class Viewer:
             self._add("/scene/goal", s.add_icosphere("/scene/goal", radius=radius, color=(220, 40, 200),
                                                      position=ends[1]))
             self.robot_drawing = RobotDrawing(self.server, view.robot, scene.start, scene.resolution,
-                                              meshes=self.robot_meshes)
+                                              meshes=self.robot_meshes, description=view.urdf)
             self._add("/robot", self.robot_drawing)
             if view.path is not None and len(view.path) > 1:
-                self._polyline("/path/planned", view.tracer.points(view.path), content.PATH_COLOUR, 4.0)
+                self._polyline("/path/planned", view.path_xyz, content.PATH_COLOUR, 4.0)
             if view.trajectory is not None and view.trajectory.label == "execution":
-                self._polyline("/path/executed", view.tracer.points(view.trajectory.configurations),
+                self._polyline("/path/executed", view.timeline_xyz,
                                content.TRAJECTORY_COLOUR, 3.0)
             if view.tree is not None:
                 self._draw_tree(view.tree, radius)
@@ -432,7 +448,7 @@ class Viewer:
             self.play.on_update(self._on_play)
             self._now = self.server.scene.add_icosphere("/path/now", radius=max(view.scene.resolution, 0.008),
                                                         color=(20, 20, 20),
-                                                        position=view.tracer.points(tl.configurations[:1])[0])
+                                                        position=view.timeline_xyz[0])
             self._add("/path/now", self._now)
 
     def _toggle(self, names, event) -> None:
@@ -450,9 +466,9 @@ class Viewer:
 
     def set_time(self, t: float) -> None:
         tl = self.view.trajectory
-        q = tl.at(t)
-        self.robot_drawing.set(q)
-        self._now.position = self.view.tracer.points(q[None])[0]
+        i = tl.index(t)
+        self.robot_drawing.set(tl.configurations[i])
+        self._now.position = self.view.timeline_xyz[i]
 
     def _on_slider(self, event) -> None:
         if event.client is not None:

@@ -188,3 +188,39 @@ def test_run_with_view_streams_the_execution(tmp_path, capsys):
     steps = int(re.search(r"the finished run; (\d+) steps streamed live", out).group(1))
     execution = json.loads((tmp_path / "run" / "execution.json").read_text())
     assert steps == len(execution["times"]) - 1 > 10           # every step after the initial state
+
+
+def test_cache_round_trip_for_an_arm(tmp_path, viewer):
+    """A baxter-reach run folder: the cached view equals the built one, draws without a robot model, and goes stale
+    when the run's files change."""
+    import os
+
+    from pliant_viewer import cache
+
+    scene = pliant.load_scene("baxter-reach")
+    path = np.linspace(scene.start, scene.goal, 4)
+    (tmp_path / "run.json").write_text(json.dumps({"pipeline": {"name": "b", "scene": "baxter-reach"}}))
+    (tmp_path / "result.json").write_text(json.dumps({"status": "solved", "planner": "x", "statistics": {},
+                                                      "path": {"configurations": path.tolist()}}))
+    (tmp_path / "execution.json").write_text(json.dumps({"times": [0.0, 1.0, 2.0, 3.0], "outcome": "success",
+                                                         "configurations": path.tolist(), "world": "w"}))
+    built = build_content(scene, run=content.read_run(tmp_path))
+    assert built.articulated and built.urdf is not None
+    assert cache.save(built, tmp_path) == tmp_path / cache.NAME
+    cached = cache.load(tmp_path, scene)
+    assert cached is not None and cached.robot is None and cached.tracer is None
+    for name in ("ends", "path", "path_xyz", "timeline_xyz"):
+        np.testing.assert_array_equal(getattr(cached, name), getattr(built, name))
+    np.testing.assert_array_equal(cached.trajectory.times, built.trajectory.times)
+    for a, b in zip(cached.objects, built.objects):
+        assert a.name == b.name and a.total == b.total
+        np.testing.assert_array_equal(a.faces, b.faces)
+        np.testing.assert_array_equal(a.vertex_colours, b.vertex_colours)
+    assert cached.urdf.joint_names == built.urdf.joint_names and cached.urdf.posture == built.urdf.posture
+    viewer.show(cached)
+    viewer.set_time(3.0)
+    np.testing.assert_allclose(viewer.nodes["/path/now"].position, built.timeline_xyz[-1], atol=1e-6)
+    assert viewer.robot_drawing.ready.wait(60) and viewer.robot_drawing.error is None
+    st = (tmp_path / "result.json").stat()
+    os.utime(tmp_path / "result.json", ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000_000))
+    assert cache.load(tmp_path, scene) is None
