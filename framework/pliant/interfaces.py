@@ -537,7 +537,9 @@ class Planner(Component):
     @abstractmethod
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:
-        """Solve ``problem``; never returns ``None`` (see :class:`~pliant.results.Status`)."""
+        """Solve ``problem``; never returns ``None`` (see :class:`~pliant.results.Status`).  ``termination``: any
+        :class:`pliant.termination.Condition` -- a :class:`Termination` or a combination (``any_of`` / ``all_of``);
+        None: the planner's own from its options."""
 
 
 class PathMetric(Component):
