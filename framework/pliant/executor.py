@@ -561,7 +561,11 @@ class LoopbackCluster:
             self.kill_node(k)
         self.processes = []
         if self._temp:
-            shutil.rmtree(self._temp, ignore_errors=True)
+            for _ in range(5):                  # a dying node (or this process's driver) may still write a log
+                shutil.rmtree(self._temp, ignore_errors=True)
+                if not os.path.exists(self._temp):
+                    break
+                time.sleep(0.5)
             self._temp = None
 
     def __enter__(self) -> LoopbackCluster:
