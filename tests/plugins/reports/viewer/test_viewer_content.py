@@ -224,3 +224,22 @@ def test_cache_round_trip_for_an_arm(tmp_path, viewer):
     st = (tmp_path / "result.json").stat()
     os.utime(tmp_path / "result.json", ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000_000))
     assert cache.load(tmp_path, scene) is None
+
+
+def test_large_trees_drawn_from_their_first_nodes_and_solutions():
+    """Beyond ``tree_limit`` nodes: the first ones and every solution's; the "whole tree" switch draws all."""
+    chain = [{"particles": [[i, 0, 0]], "parent": i - 1 if i else None, "expected": [i, 0, 0],
+              "path_probability": 0.5} for i in range(10)]
+    policy = {"nodes": chain, "actions": [], "solutions": [[0, 1, 2, 8, 9]]}
+    scene = small_scene()
+    viewer = Viewer(tree_limit=4)
+    try:
+        viewer.show(build_content(scene, policy=policy))
+        assert viewer.tree_drawn == 6                                        # nodes 0-3, and 8 and 9
+        np.testing.assert_allclose(np.asarray(viewer.nodes["/policy/nodes"].points)[:, 0], [0, 1, 2, 3, 8, 9])
+        assert len(viewer.nodes["/policy/edges"].points) == 4                 # 0-1, 1-2, 2-3, 8-9
+        viewer._whole_tree(type("Event", (), {"target": type("Box", (), {"value": True})()})())
+        assert viewer.tree_drawn == 10 and len(viewer.nodes["/policy/edges"].points) == 9
+        assert "6 nodes drawn" in viewer.summary.content
+    finally:
+        viewer.stop()
