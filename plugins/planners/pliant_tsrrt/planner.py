@@ -54,6 +54,8 @@ class TSRRTOptions(PushOptions):
                             minimum=1e-3)
     gd_pool: int = option(64, "DIRECTGD descends from one of this many cheapest open nodes", minimum=1)
     gd_tries: int = option(2, "descents without a cheaper child after which a node is exhausted", minimum=1)
+    gd_noise: float = option(0.7, "standard deviation of a Gaussian added to DIRECTGD's sample, in mean push lengths "
+                             "(a stochastic descent)", minimum=0.0)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
     w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
@@ -76,7 +78,7 @@ class TSRRTOptions(PushOptions):
                                  "yaw at this step (rad, modulo its symmetry)", minimum=0.0)
     finish_tolerance: float = option(0.05, "execution: when the plan is done and the arrangement costs more than "
                                      "(1 + this) x the plan's final cost, replan once more", minimum=0.0)
-    replan_time: float = option(2.0, "time budget of each replanning (s)", minimum=0.0)
+    replan_time: float = option(5.0, "time budget of each replanning (s)", minimum=0.0)
     max_replans: int = option(20, "most replannings in one execution", minimum=0)
 
     def validate(self) -> None:
@@ -172,7 +174,7 @@ def paddle_path(space: ObjectSpace, problem: PlanningProblem, states: np.ndarray
 
 def search_settings(o: TSRRTOptions) -> SearchSettings:
     return SearchSettings(epsilon=o.epsilon, max_nodes=o.max_nodes, gd_step=o.gd_step, gd_pool=o.gd_pool,
-                          gd_tries=o.gd_tries)
+                          gd_tries=o.gd_tries, gd_noise=o.gd_noise)
 
 
 def learn_settings(o) -> LearnSettings:

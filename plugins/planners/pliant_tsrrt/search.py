@@ -62,13 +62,15 @@ N_PRIMITIVES = 6
 class SearchSettings:
     """TASK_SPACE_RRT's parameters: ``epsilon`` (probability of a uniform sample, line 6), ``max_nodes`` (line 4),
     ``gd_step`` (DIRECTGD step, in mean push lengths), ``gd_pool`` and ``gd_tries`` (DIRECTGD's node choice),
-    ``duplicate`` (rho below which a new state counts as an existing node, m)."""
+    ``duplicate`` (rho below which a new state counts as an existing node, m), ``gd_noise`` (standard deviation of
+    a Gaussian added to DIRECTGD's sample, in mean push lengths)."""
 
     epsilon: float = 0.1
     max_nodes: int = 5000
     gd_step: float = 1.0
     gd_pool: int = 64
     gd_tries: int = 2
+    gd_noise: float = 0.7
     duplicate: float = 1e-3
 
 
@@ -347,7 +349,12 @@ def _directgd(space: ObjectSpace, states, costs, fails, used, n, rng, settings, 
     length = settings.gd_step * space.step_length * rng.uniform(0.5, 1.5)
     direction = g.copy()
     direction[:, 2] = g[:, 2] / np.maximum(space.scale, 1e-9) ** 2
-    return node, s - length * direction / metric
+    sample = s - length * direction / metric
+    if settings.gd_noise > 0:               # a stochastic descent: also try the moves across the gradient
+        jitter = rng.normal(0.0, settings.gd_noise * space.step_length, s.shape)
+        jitter[:, 2] /= np.maximum(space.scale, 1e-3)
+        sample = sample + jitter
+    return node, sample
 
 
 def descend(space: ObjectSpace, s0: np.ndarray, plan: list[int], limit: int = 200) -> tuple[list[int], int]:
