@@ -8,6 +8,7 @@ per path on se3-peg-tight, >= 10x fewer simulated steps than the baseline.  The 
 6.1-6.4, 16 threads) are printed beside.
 
     pliant bench metric [-- --tasks se2-through-passage --simulations 10000 --jobs 2 --set particles=4000]
+    pliant bench metric -- --alone      # only the proposed metric, one cell at a time: its seconds per path
 
 With --jobs 2 two cells run at once, so the table's seconds are those of a loaded machine; the proposed metric is
 timed again alone afterwards (its line under each table).
@@ -65,11 +66,14 @@ def main(argv=None) -> int:
     parser.add_argument("--cells", type=int, default=9, help="first N cells of the grid (default 9)")
     parser.add_argument("--jobs", type=int, default=1, help="cells at a time (default 1: timings on an idle core)")
     parser.add_argument("--set", action="append", default=[], help="metric option KEY=VALUE for every method")
+    parser.add_argument("--alone", action="store_true", help="time only the proposed metric, one cell at a time")
     args = parser.parse_args(argv)
     options = {}
     for item in args.set:
         key, _, value = item.partition("=")
         options[key] = _value(value)
+    if args.alone:
+        return _alone(args.tasks, args.cells, options)
     results = []
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         for name in args.tasks:
@@ -103,6 +107,23 @@ def main(argv=None) -> int:
                   f"{min(THESIS_SECONDS[name]['reachable-volume'])}-{max(THESIS_SECONDS[name]['reachable-volume'])})")
     write_json("metric", {"options": options, "simulations": args.simulations, "jobs": args.jobs,
                           "results": results})
+    return 0
+
+
+def _alone(tasks: list[str], n_cells: int, options: dict) -> int:
+    """The proposed metric's seconds per path, cell after cell in this process after a warm-up (compiled kernels)."""
+    rows, records = [], []
+    for name in tasks:
+        density = task_density(TASKS[name])
+        evaluate(name, "reachable-volume", *cells()[0], 99, density, **options)
+        for eps, alpha in cells()[:n_cells]:
+            r = evaluate(name, "reachable-volume", eps, alpha, 0, density, **options)
+            thesis = THESIS_SECONDS[name]["reachable-volume"][cells().index((eps, alpha))]
+            rows.append((name, f"{eps:g}/{alpha:g}", f"{r['p_exec']:.3f}", f"{r['seconds']:.2f}", f"{thesis:.2f}"))
+            records.append({"task": name, "epsilon": eps, "alpha": alpha, "p_exec": r["p_exec"],
+                            "seconds": r["seconds"]})
+    print_table("reachable-volume alone, seed 0", ("task", "eps/alpha", "P_exec", "s", "thesis s (16 threads)"), rows)
+    write_json("metric-alone", {"options": options, "results": records})
     return 0
 
 

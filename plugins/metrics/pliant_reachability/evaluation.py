@@ -43,7 +43,7 @@ def evaluate(task_name: str, method: str, epsilon: float, alpha: float, seed: in
     task = TASKS[task_name]
     context = _context(task_name, alpha)
     metric = pliant.registry.create("metric", method, context, epsilon_reached=epsilon, density=density,
-                                    simulations=simulations or task.simulations, **options)
+                                    simulations=simulations or task.simulations, **{**task.metric_options, **options})
     path = Path(np.asarray(task.waypoints, dtype=np.float64))
     problem = PlanningProblem.from_context(context)
     started = time.perf_counter()

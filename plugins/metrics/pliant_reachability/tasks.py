@@ -43,7 +43,9 @@ class MetricTask:
     scene: bundled scene name.  waypoints: ``(2, d)`` start and target.  simulator: kinematic simulator options
     (the noise is added per cell).  simulations: runs of the Simulation (baseline) (thesis: 10,000 / 2,000).
     largest_volume_samples: samples in the largest reachable volume of the first cell (thesis: 500 / 250); the
-    density this gives is kept for every cell, as in the thesis.
+    density this gives is kept for every cell, as in the thesis.  world / world_options: the ground truth's
+    dynamic simulator.  metric_options: options every method is evaluated with in this task (explicit options
+    win).
     """
 
     name: str
@@ -54,6 +56,7 @@ class MetricTask:
     largest_volume_samples: int = 500
     world: str = "pybullet"
     world_options: dict = field(default_factory=dict)
+    metric_options: dict = field(default_factory=dict)
 
     def simulator_options(self, alpha: float) -> dict:
         """The kinematic simulator's options in the cell with actuator error ``alpha``."""
@@ -83,7 +86,11 @@ TASKS = {
         {"kp": 1.0, "velocity_limit": 0.1, "angular_velocity_limit": 0.25, "frequency": 10.0,
          "effort_length": WRIST_LEVER},
         simulations=2000, largest_volume_samples=250,
-        world="pymunk", world_options={"max_force": 2000.0, "max_torque": 2000.0 * WRIST_LEVER}),
+        world="pymunk", world_options={"max_force": 2000.0, "max_torque": 2000.0 * WRIST_LEVER},
+        # the L-block's contact events are many and varied (it slides, turns and jams along the wall): with the
+        # default 200 labelled events one seed in four was 0.066 off the baseline in cell (0.1875, 0.25); 400 kept
+        # four seeds within 0.02
+        metric_options={"labelled": 400}),
 }
 
 # The thesis's tables, cells in the order (epsilon, alpha) = (0.125, 0.0625), (0.125, 0.125), ... (0.25, 0.25).
