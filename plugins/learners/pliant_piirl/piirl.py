@@ -11,7 +11,10 @@ out (the chapter: "can be removed from the optimization").
 Solver: scipy's L-BFGS-B (bounded quasi-Newton) with the analytic gradient
 ``d/dS [a / b] = V_k / b - a * W_k / b^2`` (``a = S . V_k``, ``W_k = sum_l V_kl``, ``b = S . W_k``), stopping when
 the relative change of the objective falls below ``tolerance`` or the projected gradient below ``tolerance``
-times the objective.  The chapter used MATLAB's function minimisation.
+times the objective.  The chapter used MATLAB's function minimisation.  A sum of ratios is not convex, and
+L-BFGS-B from the chapter's start alone can stop in a local minimum (a property test found one); so the objective
+is also evaluated at ``screen`` points spread log-uniformly over the box (a fixed seed: the answer is
+deterministic), L-BFGS-B runs again from the ``restarts`` best of them, and the best solution is returned.
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ class RecoveryOptions:
     initial: float = option(500.0, "initial value of every sensitivity (thesis 500)", minimum=1e-12)
     tolerance: float = option(1e-12, "L-BFGS-B's ftol and (relative) pgtol", minimum=0.0)
     max_iterations: int = option(10_000, "L-BFGS-B iteration limit", minimum=1)
+    screen: int = option(512, "points of the box screened for restarts (log-uniform, fixed seed)", minimum=0)
+    restarts: int = option(2, "extra L-BFGS-B runs from the best screened points", minimum=0)
 
 
 def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: RecoveryOptions | None = None) -> dict:
@@ -65,7 +70,18 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
         grad = (v / b[:, None] - (a / b**2)[:, None] * w).sum(axis=0)
         return f, grad
 
-    result = minimize(objective, np.full(n, o.initial), jac=True, method="L-BFGS-B", bounds=[(o.lower, o.upper)] * n,
-                      options={"ftol": o.tolerance, "gtol": o.tolerance, "maxiter": o.max_iterations})
-    return {"sensitivities": np.asarray(result.x), "objective": float(result.fun), "used": used.tolist(),
-            "iterations": int(result.nit), "message": str(result.message)}
+    starts = [np.full(n, o.initial)]
+    if o.screen and o.restarts:
+        rng = np.random.default_rng(0)
+        points = np.exp(rng.uniform(np.log(o.lower), np.log(o.upper), (o.screen, n)))
+        values = np.sum((points @ v.T) / (points @ w.T), axis=1)
+        starts += [points[k] for k in np.argsort(values)[:o.restarts]]
+    best, iterations = None, 0
+    for start in starts:
+        result = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=[(o.lower, o.upper)] * n,
+                          options={"ftol": o.tolerance, "gtol": o.tolerance, "maxiter": o.max_iterations})
+        iterations += int(result.nit)
+        if best is None or result.fun < best.fun - 1e-15:
+            best = result
+    return {"sensitivities": np.asarray(best.x), "objective": float(best.fun), "used": used.tolist(),
+            "iterations": iterations, "message": str(best.message)}
