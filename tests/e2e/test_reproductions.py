@@ -12,7 +12,7 @@ from pliant.reproduce import reproductions, run_reproduction
 
 AVAILABLE = reproductions()
 #: the longest smallest-mode CI runs by default (minutes, as declared on two idle cores)
-CI_MINUTES = 3.0
+CI_MINUTES = 5.0
 
 
 @pytest.fixture(scope="module")

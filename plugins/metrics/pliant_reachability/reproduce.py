@@ -21,9 +21,10 @@ MODES = {"full": "every method, 30 runs per cell, the thesis's baseline sizes, 1
          "quick": "every method, 2 runs per cell, 500 / 300 baseline simulations, 20 ground-truth executions",
          "ci": "Simulation and the reachable-volume metric, 1 run per cell, 500 / 300 baseline simulations"}
 MINUTES = {"full": 150, "quick": 10, "ci": 1.5}
-#: the reachable-volume metric's simulated control steps per evaluation, mean over the cells (ci mode, measured),
+#: the reachable-volume metric's simulated control steps per evaluation, mean over the cells (measured: the peg in
+#: ci mode; the passage in the benchmark, seed 0, since the task labels 400 contact events instead of 200),
 #: and the range the seconds tables accept (about 0.6x to 1.5x)
-STEPS_MEASURED = {"se2-through-passage": 5357.0, "se3-peg-tight": 2747.0}
+STEPS_MEASURED = {"se2-through-passage": 10704.0, "se3-peg-tight": 2747.0}
 STEPS = {task: (0.6 * v, 1.5 * v) for task, v in STEPS_MEASURED.items()}
 
 
