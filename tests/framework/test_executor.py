@@ -127,7 +127,8 @@ def test_the_local_pool_shows_running_tasks_and_a_cancel_stops_them_by_their_own
     results = list(pool.run(anytime, [(k, 60.0, str(markers[k])) for k in range(4)]))
     assert results == [] and pool.stopped and time.perf_counter() - t0 < 20.0
     assert all(values["nodes"] > 5 and values["best_cost"] < 100 for _, values in seen[-1].values())
-    # the running tasks ended through their Termination; of the queued ones, at most the one the pool had already
-    # handed to a worker starts, and it stops at its first check
+    # the running tasks ended through their Termination; queued ones the pool had already handed to its workers'
+    # call queue (up to workers + 1 of them) may still start, and each stops at its first check: whatever started
+    # was interrupted, and nothing returned a result
     ended = [m.read_text() for m in markers if m.exists()]
-    assert set(ended) == {"interrupted"} and 2 <= len(ended) <= 3
+    assert set(ended) == {"interrupted"} and 2 <= len(ended) <= len(markers)
