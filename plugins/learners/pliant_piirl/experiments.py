@@ -323,10 +323,16 @@ PLANAR_RECOVERY = {"lower": 1.0, "upper": 200.0, "initial": 100.0}
 PLANAR_PLANNER = {"path_bias": 0.3, "max_step": 0.03}
 
 
-def run_table42(*, max_time: float, seed: int, output: Path, echo=print) -> dict:
+def run_table42(*, max_time: float | None = None, max_iterations: int | None = None, seed: int, output: Path,
+                echo=print) -> dict:
     """Table 4.2 on ``planar-objects``: a path planned with uniform sensitivities, the simulated expert's
     demonstration, and a path planned with the sensitivities PIIRL recovers from it (bounds 1-200, start 100, as
-    the thesis), each measured per object (robot points, summed along the path) and in the true costs."""
+    the thesis), each measured per object (robot points, summed along the path) and in the true costs.
+
+    Each of the three plans has a budget of ``max_time`` seconds (the thesis's protocol: 5 minutes) or of
+    ``max_iterations`` RRT* iterations; exactly one is given.  An iteration budget makes the whole table a function
+    of the seed alone, whatever the machine's speed or load (a time budget does not: a slower machine grows a
+    smaller tree, and the expert may then demonstrate a different passage)."""
     import pliant
 
     from pliant_piirl.demonstration import Demonstration, DemonstrationTask, save_demonstrations
@@ -334,8 +340,18 @@ def run_table42(*, max_time: float, seed: int, output: Path, echo=print) -> dict
     from pliant_piirl.features import DeformationFeatures, true_sensitivities
     from pliant_piirl.verification import plan_task
 
-    if not (isinstance(max_time, (int, float)) and np.isfinite(max_time) and max_time > 0):
+    if (max_time is None) == (max_iterations is None):
+        raise ConfigError("give exactly one budget: --max-time or --max-iterations", field="--max-time",
+                          value=max_time)
+    if max_time is not None and not (isinstance(max_time, (int, float)) and np.isfinite(max_time) and max_time > 0):
         raise ConfigError("must be a positive number of seconds", field="--max-time", value=max_time)
+    if max_iterations is not None and (isinstance(max_iterations, bool) or not isinstance(max_iterations, int)
+                                       or max_iterations < 1):
+        raise ConfigError("must be a positive whole number", field="--max-iterations", value=max_iterations)
+    planner_options = dict(PLANAR_PLANNER)
+    if max_iterations is not None:
+        planner_options.update(max_time=None, max_iterations=max_iterations)
+    budget = f"{max_time:g} s" if max_time is not None else f"{max_iterations} iterations"
     directory = Path(output) / "learn-table-4.2"
     directory.mkdir(parents=True, exist_ok=True)
     scene = pliant.load_scene(PLANAR)
@@ -345,24 +361,25 @@ def run_table42(*, max_time: float, seed: int, output: Path, echo=print) -> dict
     rng = np.random.default_rng(seed)
     task = DemonstrationTask(scene.start, np.r_[scene.goal[:2], 0.0], goal=scene.goal)
     started = time.perf_counter()
-    echo(f"the expert plans with the true sensitivities ({max_time:g} s) ...")
-    demonstration = PlannerExpert(features, truth, max_time=max_time, planner_options=PLANAR_PLANNER).demonstrate(
-        task, rng)
+    echo(f"the expert plans with the true sensitivities ({budget}) ...")
+    demonstration = PlannerExpert(features, truth, max_time=max_time or 0.0,
+                                  planner_options=planner_options).demonstrate(task, rng)
     save_demonstrations(directory / "demonstration.json", [demonstration], PLANAR)
     learner = _learner({**PLANAR_RECOVERY, "tip": (0.0, 0.0, 0.0)}, "piirl", scene=PLANAR)
     learned = learner.fit([demonstration], rng)["sensitivities"]
     echo("recovered: " + ", ".join(f"{k} {v:.4g}" for k, v in learned.items()))
     paths = {"demonstration": demonstration.path}
     for name, values in (("uniform", dict.fromkeys(truth, 1.0)), ("recovered", learned)):
-        echo(f"planning with the {name} sensitivities ({max_time:g} s) ...")
+        echo(f"planning with the {name} sensitivities ({budget}) ...")
         result, path = plan_task(scene, values, Demonstration(task, demonstration.path), (0.0, 0.0, 0.0), rng,
-                                 max_time=max_time, planner_options=PLANAR_PLANNER, shortcut_iterations=500)
+                                 max_time=max_time, planner_options=planner_options, shortcut_iterations=500)
         paths[name] = path if path is not None else (result.path.configurations if result.path is not None else None)
     rows = {}
     for name in ("uniform", "demonstration", "recovered"):
         v = features.of_path(paths[name]) if paths[name] is not None else np.full(len(features.names), np.nan)
         rows[name] = {"deformation": dict(zip(features.names, v.tolist())), "true_cost": float(v @ weights)}
     summary = {"sensitivities": learned, "truth": truth, "rows": rows, "seed": seed, "max_time": max_time,
+               "max_iterations": max_iterations,
                "seconds": time.perf_counter() - started,
                "paths": {k: (p.tolist() if p is not None else None) for k, p in paths.items()}}
     write_json(directory / "summary.json", summary)

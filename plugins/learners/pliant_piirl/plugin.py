@@ -213,7 +213,12 @@ def add_planar_command(subparsers):
         description="On planar-objects: RRT* with the true sensitivities plays the expert; PIIRL recovers the "
                     "sensitivities from its demonstration (bounds 1-200); RRT* plans with uniform and with the "
                     "recovered sensitivities; the deformation of every object is reported for the three paths.")
-    parser.add_argument("--max-time", type=float, default=60.0, help="seconds per plan (default 60; thesis 5 min)")
+    budget = parser.add_mutually_exclusive_group()
+    budget.add_argument("--max-time", type=float, default=None,
+                        help="seconds per plan (default 60; thesis 5 min)")
+    budget.add_argument("--max-iterations", type=int, default=None,
+                        help="RRT* iterations per plan instead of seconds: the table then depends on the seed only, "
+                             "not on the machine's speed")
     parser.add_argument("--seed", type=int, default=0, help="seed (default 0)")
     parser.add_argument("--output", default="out", help="directory (default out)")
     parser.set_defaults(handler=_planar_command)
@@ -224,7 +229,9 @@ def _planar_command(args) -> int:
 
     from pliant_piirl.experiments import render_table42, run_table42
 
-    print(render_table42(run_table42(max_time=args.max_time, seed=args.seed, output=Path(args.output))))
+    max_time = 60.0 if args.max_time is None and args.max_iterations is None else args.max_time
+    print(render_table42(run_table42(max_time=max_time, max_iterations=args.max_iterations, seed=args.seed,
+                                     output=Path(args.output))))
     return 0
 
 

@@ -64,3 +64,28 @@ def test_the_planner_expert_reaches_the_goal_and_piirl_learns_from_it(planar):
     fitted = learner.fit([demo], np.random.default_rng(1))
     assert set(fitted["sensitivities"]) == {"O1", "O2", "O3", "O4", "O5"}
     assert all(1.0 - 1e-9 <= v <= 200.0 + 1e-9 for v in fitted["sensitivities"].values())
+
+
+@pytest.mark.parametrize("budget, field", [({}, "--max-time"), ({"max_time": 5.0, "max_iterations": 100}, "--max-time"),
+                                           ({"max_iterations": 0}, "--max-iterations"),
+                                           ({"max_iterations": 2.5}, "--max-iterations"),
+                                           ({"max_time": -1.0}, "--max-time")])
+def test_table_42_takes_exactly_one_valid_budget(budget, field, tmp_path):
+    from pliant.errors import ConfigError
+    from pliant_piirl.experiments import run_table42
+
+    with pytest.raises(ConfigError) as caught:
+        run_table42(**budget, seed=0, output=tmp_path, echo=lambda _: None)
+    assert caught.value.field == field
+    assert not (tmp_path / "learn-table-4.2").exists()
+
+
+def test_an_iteration_budget_makes_the_expert_a_function_of_the_seed(planar):
+    from pliant_piirl.experiments import PLANAR_PLANNER
+    from pliant_piirl.expert import PlannerExpert
+
+    scene, features, task = planar
+    options = {**PLANAR_PLANNER, "max_time": None, "max_iterations": 2000}
+    shown = [PlannerExpert(features, true_sensitivities(scene), planner_options=options,
+                           shortcut_iterations=50).demonstrate(task, np.random.default_rng(3)).path for _ in range(2)]
+    np.testing.assert_array_equal(shown[0], shown[1])
