@@ -39,7 +39,7 @@ single_core()
 
 import numpy as np  # noqa: E402
 import pliant  # noqa: E402
-from pliant.geometry import quat_angle, quat_from_axis_angle, quat_slerp  # noqa: E402
+from pliant.geometry.rotations import quat_angle, quat_from_axis_angle, quat_slerp  # noqa: E402
 from pliant.interfaces import Context, PlanningProblem  # noqa: E402
 from pliant.results import PlanResult  # noqa: E402
 from pliant.scene import Scene  # noqa: E402

@@ -1,10 +1,10 @@
-"""The executors of pliant.executor: overhead per task and throughput scaling, local pool and Ray.
+"""The executors of pliant.experiments.executor: overhead per task and throughput scaling, local pool and Ray.
 
 1. Overhead per task: ``--noop`` tasks that do nothing (return a small record), ``--repeats`` times, through
-   :func:`pliant.experiment.run_tasks` (records appended and fsynced to a ``runs.jsonl``, as experiments do), with
+   :func:`pliant.experiments.runs.run_tasks` (records appended and fsynced to a ``runs.jsonl``, as experiments do), with
    the local pool of 1 and 2 workers and with Ray on a loopback cluster of 2 nodes x 1 CPU
-   (:class:`pliant.executor.LoopbackCluster`).  Overhead = wall time / tasks.  Figure to reach: <= 5 ms a task
-   for Ray on loopback.
+   (:class:`pliant.experiments.executor.LoopbackCluster`).  Overhead = wall time / tasks.  Figure to reach:
+   <= 5 ms a task for Ray on loopback.
 2. Throughput scaling: ``--tasks`` real tasks (the path metric's Simulation evaluations of ``pliant metric-table``,
    se2-through-passage, ``--simulations`` each: about 0.7 s with 50) with the local pool of 1 and 2 workers and
    Ray on the same cluster; tasks per second and the speed-up over one local worker.  Records are checked equal
@@ -29,8 +29,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import print_table, write_json
-from pliant.executor import LocalExecutor, LoopbackCluster, RayExecutor
-from pliant.experiment import open_log, run_tasks
+from pliant.experiments.executor import LocalExecutor, LoopbackCluster, RayExecutor
+from pliant.experiments.runs import open_log, run_tasks
 
 TASK = "se2-through-passage"
 

@@ -31,9 +31,9 @@ single_core()
 
 import numpy as np  # noqa: E402
 import pliant  # noqa: E402
-from pliant.geometry import wrap_angle  # noqa: E402
+from pliant.geometry.rotations import wrap_angle  # noqa: E402
+from pliant.geometry.voxelgrid import VoxelGrid  # noqa: E402
 from pliant.interfaces import Context  # noqa: E402
-from pliant.voxelgrid import VoxelGrid  # noqa: E402
 
 CONTROL = {"kp": 0.5, "velocity_limit": 1.0, "angular_velocity_limit": 0.125}
 DURATION = 8.0

@@ -278,7 +278,7 @@ def write_ompl(log: Path, runs: dict[str, list[dict]], budgets: list[float]) -> 
     """The runs in OMPL's benchmark log and database (``.log``, ``.db`` beside the JSON): one planner
     configuration per planner spec, one run per seed, the best cost at each budget as the run's progress, so
     Planner Arena plots pliant's planners and OMPL's RRT* side by side."""
-    from pliant.experiment import PlannerRuns, ompl_database, write_ompl_log
+    from pliant.experiments.ompl import PlannerRuns, ompl_database, write_ompl_log
 
     planners = []
     for name, rs in runs.items():

@@ -21,9 +21,9 @@ single_core()
 
 import numpy as np  # noqa: E402
 import pliant  # noqa: E402
+from pliant.geometry.topology import PunctureChecker, surface_topology, topology  # noqa: E402
+from pliant.geometry.voxelgrid import VoxelGrid  # noqa: E402
 from pliant.interfaces import Context  # noqa: E402
-from pliant.topology import PunctureChecker, surface_topology, topology  # noqa: E402
-from pliant.voxelgrid import VoxelGrid  # noqa: E402
 
 
 def _grid(scene) -> VoxelGrid:

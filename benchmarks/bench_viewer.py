@@ -34,7 +34,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import pliant
 from _common import print_table, write_json
-from pliant.execution import ExecutionStep
+from pliant.execution.loop import ExecutionStep
 from pliant_viewer import browser
 from pliant_viewer.content import read_run
 from pliant_viewer.viewer import Viewer, build_content, free_port

@@ -248,7 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("args", nargs=argparse.REMAINDER, help="arguments passed to the benchmark")
     p.set_defaults(handler=cmd_bench)
 
-    from pliant.reproduce import add_command as add_reproduce
+    from pliant.experiments.reproduce import add_command as add_reproduce
 
     add_reproduce(sub)
 
@@ -269,7 +269,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
-        from pliant.executor import from_args, using
+        from pliant.experiments.executor import from_args, using
 
         # a command given add_executor_arguments: its tasks run with the executor asked for (--executor ray)
         executor = from_args(args) if hasattr(args, "executor") else None

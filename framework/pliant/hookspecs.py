@@ -33,8 +33,8 @@ class PliantSpec:
     @hookspec
     def pliant_reproductions(self):
         """Declare reproductions of thesis tables and figures for ``pliant reproduce``: return a list of
-        :class:`pliant.reproduce.Reproduction` (the runner a ``"module:function"`` string, imported only when it
-        runs)."""
+        :class:`pliant.experiments.reproduce.Reproduction` (the runner a ``"module:function"`` string, imported only
+        when it runs)."""
 
     @hookspec
     def pliant_add_commands(self, subparsers):

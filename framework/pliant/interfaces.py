@@ -30,7 +30,7 @@ from pliant.spaces import Space
 from pliant.termination import Termination
 
 if TYPE_CHECKING:
-    from pliant.actuation import ControlLaw
+    from pliant.execution.actuation import ControlLaw
     from pliant.scene import Scene
 
 KINDS = ("simulator", "robot", "controller", "planner", "metric", "cost", "learner", "driver")
@@ -303,7 +303,7 @@ class Simulator(Component):
 
     Two ways in: :meth:`simulate` (a batch of particles toward targets; the belief planner's
     workhorse) and the stepping API :meth:`reset` / :meth:`step` used by
-    :func:`pliant.execution.execute` to run a controller in closed loop.
+    :func:`pliant.execution.loop.execute` to run a controller in closed loop.
     """
 
     kind = "simulator"
@@ -579,7 +579,7 @@ class Driver(Component):
     reason stop within the limits and disconnect), :meth:`move_to`, :meth:`follow` (a timed path),
     :meth:`stream` (a target that may change every cycle; ruckig blends, no stop), :meth:`stop`,
     :meth:`state`, :meth:`check`.  A driver is also an *execution world*: :meth:`reset`, :meth:`step`,
-    :meth:`configuration` are the protocol :func:`pliant.execution.execute` drives simulators through, so a
+    :meth:`configuration` are the protocol :func:`pliant.execution.loop.execute` drives simulators through, so a
     controller or a policy runs closed-loop on the robot's measured joint states.
 
     **What a driver plugin implements** (the transport, nothing else): :meth:`joint_names`,

@@ -31,7 +31,7 @@ import numpy as np
 
 from pliant.contracts import check_planner
 from pliant.errors import ConfigError, PipelineError, PliantError
-from pliant.execution import ExecutionRecord, StepListener, execute
+from pliant.execution.loop import ExecutionRecord, StepListener, execute
 from pliant.files import write_json, write_text
 from pliant.interfaces import KINDS, Component, Context, Driver, Planner, PlanningProblem
 from pliant.registry import Registry, default_registry
@@ -282,7 +282,7 @@ class Pipeline:
         The execution world (``[execution] world``: a simulator, or a robot driver) is created before planning, so
         a wrong name or option fails at once; a driver connects only after planning and disconnects (stopping the
         robot within its limits) when the execution ends for any reason.  ``on_step`` receives every control step
-        of the execution (:class:`~pliant.execution.ExecutionStep`).
+        of the execution (:class:`~pliant.execution.loop.ExecutionStep`).
         """
         timings: dict[str, float] = {}
         if write:
@@ -364,7 +364,7 @@ class Pipeline:
         return spec if spec is not None else self.components["simulator"]
 
     def execution_world(self, context: Context):
-        """The world executions run in (:class:`~pliant.execution.ExecutionWorld`): the pipeline's simulator, or
+        """The world executions run in (:class:`~pliant.execution.loop.ExecutionWorld`): the pipeline's simulator, or
         the ``[execution]`` table's ``world`` -- a simulator (with the robot rebuilt for it, on the pipeline's scene
         or its ``variant``) or a robot driver (not yet connected; it checks that it commands the robot's joints).
         """

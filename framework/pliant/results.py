@@ -86,10 +86,10 @@ class Policy:
 
     def execute(self, world, controller, rng, *, context=None, period: float = 0.1, time_limit: float = 60.0,
                 action_limit: int = 100, on_step=None, world_name: str = ""):
-        """Run the policy in ``world`` (a :class:`~pliant.execution.ExecutionWorld`: a simulator or a driver) with
+        """Run the policy in ``world`` (a :class:`~pliant.execution.loop.ExecutionWorld`: a simulator or a driver) with
         ``controller`` (control ``period`` and ``time_limit`` in s, at most ``action_limit`` actions); ``context``
         is the pipeline's (scene, robot...); ``on_step`` receives every control step.  Returns a
-        :class:`~pliant.execution.ExecutionRecord`.
+        :class:`~pliant.execution.loop.ExecutionRecord`.
 
         Policy kinds that can be executed override this.
         """

@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 
 from pliant.errors import SceneError
-from pliant.geometry import UNIT_QUATERNION_TOLERANCE, quat_to_matrix
-from pliant.shapes import Box, Cylinder, Mesh, Shape, Sphere, VoxelArray
+from pliant.geometry.rotations import UNIT_QUATERNION_TOLERANCE, quat_to_matrix
+from pliant.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere, VoxelArray
 from pliant.validation import Fields, read_toml, size_limit
 
 ROBOT_SPACES = ("r3", "se2", "se3")

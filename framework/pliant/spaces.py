@@ -16,7 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from pliant.errors import DimensionError
-from pliant.geometry import (
+from pliant.geometry.rotations import (
     UNIT_QUATERNION_TOLERANCE,
     quat_angle,
     quat_conjugate,

@@ -16,8 +16,8 @@ Ctrl-C into ``terminate()`` while the loop runs (main thread only), so the plann
 
 Progress values: ``should_stop(iteration, best_cost, solved)`` publishes ``iterations``, ``best_cost`` and
 ``solved``; a planner may :meth:`Condition.publish` more (``nodes=...``).  :meth:`Condition.progress` returns a
-snapshot from any thread.  Inside a task run by an executor (:mod:`pliant.executor`), every published value also
-goes to that task's progress, which the executor collects (live on a Ray cluster, and with the task's record), and
+snapshot from any thread.  Inside a task run by an executor (:mod:`pliant.experiments.executor`), every published value
+also goes to that task's progress, which the executor collects (live on a Ray cluster, and with the task's record), and
 the executor can cancel the task: every condition the task polls then terminates (:func:`task_progress`).
 """
 

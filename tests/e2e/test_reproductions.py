@@ -8,7 +8,7 @@ unless ``PLIANT_REPRODUCE_ALL=1``: docs/experiments.md lists which.
 import os
 
 import pytest
-from pliant.reproduce import reproductions, run_reproduction
+from pliant.experiments.reproduce import reproductions, run_reproduction
 
 AVAILABLE = reproductions()
 #: the longest smallest-mode CI runs by default (minutes, as declared on two idle cores)

@@ -18,8 +18,8 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 from pliant import Pipeline, registry
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.hardware.limits import load_limits
-from pliant.voxelgrid import VoxelGrid
 
 PR2_ARM = ("shoulder_pan_joint", "shoulder_lift_joint", "upper_arm_roll_joint", "elbow_flex_joint",
            "forearm_roll_joint", "wrist_flex_joint", "wrist_roll_joint")

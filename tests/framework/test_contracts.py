@@ -78,7 +78,7 @@ def test_a_kinematic_reset_inside_a_wall_is_refused_and_free_space_is_not(maze):
 def test_dynamic_simulators_refuse_a_reset_inside_a_wall(scene_context, name):
     context = scene_context("se2-maze")
     simulator = registry.create("simulator", name, context)
-    from pliant.voxelgrid import VoxelGrid
+    from pliant.geometry.voxelgrid import VoxelGrid
 
     grid = VoxelGrid.from_scene(context.scene)
     occupied = np.argwhere(grid.occupied)

@@ -15,8 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pliant import load_scene
 from pliant.errors import PliantError, SceneError
+from pliant.geometry.shapes import MAX_MESH_TRIANGLES, VoxelArray
 from pliant.scene import MAX_GRID_CELLS
-from pliant.shapes import MAX_MESH_TRIANGLES, VoxelArray
 
 BASE = """name = "hostile"
 start = [0.1, 0.1, 0.1]

@@ -11,9 +11,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 from pliant import load_scene
 from pliant.errors import SceneError
+from pliant.geometry.shapes import Box, Cylinder, Mesh, Sphere, VoxelArray
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.scene import Scene, available_scenes
-from pliant.shapes import Box, Cylinder, Mesh, Sphere, VoxelArray
-from pliant.voxelgrid import VoxelGrid
 
 
 def test_primitive_membership_by_hand():

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from pliant.errors import DimensionError
-from pliant.geometry import quat_angle, quat_from_axis_angle
+from pliant.geometry.rotations import quat_angle, quat_from_axis_angle
 from pliant.spaces import CompoundSpace, RealVectorSpace, SE2Space, SE3Space, space_from_dict
 from pliant.testing import check_space
 

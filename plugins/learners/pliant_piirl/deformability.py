@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 from pliant.errors import ConfigError, DimensionError
+from pliant.geometry.tetmesh import box_tetrahedra, tetrahedron_volumes, write_vtk
 from pliant.interfaces import Learner
 from pliant.options import option
-from pliant.tetmesh import box_tetrahedra, tetrahedron_volumes, write_vtk
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 from pliant.errors import ConfigError
-from pliant.experiment import check_settings, open_log, run_tasks
+from pliant.experiments.runs import check_settings, open_log, run_tasks
 from pliant.files import write_json, write_text
 
 SCENE = "hollow-cube"

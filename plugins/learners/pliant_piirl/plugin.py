@@ -1,6 +1,6 @@
 """Entry point of the ch. 4 learners: PIIRL sensitivity recovery and its active-learning loop."""
 
-from pliant.executor import add_executor_arguments
+from pliant.experiments.executor import add_executor_arguments
 from pliant.hookspecs import hookimpl
 
 _MODULE = "pliant_piirl.learner"

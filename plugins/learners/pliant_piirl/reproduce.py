@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 
-from pliant.reproduce import Headline, Outcome, ReproductionRun, Row
+from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
 
 MODES = {
     "table-4.1": {"full": "learn from the 12 pairs, then 3 RRT* plans of 60 s per task (the thesis: 30 and 15 plans "
@@ -105,7 +105,7 @@ def table_81(run: ReproductionRun) -> Outcome:
 
 def declarations() -> list:
     """The three reproductions, for the plugin's hook."""
-    from pliant.reproduce import CATALOGUE, Reproduction
+    from pliant.experiments.reproduce import CATALOGUE, Reproduction
 
     runners = {"table-4.1": "table_41", "table-4.2": "table_42", "table-8.1": "table_81"}
     return [Reproduction(name, CATALOGUE[name][0], f"pliant_piirl.reproduce:{runner}", modes=MODES[name],

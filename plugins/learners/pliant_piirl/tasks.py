@@ -29,8 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import ConfigError, PlanningError
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.options import option
-from pliant.voxelgrid import VoxelGrid
 from scipy import ndimage
 
 from pliant_piirl.demonstration import DemonstrationTask

@@ -3,8 +3,8 @@
 The task is planned in the scene with the *recovered* sensitivities by the registered ``rrtstar`` planner (looked
 up by name through the registry: plugins do not import each other) with the puncture and cut check on, the
 task-space goal "the tip touches the target" and the task's collision planes as a validity constraint, as in the
-chapter; then the path is shortcut (:mod:`pliant.shortcut`, cost-aware, every shortcut checked for punctures and
-cuts along the whole path), the post-processing step of sampling planners.  The chapter planned for 30 and 60
+chapter; then the path is shortcut (:mod:`pliant.planning.shortcut`, cost-aware, every shortcut checked for punctures
+and cuts along the whole path), the post-processing step of sampling planners.  The chapter planned for 30 and 60
 minutes per task; the time budget here is an option.  With ``refine_rounds`` the shortcut path is then improved by
 stochastic local search in the recovered cost (:func:`refine`): the sample paths of thesis 4.3.1 drawn around it,
 the cheapest kept when it is cheaper and free of punctures, with the noise shrinking each round -- the local
@@ -63,9 +63,9 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
     result = planner.plan(problem, rng)
     if result.path is None or shortcut_iterations == 0:
         return result, None
-    from pliant.shortcut import shortcut
-    from pliant.topology import PunctureChecker, arc_margin
-    from pliant.voxelgrid import VoxelGrid
+    from pliant.geometry.topology import PunctureChecker, arc_margin
+    from pliant.geometry.voxelgrid import VoxelGrid
+    from pliant.planning.shortcut import shortcut
 
     checker = PunctureChecker(VoxelGrid.from_scene(context.scene), robot.body_points,
                               arc_margin=arc_margin(context.scene, context.space))

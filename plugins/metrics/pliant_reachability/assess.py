@@ -27,9 +27,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.clustering import ClusteringContext, ac_connected
+from pliant.execution.noise import truncated_normal
 from pliant.interfaces import RobotModel, Simulator
-from pliant.noise import truncated_normal
+from pliant.planning.clustering import ClusteringContext, ac_connected
 
 from pliant_reachability.clearance import Clearance
 from pliant_reachability.contact import Contacts, classify, project_to_contact
@@ -86,7 +86,7 @@ def sample_counts(volumes: ReachableVolumes, density: float, max_samples: int) -
 def reachable_from(x: np.ndarray, previous: np.ndarray, volumes: ReachableVolumes, context: ClusteringContext
                    ) -> np.ndarray:
     """Bool ``(n,)``: the samples ``x`` whose nearest sample of the previous volume (weighted) is AC-connected to them
-    (thesis 6.6.2 with the clustering of 5.3.3, :func:`pliant.clustering.ac_connected`)."""
+    (thesis 6.6.2 with the clustering of 5.3.3, :func:`pliant.planning.clustering.ac_connected`)."""
     if len(previous) == 0 or len(x) == 0:
         return np.zeros(len(x), dtype=bool)
     nearest = np.empty(len(x), dtype=np.int64)
@@ -225,8 +225,8 @@ def propagated_probability(volumes: ReachableVolumes, settings: SamplingSettings
     are (its 6.6 names this the metric's main source of error), and multiplies per-volume means as if the volumes
     were independent.  Here the samples of ``RV_j`` are instead particles of the controller's obstacle-free
     distribution at step ``j`` (``starts``, uniform in the start ball, moved one noisy control step at a time with
-    eq. 6.14's noise drawn as the simulator draws it, :meth:`pliant.actuation.ControlLaw.step_noise`; they stay
-    inside the volumes by Theorem 2), and each particle's own path is followed: where
+    eq. 6.14's noise drawn as the simulator draws it, :meth:`pliant.execution.actuation.ControlLaw.step_noise`; they
+    stay inside the volumes by Theorem 2), and each particle's own path is followed: where
     its step from a free configuration into a colliding one first meets the contact manifold (bisection on the
     step, as for the images) is a *contact event*.  Up to ``labelled`` events, chosen at random, are labelled by
     simulating them until they reach the target, stick, or run out of what is left of an execution's step

@@ -2,7 +2,7 @@
 
 The thesis approximates C-space proximity to contact by workspace proximity, checking the robot against an
 expanded environment.  Here every surface point of the robot looks up the signed distance of its voxel
-(:attr:`pliant.voxelgrid.VoxelGrid.sdf`, metres, at voxel centres) and whether that voxel is occupied; a
+(:attr:`pliant.geometry.voxelgrid.VoxelGrid.sdf`, metres, at voxel centres) and whether that voxel is occupied; a
 configuration *collides* when any surface point lies in an occupied voxel or outside the grid (the test the
 kinematic simulator resolves), and its *clearance* is the smallest signed distance over its points.  Rigid
 bodies go through one numba kernel that fuses the transform and the lookups (split over ``threads`` threads for
@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import RobotModel
-from pliant.voxelgrid import VoxelGrid
 
 #: configurations per chunk on the articulated path (bounds memory: chunk x points x 3 floats)
 CHUNK = 256

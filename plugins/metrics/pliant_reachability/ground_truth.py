@@ -3,7 +3,7 @@
 The thesis executed each task 100 times per cell on a real KUKA iiwa under Cartesian impedance control.  Here the
 robot is the task's dynamic simulator (pybullet for se3-peg-tight, pymunk for se2-through-passage) with the
 cell's actuation noise (eq. 6.14-6.15), driven by the contact motion controller (thesis app. C, ``contact``
-plugin) through :func:`pliant.execution.execute`, from start configurations drawn uniformly in the
+plugin) through :func:`pliant.execution.loop.execute`, from start configurations drawn uniformly in the
 ``epsilon_reached`` ball around the first waypoint (collision-free), exactly as the metrics draw theirs.  An
 execution succeeds when the controller reaches the second waypoint within ``epsilon_reached`` (weighted
 distance: the robot's space is built with the metric's translation weight); it fails when the controller gives
@@ -43,7 +43,7 @@ def ground_truth(task_name: str, epsilon: float, alpha: float, executions: int, 
     that succeed, and the outcomes."""
     import time
 
-    from pliant.execution import execute
+    from pliant.execution.loop import execute
     from pliant.results import Path
 
     task = TASKS[task_name]

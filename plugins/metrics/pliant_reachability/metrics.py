@@ -20,12 +20,12 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.clustering import ClusteringContext
 from pliant.errors import ConfigError, DimensionError, PlanningError
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import PathMetric, PlanningProblem
 from pliant.options import option
+from pliant.planning.clustering import ClusteringContext
 from pliant.results import Path
-from pliant.voxelgrid import VoxelGrid
 
 from pliant_reachability.assess import (
     SamplingSettings,

@@ -1,6 +1,6 @@
 """Entry point of the reachable-volume path-quality metrics (thesis ch. 6)."""
 
-from pliant.executor import add_executor_arguments
+from pliant.experiments.executor import add_executor_arguments
 from pliant.hookspecs import hookimpl
 
 _MODULE = "pliant_reachability.metrics"

@@ -21,7 +21,7 @@ from pliant.files import write_json, write_text
 def select(pipeline_name: str, *, candidates: int, executions: int, execute_all: bool = False,
            overrides: list[str] | None = None, output: Path | None = None, echo=print) -> dict:
     """Run the selection experiment; returns (and writes, as ``selection.json`` and ``selection.md``) its report."""
-    from pliant.execution import execute
+    from pliant.execution.loop import execute
     from pliant.interfaces import PlanningProblem
     from pliant.pipeline import Pipeline
     from pliant.validation import safe_name

@@ -1,5 +1,5 @@
 """``pliant metric-table``: thesis Tables 6.1-6.4 regenerated -- every method in every cell of the thesis's grid,
-``--runs`` seeded evaluations each, resumable and parallel (:mod:`pliant.experiment`), the thesis's numbers beside
+``--runs`` seeded evaluations each, resumable and parallel (:mod:`pliant.experiments.runs`), the thesis's numbers beside
 ours, and a figure per task.
 
 Records (``runs.jsonl``): one per task, cell, method and run, with ``p_exec``, ``seconds`` (wall time of the
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 from pliant.errors import ConfigError
-from pliant.experiment import check_settings, open_log, run_tasks
+from pliant.experiments.runs import check_settings, open_log, run_tasks
 from pliant.files import write_json, write_text
 
 from pliant_reachability.evaluation import evaluate, task_density

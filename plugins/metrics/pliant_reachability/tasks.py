@@ -2,7 +2,7 @@
 
 Each task is one waypoint pair (the thesis evaluates "the most challenging pair of adjacent waypoints" of each
 task) in a bundled scene, with the kinematic simulator's settings; the noise model is eq. 6.14-6.15 (the
-``floor`` model of :mod:`pliant.noise`) with ``alpha`` for translation and ``alpha / 4`` for rotation (thesis
+``floor`` model of :mod:`pliant.execution.noise`) with ``alpha`` for translation and ``alpha / 4`` for rotation (thesis
 6.5: angular velocity weighted by 1/4 as in 5.4; the floor model is already relative to each actuator's speed,
 so the 1/10 weighting of linear velocity is the metres-to-weighted-units conversion, not a further factor).
 

@@ -9,7 +9,7 @@ or 0.25 rad).
 Volumes.  ``RV_0`` is the ``epsilon_reached`` ball around ``a`` (where the robot may be when ``b`` becomes its
 target), bounded by the box of half-widths ``epsilon / w_d``.  Each further volume is the box bounding one
 control step of every configuration of the previous one (eq. 6.1-6.2): the controller's noise-free step
-(:class:`pliant.actuation.ControlLaw`, which caps the command's norm like the simulator does) evaluated at the
+(:class:`pliant.execution.actuation.ControlLaw`, which caps the command's norm like the simulator does) evaluated at the
 box's corners, the centres of its faces, its centre and its point nearest the target (which, within one step
 of the target, lands on it), widened per dimension by the largest displacement
 the actuation error can add in one step (eq. 6.7-6.8 with ``F`` of eq. 6.14).  For a per-dimension
@@ -24,8 +24,8 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.actuation import ControlLaw
 from pliant.errors import ConfigError
+from pliant.execution.actuation import ControlLaw
 
 
 def tangent_weights(law: ControlLaw, translation_weight: float, rotation_weight: float) -> np.ndarray:

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import DimensionError
+from pliant.geometry.voxelgrid import FREE, VoxelGrid
 from pliant.interfaces import CostModel, check_batch
 from pliant.options import option
-from pliant.voxelgrid import FREE, VoxelGrid
 
 from pliant_voxel.formula import compress_table, cost_tables
 from pliant_voxel.kernels import (

@@ -130,7 +130,7 @@ def trilinear_with_gradient(field_, lower, resolution, points, value, gradient):
     """Trilinear interpolation of ``field_`` ``(nx, ny, nz)`` (voxel-centred samples) at world ``points``
     ``(n, m, 3)``: fills ``value`` ``(n, m)`` and its exact gradient ``gradient`` ``(n, m, 3)`` (per metre).
 
-    The same arithmetic as :func:`pliant.voxelgrid._trilinear` and ``_trilinear_gradient`` (clamping to
+    The same arithmetic as :func:`pliant.geometry.voxelgrid._trilinear` and ``_trilinear_gradient`` (clamping to
     the grid; a clamped axis has zero derivative), fused into one pass without temporaries.
     """
     nx, ny, nz = field_.shape

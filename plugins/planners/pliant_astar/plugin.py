@@ -56,7 +56,7 @@ def _pareto_command(args) -> int:
 
 @hookimpl
 def pliant_reproductions():
-    from pliant.reproduce import Reproduction
+    from pliant.experiments.reproduce import Reproduction
 
     return [Reproduction("figure-3.5", "Figure 3.5: A* path classes on the triple-wall over p",
                          "pliant_astar.reproduce:figure_35",

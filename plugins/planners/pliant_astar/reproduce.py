@@ -3,7 +3,7 @@ thesis's three paths (length in voxels, deformation)."""
 
 from __future__ import annotations
 
-from pliant.reproduce import Headline, Outcome, ReproductionRun, Row
+from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
 
 #: thesis Figure 3.5: (p, length in voxels, deformation) of its three path classes
 THESIS = {"highest deformation": (0.0, 61, 1062), "medium deformation": (0.01, 65, 683),

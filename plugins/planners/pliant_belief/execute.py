@@ -1,7 +1,7 @@
 """Executing a partial policy in any execution world with a controller, adapting it online (thesis 5.3.5).
 
 :func:`execute_policy` resets the world at the policy's start, then repeats: take the policy's action
-(a target configuration), drive toward it with the controller (:func:`pliant.execution.drive`: until the
+(a target configuration), drive toward it with the controller (:func:`pliant.execution.loop.drive`: until the
 controller reports it reached, gives up because the robot is stuck, or the action's time runs out), and
 query the policy (thesis Algorithm 4) with the configuration reached and the action performed.  The query
 matches the observation to the action's outcomes, adapts the probabilities (eq. 5.2-5.3) or inserts an
@@ -14,14 +14,14 @@ unforeseen outcome, and returns the next action.  Execution stops on
   ``final_approach``; not in the thesis) does not bring it within;
 - ``timeout``: the total time limit; ``action limit``: the number of actions.
 
-Everything is recorded in the core's :class:`~pliant.execution.ExecutionRecord`: the trajectory with contacts and
+Everything is recorded in the core's :class:`~pliant.execution.loop.ExecutionRecord`: the trajectory with contacts and
 the movable objects' poses, and, in its ``actions``, one entry per action performed: ``index``, ``from_node``,
 ``action_id``, ``kind`` (forward / reverse / goal), ``target`` ``(d,)``, ``start_time`` / ``end_time`` (s), ``drive``
 (reached / stuck / timeout), ``reached`` (the configuration reached), ``node`` (matched or inserted),
 ``inserted``, ``relocalized``, ``matching``, ``status`` (continue / goal / failure) and ``probability``
 (``P(node -> goal)`` after the update); in ``adaptations`` the probability changes of every query
 ``{"action_index", "action", "outcome", "before", "after"}`` (eq. 5.2-5.3); ``final_node`` the last vertex reached.
-The world is any :class:`~pliant.execution.ExecutionWorld`: a simulator, or a robot driver.
+The world is any :class:`~pliant.execution.loop.ExecutionWorld`: a simulator, or a robot driver.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from pliant.errors import ConfigError, DimensionError
-from pliant.execution import ExecutionRecord, ExecutionWorld, Recorder, StepListener, drive
+from pliant.execution.loop import ExecutionRecord, ExecutionWorld, Recorder, StepListener, drive
 from pliant.interfaces import Controller
 
 if TYPE_CHECKING:

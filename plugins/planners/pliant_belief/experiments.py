@@ -41,9 +41,9 @@ from pathlib import Path
 
 import numpy as np
 from pliant.errors import ConfigError
-from pliant.executor import LocalExecutor
-from pliant.executor import current as current_executor
-from pliant.experiment import check_settings, open_log, run_tasks
+from pliant.experiments.executor import LocalExecutor
+from pliant.experiments.executor import current as current_executor
+from pliant.experiments.runs import check_settings, open_log, run_tasks
 from pliant.files import rewrite_jsonl
 
 

@@ -3,7 +3,7 @@
 From node ``n_near`` toward ``q_target``: take ``N_particles`` particles (a copy of ``b_near`` when it
 is a full set, else a uniform resample, so split nodes do not starve), forward-simulate them with the
 pipeline's simulator (the kinematic simulator of app. B in the thesis), cluster the results
-(:mod:`pliant.clustering`, 5.3.3) into one node per cluster with
+(:mod:`pliant.planning.clustering`, 5.3.3) into one node per cluster with
 ``P(n_near -> n_new) = |b_new| / N_particles``, estimate each new node's reversibility by simulating
 ``N_particles`` particles back toward ``n_near``, and the effective probability of reaching it within
 ``N_attempt`` tries (:func:`pliant_belief.belief.effective_probability`).
@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.actuation import angular_mask
+from pliant.execution.actuation import angular_mask
 from pliant.interfaces import PlanningProblem
 
 from pliant_belief.belief import BeliefNode, BeliefTree, effective_probability

@@ -27,13 +27,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from pliant.errors import ConfigError
-from pliant.geometry import quat_from_axis_angle, quat_multiply, wrap_angle
+from pliant.geometry.rotations import quat_from_axis_angle, quat_multiply, wrap_angle
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
 from pliant.termination import Termination
-from pliant.voxelgrid import VoxelGrid
 from scipy.special import erf
 
 from pliant_belief.belief import BeliefNode, BeliefTree
@@ -197,7 +197,7 @@ class BeliefPlanner(Planner):
         return policy
 
     def _clusterer(self, problem: PlanningProblem, rng: np.random.Generator):
-        from pliant.clustering import ClusteringContext, cluster_particles
+        from pliant.planning.clustering import ClusteringContext, cluster_particles
 
         o = self.options
         scene = problem.scene

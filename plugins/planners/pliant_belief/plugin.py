@@ -2,7 +2,7 @@
 
 import os
 
-from pliant.executor import add_executor_arguments
+from pliant.experiments.executor import add_executor_arguments
 from pliant.hookspecs import hookimpl
 
 

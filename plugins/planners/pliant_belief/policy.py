@@ -596,12 +596,12 @@ class PartialPolicy(Policy):
 
     def use_clustering(self, context, *, wcr_threshold: float | None = None, distance_threshold: float | None = None,
                        rng: np.random.Generator | None = None) -> None:
-        """Set :attr:`matcher` to the clustering match of Algorithm 4 (:func:`pliant.clustering.matches`)
+        """Set :attr:`matcher` to the clustering match of Algorithm 4 (:func:`pliant.planning.clustering.matches`)
         with the policy's clustering method, over a pipeline ``context`` (scene, robot, simulator).
 
         Thresholds not given come from :attr:`match_thresholds` (what the planner used, saved with the policy),
         else the clustering defaults (WCR 0.75, distance 8 voxels); the ones used are recorded there."""
-        from pliant.clustering import ClusteringContext, matches
+        from pliant.planning.clustering import ClusteringContext, matches
 
         if wcr_threshold is None:
             saved = self.match_thresholds.get("wcr_threshold")

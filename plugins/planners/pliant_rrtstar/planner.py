@@ -12,7 +12,7 @@ through the new node when that makes their path cheaper.  The objective is addit
 (:meth:`PlanningProblem.path_cost`, thesis Table 3.1) plus an optional length term — so rewiring a
 node shifts the cost of its whole subtree by the same amount.
 
-**Puncture and cut detection** (thesis 4.3.4, :class:`pliant.topology.PunctureChecker`): every node
+**Puncture and cut detection** (thesis 4.3.4, :class:`pliant.geometry.topology.PunctureChecker`): every node
 stores the voxels its path from the start has swept out of each watched object.  An extension is
 checked from its parent's state; a rewire re-derives the state of the rewired node from its new
 parent and then of every descendant from its own parent, and is refused if any of them punctures or
@@ -30,10 +30,10 @@ import numpy as np
 from pliant.errors import ConfigError
 from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
+from pliant.planning.tree import Tree
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
 from pliant.termination import Termination
-from pliant.tree import Tree
 
 from pliant_rrtstar.edges import evaluate_edges, state_costs, state_validity
 from pliant_rrtstar.goal import TaskSpaceGoal
@@ -324,8 +324,8 @@ class RRTStarPlanner(Planner):
             raise ConfigError("puncture_check needs a scene and a robot", field="planner.puncture_check", value=True)
         if not (wanted or (wanted is None and available)):
             return None
-        from pliant.topology import PunctureChecker, arc_margin
-        from pliant.voxelgrid import VoxelGrid
+        from pliant.geometry.topology import PunctureChecker, arc_margin
+        from pliant.geometry.voxelgrid import VoxelGrid
 
         checker = PunctureChecker(VoxelGrid.from_scene(problem.scene), problem.robot.body_points,
                                   arc_margin=arc_margin(problem.scene, problem.space))

@@ -23,11 +23,11 @@ import numpy as np
 from pliant.errors import ConfigError
 from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
+from pliant.planning.shortcut import perturb, shortcut
+from pliant.planning.tree import Tree
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
-from pliant.shortcut import perturb, shortcut
 from pliant.termination import Termination
-from pliant.tree import Tree
 
 from pliant_trrt.transition import TransitionTest
 
@@ -61,10 +61,10 @@ class TRRTOptions:
                           "after each solution (restart)", choices=("grow", "restart"))
     puncture_check: bool = option(False, "refuse edges that puncture or cut an object of the voxel model "
                                   "(thesis 4.3.4; needs a scene)")
-    shortcut_iterations: int = option(0, "cost-aware shortcutting of the solution (pliant.shortcut): attempts; "
-                                      "0 returns T-RRT's own path", minimum=0)
+    shortcut_iterations: int = option(0, "cost-aware shortcutting of the solution (pliant.planning.shortcut): "
+                                      "attempts; 0 returns T-RRT's own path", minimum=0)
     perturb_iterations: int = option(0, "after shortcutting, random local perturbation of the solution's "
-                                     "waypoints (pliant.shortcut.perturb): attempts; 0 for none", minimum=0)
+                                     "waypoints (pliant.planning.shortcut.perturb): attempts; 0 for none", minimum=0)
     perturb_spacing: float | None = option(None, "waypoint spacing of the perturbation (space metric units; "
                                            "default 2.5 check steps)", minimum=1e-9)
     perturb_sigma: float | None = option(None, "standard deviation of a perturbation per tangent coordinate "
@@ -223,8 +223,8 @@ class TRRTPlanner(Planner):
     def _puncture_checker(self, problem: PlanningProblem):
         if problem.scene is None or problem.robot is None:
             raise ConfigError("puncture_check needs a scene and a robot", field="planner.puncture_check", value=True)
-        from pliant.topology import PunctureChecker, arc_margin
-        from pliant.voxelgrid import VoxelGrid
+        from pliant.geometry.topology import PunctureChecker, arc_margin
+        from pliant.geometry.voxelgrid import VoxelGrid
 
         return PunctureChecker(VoxelGrid.from_scene(problem.scene), problem.robot.body_points,
                                arc_margin=arc_margin(problem.scene, problem.space))

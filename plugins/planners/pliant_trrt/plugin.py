@@ -14,7 +14,7 @@ def pliant_register(registrar):
 
 @hookimpl
 def pliant_reproductions():
-    from pliant.reproduce import Reproduction
+    from pliant.experiments.reproduce import Reproduction
 
     return [Reproduction("table-3.1", "Table 3.1: T-RRT and GradienT-RRT on the cube-wall",
                          "pliant_trrt.reproduce:table_31",

@@ -1,5 +1,5 @@
 """``pliant reproduce table-3.1``: T-RRT and GradienT-RRT on the cube-wall (thesis Table 3.1), as seeded, resumable
-tasks through :func:`pliant.experiment.run_tasks` (so ``--executor ray`` spreads them over a cluster).
+tasks through :func:`pliant.experiments.runs.run_tasks` (so ``--executor ray`` spreads them over a cluster).
 
 Every run plans the bundled pipeline ``cube-wall-trrt`` with seed = run index; costs are in the thesis's unit, the
 sum of the state cost over the path's states one voxel apart (``path_cost / resolution``), as
@@ -9,7 +9,7 @@ sum of the state cost over the path's states one voxel apart (``path_cost / reso
 from __future__ import annotations
 
 import numpy as np
-from pliant.reproduce import Headline, Outcome, ReproductionRun, Row
+from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
 
 #: thesis Table 3.1: (planner, nFailMax) -> time mean, std (s), cost mean, std
 THESIS = {("trrt", 10): (112.0, 45.6, 515.0, 82.3), ("trrt", 20): (736.0, 260.0, 478.0, 56.9),
@@ -52,7 +52,7 @@ def _row_stats(records: list[dict], planner: str, n_fail_max: int) -> dict:
 
 def table_31(run: ReproductionRun) -> Outcome:
     """Plan every (planner, nFailMax) row ``runs`` times; compare means with the thesis's."""
-    from pliant.experiment import check_settings, open_log, run_tasks
+    from pliant.experiments.runs import check_settings, open_log, run_tasks
 
     runs, fails, max_time = MODES[run.mode]
     settings = {"pipeline": "cube-wall-trrt", "runs": runs, "n_fail_max": list(fails), "max_time": max_time,
@@ -100,7 +100,7 @@ def table_31(run: ReproductionRun) -> Outcome:
 
 def _ompl(run: ReproductionRun, records: list[dict], fails, max_time: float):
     """The runs in OMPL's benchmark log and database (Planner Arena reads ``benchmark.db``)."""
-    from pliant.experiment import PlannerRuns, ompl_database, run_properties, write_ompl_log
+    from pliant.experiments.ompl import PlannerRuns, ompl_database, run_properties, write_ompl_log
 
     planners = [PlannerRuns(f"{planner} nFailMax {n}", {"pipeline": "cube-wall-trrt", "n_fail_max": n},
                             [run_properties(r) for r in records if r["planner"] == planner and r["n_fail_max"] == n])

@@ -244,7 +244,7 @@ class PushPlan(Policy):
                 action_limit: int = 100, on_step=None, world_name: str = ""):
         """Run the plan in ``world`` (a simulator that can place objects) with monitoring and replanning; the
         ``controller`` is not used (pushes are the primitives' velocity commands).  Returns an
-        :class:`~pliant.execution.ExecutionRecord` whose ``actions`` hold, per push, the object, the primitive, the
+        :class:`~pliant.execution.loop.ExecutionRecord` whose ``actions`` hold, per push, the object, the primitive, the
         predicted and observed poses, the error (m, rad) and whether it triggered a replan; ``adaptations`` list the
         replans; ``outcome`` is ``success`` (plan completed, final arrangement collision-free), ``failure`` (it is
         not) or ``action limit``."""
@@ -268,7 +268,7 @@ TOUCH = -0.001
 
 
 class _Recording:
-    """A world whose steps go to a :class:`pliant.execution.Recorder` (the pushes' control steps)."""
+    """A world whose steps go to a :class:`pliant.execution.loop.Recorder` (the pushes' control steps)."""
 
     def __init__(self, world, recorder, clock) -> None:
         self.world, self.recorder, self.clock = world, recorder, clock
@@ -304,7 +304,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                  on_step=None, world_name: str = "", noise: float | None = None):
     """Execute ``plan`` in ``world`` with monitoring and replanning (see :meth:`PushPlan.execute`); ``noise``
     overrides the options' paddle placement noise (m)."""
-    from pliant.execution import Recorder
+    from pliant.execution.loop import Recorder
 
     o = options_from_dict(plan.options)
     if noise is not None:

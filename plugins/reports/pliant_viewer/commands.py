@@ -91,7 +91,7 @@ def _load_scene(pliant, name: str, base: Path):
 
 
 def cmd_view(args) -> int:
-    from pliant.voxelgrid import VoxelGrid
+    from pliant.geometry.voxelgrid import VoxelGrid
 
     from pliant_viewer import cache
     from pliant_viewer.content import voxel_objects

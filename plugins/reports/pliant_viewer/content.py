@@ -1,8 +1,8 @@
 """What the viewer shows, as plain arrays: the translation from pliant's scenes and results to 3-D primitives.
 
 Nothing here imports viser, so the translation is tested without a browser.  Every function reads the core's
-data only (:class:`~pliant.scene.Scene`, :class:`~pliant.voxelgrid.VoxelGrid`, the ``RobotModel`` interface, the
-JSON of results, policies and executions) -- never another plugin.
+data only (:class:`~pliant.scene.Scene`, :class:`~pliant.geometry.voxelgrid.VoxelGrid`, the ``RobotModel`` interface,
+the JSON of results, policies and executions) -- never another plugin.
 
 Colours (RGB, 0-255):
 
@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path as FilePath
 
 import numpy as np
-from pliant.voxelgrid import FREE, VoxelGrid
+from pliant.geometry.voxelgrid import FREE, VoxelGrid
 
 RIGID = np.array([70, 90, 160], dtype=np.float64)        # deformability 0
 SOFT = np.array([90, 200, 110], dtype=np.float64)        # deformability 1

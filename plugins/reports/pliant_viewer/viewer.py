@@ -29,8 +29,8 @@ from functools import partial
 from pathlib import Path as FilePath
 
 import numpy as np
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import Context
-from pliant.voxelgrid import VoxelGrid
 
 from pliant_viewer import content
 

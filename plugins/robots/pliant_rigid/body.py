@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import PlanningError
-from pliant.geometry import quat_to_matrix, rotation_z
+from pliant.geometry.rotations import quat_to_matrix, rotation_z
 from pliant.interfaces import RobotModel, check_batch
 from pliant.options import option
 from pliant.scene import RobotSpec, Scene

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from pliant.voxelgrid import VoxelGrid
+from pliant.geometry.voxelgrid import VoxelGrid
 
 from pliant_kinematic.rigid_kernel import ROBOT_FACE_COS
 
@@ -35,7 +35,7 @@ FACE_NORMALS = np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1
 
 
 class ContactModel:
-    """Collision queries of points against a :class:`~pliant.voxelgrid.VoxelGrid`'s occupied voxels."""
+    """Collision queries of points against a :class:`~pliant.geometry.voxelgrid.VoxelGrid`'s occupied voxels."""
 
     def __init__(self, grid: VoxelGrid) -> None:
         self.grid = grid

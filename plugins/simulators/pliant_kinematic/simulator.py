@@ -2,7 +2,7 @@
 
 Each control step (``1 / frequency`` s) a P/PD law commands a tangent displacement toward the target
 (eq. 8.1-8.2: ``dq = kp e + kd de``), limited to the velocity limits; actuation noise (eq. 8.3's
-``F(dq)``, :mod:`pliant.noise`) is drawn per microstep.  The step is cut into microsteps so that no
+``F(dq)``, :mod:`pliant.execution.noise`) is drawn per microstep.  The step is cut into microsteps so that no
 body point moves more than ``step_fraction`` of a voxel; after each, RESOLVECOLLISIONS (eq. 8.4-8.5)
 pushes penetrating points out along the face they entered through (:mod:`.contact`) and maps the
 push-outs to the configuration.  The default ``solver = "effort"`` takes the displacement of least
@@ -24,12 +24,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.actuation import ControlLaw, actuator_limits, angular_mask, limit_velocity
 from pliant.errors import DimensionError, SimulationError
+from pliant.execution.actuation import ControlLaw, actuator_limits, angular_mask, limit_velocity
+from pliant.execution.noise import NOISE_MODELS, ActuationNoise
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
-from pliant.noise import NOISE_MODELS, ActuationNoise
 from pliant.options import option
-from pliant.voxelgrid import VoxelGrid
 
 from pliant_kinematic.contact import FACE_NORMALS, ContactModel
 from pliant_kinematic.rigid_kernel import (
@@ -56,7 +56,7 @@ class KinematicOptions:
     angular_velocity_limit: float = option(0.125, "rotation speed limit (rad/s) of SE(2)/SE(3) bodies", minimum=1e-9)
     joint_velocity_limits: tuple[float, ...] = option((), "per-actuator speed limits (rad/s or m/s); "
                                                       "overrides the two limits above when given")
-    noise: str = option("none", "actuation noise model (pliant.noise)", choices=NOISE_MODELS)
+    noise: str = option("none", "actuation noise model (pliant.execution.noise)", choices=NOISE_MODELS)
     noise_linear: float = option(0.0, "noise parameter of translational / joint actuators: bound (m/s) for "
                                  "'bounded', factor for 'proportional' and 'floor'", minimum=0.0)
     noise_angular: float = option(0.0, "noise parameter of rotational actuators (rad/s or factor)", minimum=0.0)

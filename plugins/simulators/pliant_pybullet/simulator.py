@@ -9,8 +9,8 @@ cut-outs and meshes are represented at the scene's resolution.  The robot is eit
   joints under compliant position control with torque limits (:mod:`pliant_pybullet.articulated`).
 
 Either way the robot yields against obstacles instead of passing through them; actuation noise comes
-from :mod:`pliant.noise` and ``simulate`` uses the kinematic simulator's P law and velocity limits
-(:mod:`pliant.stepping`), so a pipeline can swap ``kinematic`` for ``pybullet`` by name (thesis 5.4
+from :mod:`pliant.execution.noise` and ``simulate`` uses the kinematic simulator's P law and velocity limits
+(:mod:`pliant.execution.stepping`), so a pipeline can swap ``kinematic`` for ``pybullet`` by name (thesis 5.4
 executes in a dynamic simulator; 3.3.4 validates the deformation cost in Bullet).
 """
 
@@ -20,15 +20,15 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import SimulationError
+from pliant.execution.stepping import SteppedOptions, SteppedSimulator
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import check_batch
 from pliant.options import option
-from pliant.stepping import SteppedOptions, SteppedSimulator
-from pliant.voxelgrid import VoxelGrid
 
 
 @dataclass(frozen=True)
 class PybulletOptions(SteppedOptions):
-    """Options of :class:`PybulletSimulator` (the shared ones: :class:`pliant.stepping.SteppedOptions`)."""
+    """Options of :class:`PybulletSimulator` (the shared ones: :class:`pliant.execution.stepping.SteppedOptions`)."""
 
     density: float = option(100.0, "free-flying robot's mass per volume (kg/m^3)", minimum=1e-9)
     max_force: float = option(200.0, "largest force the free-flying robot's pulling constraint applies (N)",

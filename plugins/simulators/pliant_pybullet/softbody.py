@@ -6,7 +6,7 @@ tetrahedron (m^3) and comparing the total against an undeformed reference".  We 
 absolute per-tetrahedron volume changes, which (unlike the change of the total) does not let
 compression in one place cancel expansion in another.
 
-The meshes (conforming: five tetrahedra per hexahedral cell) come from :mod:`pliant.tetmesh` in the core, which
+The meshes (conforming: five tetrahedra per hexahedral cell) come from :mod:`pliant.geometry.tetmesh` in the core, which
 deformability probing (thesis app. A) uses too.
 """
 
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 from pliant.errors import DimensionError
-from pliant.tetmesh import box_tetrahedra, box_ticks, tetrahedron_volumes, write_vtk
+from pliant.geometry.tetmesh import box_tetrahedra, box_ticks, tetrahedron_volumes, write_vtk
 
 __all__ = ["SoftBox", "box_tetrahedra", "box_ticks", "tetrahedron_volumes", "write_vtk"]
 

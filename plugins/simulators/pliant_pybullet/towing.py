@@ -31,7 +31,14 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import ConfigError, DimensionError, SimulationError
-from pliant.geometry import quat_angle, quat_conjugate, quat_multiply, quat_slerp, quat_to_matrix, quat_to_rotvec
+from pliant.geometry.rotations import (
+    quat_angle,
+    quat_conjugate,
+    quat_multiply,
+    quat_slerp,
+    quat_to_matrix,
+    quat_to_rotvec,
+)
 from pliant.options import option
 from pliant.scene import Scene
 
@@ -192,7 +199,7 @@ class Tower:
 
     def _build_walls(self) -> None:
         import pybullet
-        from pliant.voxelgrid import VoxelGrid
+        from pliant.geometry.voxelgrid import VoxelGrid
         from pybullet_utils.bullet_client import BulletClient
 
         self.client = pb = BulletClient(connection_mode=pybullet.DIRECT)

@@ -1,7 +1,7 @@
 """The simulator ``pymunk``: 2-D rigid-body dynamics for planar scenes (thesis 5.4's dynamic execution).
 
 The robot is a dynamic body with mass and friction, driven compliantly at the commanded velocity (plus
-actuation noise from :mod:`pliant.noise`): it turns through a gear joint to a kinematic control body whose
+actuation noise from :mod:`pliant.execution.noise`): it turns through a gear joint to a kinematic control body whose
 torque is capped at ``max_torque``, and translates under a force-limited velocity servo on its frame's
 origin (:meth:`PymunkSimulator._apply_servo`, force capped in norm at ``max_force``), so the robot complies
 against obstacles instead of passing through them.  (Not a pivot joint with a capped force: pymunk's solver
@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.errors import SimulationError
+from pliant.execution.stepping import SteppedOptions, SteppedSimulator
 from pliant.interfaces import check_batch
 from pliant.options import option
-from pliant.stepping import SteppedOptions, SteppedSimulator
 
 from pliant_pymunk.objects import add_object, planar_objects
 from pliant_pymunk.world import check_planar, robot_shapes, static_walls
@@ -34,7 +34,7 @@ BLOCK_SPEED = 0.1       # m/s: velocity error into a contact at which the servo 
 
 @dataclass(frozen=True)
 class PymunkOptions(SteppedOptions):
-    """Options of :class:`PymunkSimulator` (the shared ones: :class:`pliant.stepping.SteppedOptions`)."""
+    """Options of :class:`PymunkSimulator` (the shared ones: :class:`pliant.execution.stepping.SteppedOptions`)."""
 
     density: float = option(100.0, "robot mass per area (kg/m^2)", minimum=1e-9)
     max_force: float = option(2000.0, "largest force the controller applies (N)", minimum=0.0)

@@ -1,7 +1,7 @@
 """Building a pymunk space from a planar pliant scene.
 
 Static geometry comes from the scene's voxel grid (one layer) of its static objects, merged into few
-exact boxes (:meth:`pliant.voxelgrid.VoxelGrid.boxes`), so boxes, cut-outs, cylinders and meshes are all
+exact boxes (:meth:`pliant.geometry.voxelgrid.VoxelGrid.boxes`), so boxes, cut-outs, cylinders and meshes are all
 represented, exactly at the scene's resolution.  Movable objects are bodies (:mod:`.objects`).  The
 robot is a dynamic body made of its parts' boxes and circles.
 """
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 from pliant.errors import SimulationError
+from pliant.geometry.voxelgrid import FREE, VoxelGrid
 from pliant.scene import Scene
-from pliant.voxelgrid import FREE, VoxelGrid
 
 _QUARTER_TURN_TOL = 1e-9
 

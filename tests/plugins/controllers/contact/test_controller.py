@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from pliant import Pipeline, load_scene, registry
 from pliant.errors import PlanningError
-from pliant.execution import execute
+from pliant.execution.loop import execute
 from pliant.interfaces import Context
 from pliant.results import Path
 

@@ -2,8 +2,8 @@
 
 import numpy as np
 import pliant
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import Context
-from pliant.voxelgrid import VoxelGrid
 from pliant_reachability.clearance import Clearance
 from reachability_helpers import passage
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from pliant.voxelgrid import VoxelGrid
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant_reachability.clearance import Clearance
 from pliant_reachability.contact import BECOMES_STUCK, SLIDING, STUCK, classify, downstream, project_to_contact
 from reachability_helpers import GOAL, START, metric, passage
@@ -70,7 +70,7 @@ def test_downstream_marks_sliding_configurations_beyond_a_stuck_one():
 
 def test_reachability_sets_aside_samples_behind_a_wall():
     """Thesis 6.6.2: a sample whose nearest previous sample lies across the wall is not reachable from it."""
-    from pliant.clustering import ClusteringContext
+    from pliant.planning.clustering import ClusteringContext
     from pliant_reachability.assess import reachable_from
 
     context = passage()

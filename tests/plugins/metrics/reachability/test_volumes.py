@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from pliant.actuation import ControlLaw
 from pliant.errors import ConfigError
-from pliant.noise import ActuationNoise
+from pliant.execution.actuation import ControlLaw
+from pliant.execution.noise import ActuationNoise
 from pliant.spaces import RealVectorSpace
 from pliant_reachability.assess import sample_counts
 from pliant_reachability.volumes import reachable_volumes, tangent_weights

@@ -7,9 +7,9 @@ import itertools
 import numpy as np
 import pytest
 from pliant import Pipeline
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import PlanningProblem
 from pliant.results import Status
-from pliant.voxelgrid import VoxelGrid
 from pliant_belief.belief import BeliefNode, BeliefTree, effective_probability
 from pliant_belief.local import LocalPlannerSettings, extend
 
@@ -141,7 +141,7 @@ def test_rotation_spread_keeps_sampled_orientations_near_the_goals(spread):
     """SE(3): every sampled target's orientation is within ``spread`` of the goal's, positions still cover
     the bounds; without the option, samples cover the rotation group (some beyond any small spread)."""
     from pliant import load_scene, registry
-    from pliant.geometry import quat_angle
+    from pliant.geometry.rotations import quat_angle
     from pliant.interfaces import Context
 
     ctx = Context(scene=load_scene("se3-peg-in-hole"))

@@ -332,7 +332,7 @@ def maze_tree(ctx):
 
 
 def test_execute_policy_on_se2_maze_reaches_the_goal():
-    from pliant.clustering import ClusteringContext, matches
+    from pliant.planning.clustering import ClusteringContext, matches
 
     ctx = maze_context("se2-maze")
     controller = registry.create("controller", "contact", ctx)

@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 from pliant import Pipeline
 from pliant.errors import PliantError
+from pliant.geometry.topology import PunctureChecker
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import Context, PlanningProblem
 from pliant.registry import create
 from pliant.results import Status
@@ -17,8 +19,6 @@ from pliant.scene import Scene
 from pliant.spaces import RealVectorSpace, SE3Space
 from pliant.termination import Termination
 from pliant.testing import check_planner
-from pliant.topology import PunctureChecker
-from pliant.voxelgrid import VoxelGrid
 from pliant_rrtstar.radius import near_radius, rrt_star_gamma, space_measure, unit_ball_volume
 
 

@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pliant
 import pytest
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.scene import Scene
-from pliant.voxelgrid import VoxelGrid
 from pliant_viewer import content
 from pliant_viewer.commands import resolve
 from pliant_viewer.viewer import Viewer, build_content
@@ -142,7 +142,7 @@ def test_viewer_scene_graph_of_a_run(tmp_path, viewer):
 
 
 def test_live_steps_move_the_robot(viewer):
-    from pliant.execution import ExecutionStep
+    from pliant.execution.loop import ExecutionStep
 
     scene = small_scene()
     viewer.show(build_content(scene))

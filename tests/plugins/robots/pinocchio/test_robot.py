@@ -367,7 +367,7 @@ def test_environment_distance(iiwa):
 
 
 def test_baxter_reach_start_and_goal_are_free_and_the_goal_reaches_into_the_hole():
-    from pliant.voxelgrid import VoxelGrid
+    from pliant.geometry.voxelgrid import VoxelGrid
     from pliant_kinematic.contact import ContactModel
 
     scene = load_scene("baxter-reach")

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from pliant import Scene, load_scene, registry
 from pliant.errors import DimensionError
+from pliant.execution.noise import ActuationNoise, truncated_normal
 from pliant.interfaces import Context
-from pliant.noise import ActuationNoise, truncated_normal
 from pliant.testing import check_component
 from pliant_kinematic.contact import ContactModel
 

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from pliant import Pipeline, Scene, registry
 from pliant.errors import SimulationError
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import Context
 from pliant.scene import bundled_scenes_dir
 from pliant.testing import check_component
 from pliant.validation import read_toml
-from pliant.voxelgrid import VoxelGrid
 
 PUSH = read_toml(bundled_scenes_dir() / "se2-push.toml")
 CRATE = 1                    # index of the crate in se2-push's objects

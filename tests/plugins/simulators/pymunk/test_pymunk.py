@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from pliant import Pipeline, load_scene, registry
 from pliant.errors import SimulationError
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import Context
 from pliant.testing import check_component
-from pliant.voxelgrid import VoxelGrid
 from pliant_kinematic.contact import ContactModel
 
 
@@ -56,7 +56,7 @@ def test_pressed_on_a_ledge_and_commanded_along_it_the_block_slides_as_in_the_ki
     mostly down into the ledge.  The servo's force follows the velocity error, so the block slides right
     until it drops into the pocket, as in the frictionless planning model (pymunk's capped pivot joint spent
     its whole force pushing down and the block never moved, frictionless too)."""
-    from pliant.execution import Recorder, drive
+    from pliant.execution.loop import Recorder, drive
 
     pipeline = Pipeline.from_file("maze-policy", overrides=["planner.progress=false"])   # friction 0.1, noise
     context = pipeline.build()

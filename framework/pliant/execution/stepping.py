@@ -2,8 +2,8 @@
 
 A backend implements ``reset``, ``step`` (one control period under a velocity command) and
 ``configuration``; :class:`SteppedSimulator` supplies the actuator model (velocity limits and noise,
-:mod:`pliant.actuation`, :mod:`pliant.noise`) and ``simulate``, which runs the particles one after the
-other with the kinematic simulator's P law (thesis eq. 8.1-8.2), so that backends agree on what a
+:mod:`pliant.execution.actuation`, :mod:`pliant.execution.noise`) and ``simulate``, which runs the particles one
+after the other with the kinematic simulator's P law (thesis eq. 8.1-8.2), so that backends agree on what a
 command means and can be swapped by name.
 """
 
@@ -14,10 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pliant.actuation import actuator_limits, angular_mask, limit_velocity
 from pliant.errors import DimensionError
+from pliant.execution.actuation import actuator_limits, angular_mask, limit_velocity
+from pliant.execution.noise import NOISE_MODELS, ActuationNoise
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
-from pliant.noise import NOISE_MODELS, ActuationNoise
 from pliant.options import option
 
 
@@ -32,7 +32,7 @@ class SteppedOptions:
     angular_velocity_limit: float = option(0.125, "rotation speed limit (rad/s)", minimum=1e-9)
     joint_velocity_limits: tuple[float, ...] = option((), "per-actuator speed limits (rad/s or m/s); overrides "
                                                       "the two limits above when given")
-    noise: str = option("none", "actuation noise model (pliant.noise)", choices=NOISE_MODELS)
+    noise: str = option("none", "actuation noise model (pliant.execution.noise)", choices=NOISE_MODELS)
     noise_linear: float = option(0.0, "noise parameter of translation (bound m/s, or factor)", minimum=0.0)
     noise_angular: float = option(0.0, "noise parameter of rotation (rad/s, or factor)", minimum=0.0)
     friction: float = option(0.5, "friction coefficient of robot and obstacles", minimum=0.0)

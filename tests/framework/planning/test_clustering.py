@@ -9,7 +9,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from pliant import load_scene, registry
-from pliant.clustering import (
+from pliant.errors import ConfigError, DimensionError, PliantError
+from pliant.interfaces import Context
+from pliant.planning.clustering import (
     CLUSTERING_METHODS,
     ClusteringContext,
     _cut,
@@ -21,8 +23,6 @@ from pliant.clustering import (
     matches,
     wcr_distances,
 )
-from pliant.errors import ConfigError, DimensionError, PliantError
-from pliant.interfaces import Context
 from scipy.cluster.hierarchy import fcluster, linkage
 
 # se2-maze: passages x in [3.5, 6.5] (middle) and [7.0, 9.5] (right), a 0.5 m wall between them; the
@@ -259,7 +259,7 @@ def test_bad_input_names_the_field_and_value():
 
 
 def test_ac_connected_pairs_configurations_one_to_one():
-    from pliant.clustering import ac_connected
+    from pliant.planning.clustering import ac_connected
 
     cc = maze()
     # the middle and right passages are 0.5 m of wall apart; within one passage the segment is free

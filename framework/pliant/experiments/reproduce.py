@@ -329,7 +329,7 @@ def command(args) -> int:
 
 def add_command(subparsers) -> None:
     """Add ``pliant reproduce`` to the command line."""
-    from pliant.executor import add_executor_arguments
+    from pliant.experiments.executor import add_executor_arguments
 
     parser = subparsers.add_parser(
         "reproduce", help="reproduce a thesis table or figure (LIST: what exists and what waits)",

@@ -1,11 +1,11 @@
-"""Results in OMPL's benchmark formats (pliant.experiment): the log is read by OMPL's own benchmark statistics script,
-and our database equals the one OMPL builds from the same log."""
+"""Results in OMPL's benchmark formats (pliant.experiments.ompl): the log is read by OMPL's own benchmark statistics
+script, and our database equals the one OMPL builds from the same log."""
 
 import sqlite3
 
 import pytest
 from pliant.errors import ConfigError
-from pliant.experiment import PlannerRuns, ompl_database, run_properties, write_ompl_log
+from pliant.experiments.ompl import PlannerRuns, ompl_database, run_properties, write_ompl_log
 
 
 def _planners() -> list[PlannerRuns]:

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 from pliant.cli import main
 from pliant.errors import ConfigError
-from pliant.reproduce import (
+from pliant.experiments.reproduce import (
     CATALOGUE,
     Headline,
     Outcome,

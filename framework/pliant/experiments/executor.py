@@ -2,7 +2,7 @@
 'pliant[ray]'``), behind one interface (docs/experiments.md).
 
 A task is ``work(*args)`` returning a JSON-able record; tasks are seeded and idempotent, so a task run twice -- a
-retry after a worker or node died -- returns the same record.  :func:`pliant.experiment.run_tasks` gives the
+retry after a worker or node died -- returns the same record.  :func:`pliant.experiments.runs.run_tasks` gives the
 records to the caller as they finish and appends each to the run's ``runs.jsonl`` in *this* process, so the result
 store, resuming and Ctrl-C behave the same whichever executor ran the tasks.
 
@@ -19,7 +19,7 @@ and a result names the node that ran it.
 
 Commands that run many tasks get ``--executor local|ray --address ADDR`` from :func:`add_executor_arguments`;
 the ``pliant`` command installs the chosen executor for the command's duration (:func:`using`), and
-:func:`pliant.experiment.run_tasks` uses it instead of its local pool.
+:func:`pliant.experiments.runs.run_tasks` uses it instead of its local pool.
 """
 
 from __future__ import annotations

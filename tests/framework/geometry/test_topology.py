@@ -10,11 +10,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import array_shapes, arrays
 from pliant.errors import ConfigError, DimensionError, PliantError
+from pliant.geometry.topology import PunctureChecker, euler_number, surface_topology, topology
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import Context
 from pliant.registry import create
 from pliant.scene import Scene
-from pliant.topology import PunctureChecker, euler_number, surface_topology, topology
-from pliant.voxelgrid import VoxelGrid
 
 
 def _box(shape=(4, 5, 6)):

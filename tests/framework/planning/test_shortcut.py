@@ -7,7 +7,7 @@ import pytest
 from pliant import Pipeline
 from pliant.errors import DimensionError
 from pliant.interfaces import PlanningProblem
-from pliant.shortcut import perturb, shortcut
+from pliant.planning.shortcut import perturb, shortcut
 
 
 @pytest.fixture(scope="module")

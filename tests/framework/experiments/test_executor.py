@@ -1,4 +1,4 @@
-"""The executor interface (pliant.executor) with the local pool, and run_tasks on top of it."""
+"""The executor interface (pliant.experiments.executor) with the local pool, and run_tasks on top of it."""
 
 import sys
 import threading
@@ -6,10 +6,18 @@ import time
 from types import SimpleNamespace
 
 import pytest
-from pliant import executor as executor_module
 from pliant.errors import ConfigError
-from pliant.executor import LocalExecutor, RayExecutor, TaskResult, add_executor_arguments, create, from_args, using
-from pliant.experiment import open_log, run_tasks
+from pliant.experiments import executor as executor_module
+from pliant.experiments.executor import (
+    LocalExecutor,
+    RayExecutor,
+    TaskResult,
+    add_executor_arguments,
+    create,
+    from_args,
+    using,
+)
+from pliant.experiments.runs import open_log, run_tasks
 from pliant.files import read_jsonl
 from pliant.termination import Termination, iteration_limit
 

@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 from pliant import Scene, load_scene
-from pliant.voxelgrid import VoxelGrid
+from pliant.geometry.voxelgrid import VoxelGrid
 
 
 def _grid(occupancy: np.ndarray) -> VoxelGrid:

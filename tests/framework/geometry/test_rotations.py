@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from pliant.geometry import (
+from pliant.geometry.rotations import (
     matrix_to_quat,
     quat_angle,
     quat_multiply,

@@ -6,7 +6,7 @@ motion is invalid when an object gains a hole (a tunnel), loses a void (a cavity
 outside) or falls apart into more pieces than it started with.  Objects that are hollow or have
 holes at the start are legal: the counts are compared with the object's own initial counts.
 
-Two independent ways of counting are implemented, and they agree (``tests/framework/test_topology.py``):
+Two independent ways of counting are implemented, and they agree (``tests/framework/geometry/test_topology.py``):
 
 * :func:`topology` — connected-component labelling plus the Euler characteristic of the cubical
   complex (vertices - edges + faces - cubes): tunnels = components + cavities - Euler number.
@@ -25,7 +25,7 @@ background — which is what makes ``tunnels = components + cavities - euler`` v
 number of exactly that cubical complex.  (The pairs (26, 26) or (6, 6) are not consistent: a
 diagonal pair of voxels would both separate and not separate the background.)
 
-:class:`PunctureChecker` applies this per object of a :class:`~pliant.voxelgrid.VoxelGrid` and per
+:class:`PunctureChecker` applies this per object of a :class:`~pliant.geometry.voxelgrid.VoxelGrid` and per
 tree extension of a sampling planner, with a compact per-node state (the sorted indices of the
 voxels removed so far from each watched object), so that every check covers the whole path from
 the start — also after a rewiring changes a node's parent (re-extend from the new parent's state).
@@ -42,7 +42,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from pliant.errors import ConfigError, DimensionError
-from pliant.voxelgrid import VoxelGrid
+from pliant.geometry.voxelgrid import VoxelGrid
 
 __all__ = ["Topology", "SurfaceTopology", "euler_number", "topology", "surface_topology", "PunctureState",
            "PunctureChecker"]
@@ -326,7 +326,7 @@ class PunctureState:
 class PunctureChecker:
     """Puncture and cut detection for sampling planners (thesis 4.3.4), incremental per edge.
 
-    ``grid``: the scene's :class:`~pliant.voxelgrid.VoxelGrid`.  ``body_points``: maps configurations
+    ``grid``: the scene's :class:`~pliant.geometry.voxelgrid.VoxelGrid`.  ``body_points``: maps configurations
     ``(n, d)`` to robot body points ``(n, m, 3)`` in metres (e.g. ``robot.body_points``); the voxels
     containing a body point are the voxels the robot occupies.  ``watch``: which objects to check —
     ``"enterable"`` (default: every object with a voxel of finite deformability > 0, i.e. one the

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pliant.errors import DimensionError
+from pliant.planning.tree import Tree
 from pliant.spaces import RealVectorSpace, SE3Space
-from pliant.tree import Tree
 
 
 def test_nodes_grow_past_the_initial_capacity_and_keep_their_data():

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pliant.errors import DimensionError
-from pliant.noise import ActuationNoise
+from pliant.execution.noise import ActuationNoise
 from pliant.spaces import Space
 
 
@@ -64,7 +64,7 @@ class ControlLaw:
 
     Thesis eq. 8.1-8.2 (app. B) and eq. 6.5-6.6: each step of ``dt`` seconds commands the tangent displacement
     ``kp * e`` (``e = space.difference(target, q)``), capped by :func:`limit_velocity` (keeping its direction),
-    and the actuators add noise drawn from ``noise`` (:mod:`pliant.noise`).  The path metric of thesis ch. 6
+    and the actuators add noise drawn from ``noise`` (:mod:`pliant.execution.noise`).  The path metric of thesis ch. 6
     propagates reachable volumes with it.  ``kd`` (on the change of the error) is recorded, but
     :meth:`velocity` is the proportional part only: a reachable volume has no previous error.
 

@@ -41,9 +41,9 @@ import numpy as np
 from scipy.cluster.hierarchy import linkage
 
 from pliant.errors import ConfigError, DimensionError
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import RobotModel, Simulator
 from pliant.spaces import Space
-from pliant.voxelgrid import VoxelGrid
 
 CLUSTERING_METHODS = ("pc", "wcr", "ac", "distance")
 

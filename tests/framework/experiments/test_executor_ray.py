@@ -14,8 +14,8 @@ import pytest
 
 ray = pytest.importorskip("ray", reason="the Ray executor's tests need pip install 'pliant[ray]'")
 
-from pliant.executor import LocalExecutor, LoopbackCluster, RayExecutor, using  # noqa: E402
-from pliant.experiment import open_log, run_tasks  # noqa: E402
+from pliant.experiments.executor import LocalExecutor, LoopbackCluster, RayExecutor, using  # noqa: E402
+from pliant.experiments.runs import open_log, run_tasks  # noqa: E402
 from pliant.files import read_jsonl  # noqa: E402
 from pliant.termination import iteration_limit  # noqa: E402
 
