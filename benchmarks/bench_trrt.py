@@ -11,19 +11,19 @@ Reference (thesis Table 3.1): T-RRT 112 s / 515 (nFailMax 10), 736 s / 478 (20);
 20.6 s / 714 (10), 175 s / 563 (20).  Figures to reach (BENCHMARKS.md): nFailMax 10, T-RRT <= 10 s and
 GradienT-RRT <= 3 s mean planning time, with mean cost no higher than the thesis's.
 
-Runs are written to ``out/bench/trrt-runs.jsonl`` as they finish; a second invocation resumes (skips
-the runs already there) unless ``--fresh``.  ``--jobs 2`` runs two at a time (each on its own core).
+Runs go through the core's executor (:func:`pliant.experiments.runs.run_tasks`): written to
+``out/bench/trrt/runs.jsonl`` as they finish (fsynced); a second invocation resumes (skips the runs already there)
+unless ``--fresh``.  ``--jobs 2`` runs two at a time (each on its own core); ``--executor ray --address ...`` runs
+them on a Ray cluster.
 
-    pliant bench trrt [--runs 30] [--jobs 1] [--fresh]    (or: python benchmarks/bench_trrt.py)
+    pliant bench trrt [--runs 30] [--jobs 1] [--fresh] [--executor local|ray]    (or: python benchmarks/bench_trrt.py)
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -97,34 +97,38 @@ def main(argv=None) -> int:
     parser.add_argument("--n-fail-max", nargs="+", type=int, default=list(N_FAIL_MAX))
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="override the pipeline (e.g. planner.anytime=restart); use with --tag")
-    parser.add_argument("--tag", default="", help="name of this variant: its runs go to trrt<-tag>-runs.jsonl")
+    parser.add_argument("--tag", default="", help="name of this variant: its runs go to trrt<-tag>/runs.jsonl")
+    from pliant.experiments.executor import add_executor_arguments
+
+    add_executor_arguments(parser)
     args = parser.parse_args(argv)
     if args.runs < 1 or args.jobs < 1 or not args.max_time > 0:
         parser.error("--runs and --jobs must be >= 1 and --max-time > 0")
+    from pliant.experiments import executor as executors
+    from pliant.experiments.runs import open_log, run_tasks
+
     out = Path(os.environ.get("PLIANT_BENCH_OUT", "out/bench"))
-    out.mkdir(parents=True, exist_ok=True)
     name = "trrt" + (f"-{args.tag}" if args.tag else "")
-    log = out / f"{name}-runs.jsonl"
-    if args.fresh and log.exists():
+    log, runs = open_log(out / name, "PLIANT_BENCH_OUT")
+    if args.fresh and runs:
         log.unlink()
-    runs = [json.loads(line) for line in log.read_text().splitlines() if line.strip()] if log.exists() else []
+        runs = []
     done = {(r["planner"], r["n_fail_max"], r["seed"]) for r in runs}
-    todo = [(p, n, s) for p in args.planners for n in args.n_fail_max for s in range(args.runs)
-            if (p, n, s) not in done]
+    todo = [(p, n, s, args.max_time, tuple(args.set)) for p in args.planners for n in args.n_fail_max
+            for s in range(args.runs) if (p, n, s) not in done]
     print(f"{len(runs)} runs on file, {len(todo)} to go ({args.jobs} at a time)", flush=True)
+
+    def describe(record: dict) -> str:
+        cost = "-" if record["cost"] is None else f"{record['cost']:.0f}"
+        return (f"{record['planner']} nFailMax {record['n_fail_max']} seed {record['seed']}: {record['status']}, "
+                f"{record['time']:.2f} s, cost {cost}, {record['hole']}")
+
     try:
-        with ProcessPoolExecutor(max_workers=args.jobs) as pool, log.open("a") as sink:
-            futures = {pool.submit(run_one, p, n, s, args.max_time, tuple(args.set)): (p, n, s) for p, n, s in todo}
-            for k, future in enumerate(as_completed(futures), start=1):
-                record = future.result()
-                runs.append(record)
-                sink.write(json.dumps(record) + "\n")
-                sink.flush()
-                cost = "-" if record["cost"] is None else f"{record['cost']:.0f}"
-                print(f"[{k}/{len(todo)}] {record['planner']} nFailMax {record['n_fail_max']} seed {record['seed']}: "
-                      f"{record['status']}, {record['time']:.2f} s, cost {cost}, {record['hole']}", flush=True)
+        with executors.using(executors.from_args(args)):
+            run_tasks(run_one, todo, jobs=args.jobs, log=log, records=runs, describe=describe,
+                      echo=lambda text: print(text, flush=True))
     except KeyboardInterrupt:
-        print("\ninterrupted: the runs finished so far are kept; run again to resume", flush=True)
+        print("the summary below is of the runs finished so far", flush=True)
     rows, summary = [], []
     for planner in args.planners:
         for n in args.n_fail_max:

@@ -1,5 +1,8 @@
-"""Planning results in OMPL's benchmark formats: the log that ``ompl_benchmark_statistics.py`` reads and the SQLite
-database that Planner Arena plots (https://ompl.kavrakilab.org/benchmark.html), written from pliant's records."""
+"""Planning results in OMPL's benchmark formats, written from pliant's own records, so that pliant's planning
+benchmarks can be compared with OMPL's planners in OMPL's tools: the benchmark log
+(``ompl::tools::Benchmark::saveResultsToStream``) and the SQLite database its ``ompl_benchmark_statistics`` script
+builds from logs (tables experiments, plannerConfigs, enums, runs, progress and two views), which Planner Arena
+reads (https://ompl.kavrakilab.org/benchmark.html)."""
 
 from __future__ import annotations
 

@@ -109,11 +109,3 @@ def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, l
         on_interrupt()
         echo(f"stopped: the {len(records)} finished tasks are in {log}; run the same command again to resume")
     return records
-
-
-# --- results in OMPL's benchmark formats ------------------------------------------------------------------------------
-#
-# OMPL's benchmark log (``ompl::tools::Benchmark::saveResultsToStream``) and the SQLite database its
-# ``ompl_benchmark_statistics`` script builds from logs (tables experiments, plannerConfigs, enums, runs, progress and
-# two views), which Planner Arena reads.  Written here from pliant's own records, so pliant's planning benchmarks can
-# be compared with OMPL's planners in OMPL's tools.
