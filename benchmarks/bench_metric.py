@@ -1,13 +1,15 @@
 """Path-quality metrics of thesis ch. 6 against the kinematic simulation baseline, per cell of the thesis's grid.
 
-For each task (se3-peg-tight, se2-through-passage: docs/plugins/reachability.md) and each cell (epsilon_reached,
+For each task (se3-peg-tight, se2-through-passage; se3-peg-in-hole, ours, with --tasks: docs/plugins/reachability.md)
+and each cell (epsilon_reached,
 alpha): Simulation (baseline) with --simulations runs (default: the thesis's 10,000 / 2,000), then one evaluation of
 each other method; P_exec, its absolute error against the baseline, seconds and simulated control steps (every
 robot counted).  Figures to reach: the reachable-volume metric within 0.05 of the baseline in every cell, <= 2 s
 per path on se3-peg-tight, >= 10x fewer simulated steps than the baseline.  The thesis's own numbers (Tables
-6.1-6.4, 16 threads) are printed beside.
+6.1-6.4, 16 threads) are printed beside, "-" where it has none (se3-peg-in-hole).
 
     pliant bench metric [-- --tasks se2-through-passage --simulations 10000 --jobs 2 --set particles=4000]
+    pliant bench metric -- --tasks se3-peg-in-hole --jobs 2
     pliant bench metric -- --alone      # only the proposed metric, one cell at a time: its seconds per path
 
 With --jobs 2 two cells run at once, so the table's seconds are those of a loaded machine; the proposed metric is
@@ -24,7 +26,15 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import print_table, write_json
 from pliant_reachability.evaluation import evaluate, task_density
-from pliant_reachability.tasks import METHODS, TASKS, THESIS_P_EXEC, THESIS_SECONDS, cells
+from pliant_reachability.tasks import (
+    METHODS,
+    TASKS,
+    THESIS_P_EXEC,
+    THESIS_SECONDS,
+    THESIS_TASKS,
+    cells,
+    thesis_values,
+)
 
 
 def _value(text: str):
@@ -34,6 +44,13 @@ def _value(text: str):
         except ValueError:
             pass
     return text
+
+
+def _thesis(values: tuple | None, k: int | None = None) -> str:
+    """The thesis's value in cell ``k`` (or its range when ``k`` is None), ``-`` where it has none."""
+    if values is None:
+        return "-"
+    return f"{values[k]:.2f}" if k is not None else f"{min(values)}-{max(values)}"
 
 
 def _cell(name: str, k: int, density: float, simulations: int | None, options: dict) -> dict:
@@ -50,9 +67,8 @@ def _row(record: dict) -> tuple:
     row = [f"{record['epsilon']:g}/{record['alpha']:g}", f"{base['p_exec']:.3f}", f"{base['seconds']:.1f}"]
     for method in METHODS[1:]:
         r = record[method]
-        thesis = THESIS_P_EXEC[name].get(method)
-        cell = f"{r['p_exec']:.3f} ({r['p_exec'] - base['p_exec']:+.3f})"
-        row.append(cell + (f" [{thesis[k]:.2f}]" if thesis else ""))
+        thesis = thesis_values(THESIS_P_EXEC, name, method)
+        row.append(f"{r['p_exec']:.3f} ({r['p_exec'] - base['p_exec']:+.3f}) [{_thesis(thesis, k)}]")
         row.append(f"{r['seconds']:.2f}")
     steps = record["reachable-volume"]["simulated_steps"]
     row.append(f"{base['simulated_steps'] / max(steps, 1):.0f}x")
@@ -61,7 +77,8 @@ def _row(record: dict) -> tuple:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--tasks", nargs="*", default=list(TASKS), choices=list(TASKS))
+    parser.add_argument("--tasks", nargs="*", default=list(THESIS_TASKS), choices=list(TASKS),
+                        help=f"default: the thesis's ({' '.join(THESIS_TASKS)})")
     parser.add_argument("--simulations", type=int, default=None, help="baseline runs (default: the task's)")
     parser.add_argument("--cells", type=int, default=9, help="first N cells of the grid (default 9)")
     parser.add_argument("--jobs", type=int, default=1, help="cells at a time (default 1: timings on an idle core)")
@@ -102,9 +119,10 @@ def main(argv=None) -> int:
                         header + ("baseline steps / metric steps",), [_row(r) for r in records])
             errors = [abs(r["reachable-volume"]["p_exec"] - r["baseline"]["p_exec"]) for r in records]
             seconds = [r["reachable-volume"]["seconds_idle"] for r in records]
+            thesis = thesis_values(THESIS_SECONDS, name, "reachable-volume")
             print(f"reachable-volume: largest error {max(errors):.3f}, mean {sum(errors) / len(errors):.3f}; "
                   f"seconds alone on the machine {min(seconds):.2f}-{max(seconds):.2f} (thesis, 16 threads: "
-                  f"{min(THESIS_SECONDS[name]['reachable-volume'])}-{max(THESIS_SECONDS[name]['reachable-volume'])})")
+                  f"{_thesis(thesis)})")
     write_json("metric", {"options": options, "simulations": args.simulations, "jobs": args.jobs,
                           "results": results})
     return 0
@@ -118,8 +136,9 @@ def _alone(tasks: list[str], n_cells: int, options: dict) -> int:
         evaluate(name, "reachable-volume", *cells()[0], 99, density, **options)
         for eps, alpha in cells()[:n_cells]:
             r = evaluate(name, "reachable-volume", eps, alpha, 0, density, **options)
-            thesis = THESIS_SECONDS[name]["reachable-volume"][cells().index((eps, alpha))]
-            rows.append((name, f"{eps:g}/{alpha:g}", f"{r['p_exec']:.3f}", f"{r['seconds']:.2f}", f"{thesis:.2f}"))
+            thesis = thesis_values(THESIS_SECONDS, name, "reachable-volume")
+            rows.append((name, f"{eps:g}/{alpha:g}", f"{r['p_exec']:.3f}", f"{r['seconds']:.2f}",
+                         _thesis(thesis, cells().index((eps, alpha)))))
             records.append({"task": name, "epsilon": eps, "alpha": alpha, "p_exec": r["p_exec"],
                             "seconds": r["seconds"]})
     print_table("reachable-volume alone, seed 0", ("task", "eps/alpha", "P_exec", "s", "thesis s (16 threads)"), rows)

@@ -1,13 +1,13 @@
 """Ground truth of thesis 6.5's tables: executions in a dynamic simulator with friction.
 
 The thesis executed each task 100 times per cell on a real KUKA iiwa under Cartesian impedance control.  Here the
-robot is the task's dynamic simulator (pybullet for se3-peg-tight, pymunk for se2-through-passage) with the
+robot is the task's dynamic simulator (pybullet for the pegs, pymunk for se2-through-passage) with the
 cell's actuation noise (eq. 6.14-6.15), driven by the contact motion controller (thesis app. C, ``contact``
 plugin) through :func:`pliant.execution.loop.execute`, from start configurations drawn uniformly in the
 ``epsilon_reached`` ball around the first waypoint (collision-free), exactly as the metrics draw theirs.  An
 execution succeeds when the controller reaches the second waypoint within ``epsilon_reached`` (weighted
-distance: the robot's space is built with the metric's translation weight); it fails when the controller gives
-up (stuck, app. C) or the time limit passes.
+distance: the robot's space is built with the task's translation weight, :attr:`.MetricTask.translation_weight`);
+it fails when the controller gives up (stuck, app. C) or the time limit passes.
 """
 
 from __future__ import annotations
@@ -29,18 +29,21 @@ def _worlds(task_name: str, alpha: float, epsilon: float):
 
     task = TASKS[task_name]
     context = Context(scene=pliant.load_scene(task.scene))
-    context.robot = pliant.registry.create("robot", "rigid", context, translation_weight=10.0)
+    context.robot = pliant.registry.create("robot", "rigid", context, translation_weight=task.translation_weight)
     context.simulator = pliant.registry.create("simulator", "kinematic", context, **task.simulator_options(alpha))
     world = pliant.registry.create("simulator", task.world, context, **task.world_settings(alpha))
     controller = pliant.registry.create("controller", "contact", context, gain=CONTROLLER_GAIN, tolerance=epsilon)
-    metric = pliant.registry.create("metric", "simulation", context, epsilon_reached=epsilon)
+    metric = pliant.registry.create("metric", "simulation", context, epsilon_reached=epsilon,
+                                    translation_weight=task.translation_weight)
     return world, controller, metric
 
 
 def ground_truth(task_name: str, epsilon: float, alpha: float, executions: int, seed: int,
                  time_limit: float = 30.0) -> dict:
-    """``executions`` dynamic executions of the task's waypoint pair in cell ``(epsilon, alpha)``; the fraction
-    that succeed, and the outcomes."""
+    """``executions`` dynamic executions of the task's waypoint pair in cell ``(epsilon, alpha)`` (``epsilon``:
+    weighted distance, ``alpha``: eq. 6.14's noise factor), each at most ``time_limit`` s of simulated time, from
+    starts and noise drawn with ``seed``; the fraction that succeed (``p_exec``), and the outcomes (thesis 6.5's
+    ground truth)."""
     import time
 
     from pliant.execution.loop import execute

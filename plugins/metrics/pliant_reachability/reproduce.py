@@ -8,6 +8,7 @@ so the second of a pair only reads them.
 
 from __future__ import annotations
 
+import math
 import os
 
 from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
@@ -40,18 +41,26 @@ def _summary(run: ReproductionRun, task: str) -> tuple[dict, object]:
 
 
 def _table(run: ReproductionRun) -> Outcome:
-    from pliant_reachability.tasks import THESIS_P_EXEC, THESIS_SECONDS, cells
-
     task, quantity = TABLES[run.reproduction.name]
     rows_by_method, directory = _summary(run, task)
-    thesis = (THESIS_P_EXEC if quantity == "p_exec" else THESIS_SECONDS)[task]
+    return outcome(task, quantity, rows_by_method, directory, run.mode)
+
+
+def outcome(task: str, quantity: str, rows_by_method: dict, directory, mode: str) -> Outcome:
+    """The reproduction's table of ``quantity`` (``p_exec`` or ``seconds``) on ``task`` from its summary
+    (:func:`pliant_reachability.tables.summarise`): ours beside the thesis's value, ``None`` (printed ``-``, not
+    compared) where the thesis has none, as for a task it did not evaluate."""
+    from pliant_reachability.tasks import THESIS_P_EXEC, THESIS_SECONDS, cells, thesis_values
+
+    table = THESIS_P_EXEC if quantity == "p_exec" else THESIS_SECONDS
     rows = []
     for method, row in rows_by_method.items():
         if quantity == "seconds" and method == "ground truth":
             continue
         for k, (eps, alpha) in enumerate(cells()):
             ours = row["cells"][k][quantity]
-            reference = thesis.get(method, (None,) * len(cells()))[k]
+            values = thesis_values(table, task, method)
+            reference = None if values is None else values[k]
             # P_exec: 0.1 (the thesis's own spread between methods); seconds: the thesis's value (16 threads there,
             # one core here), i.e. marked beyond twice the thesis's time
             tolerance = 0.1 if quantity == "p_exec" else reference
@@ -69,21 +78,23 @@ def _table(run: ReproductionRun) -> Outcome:
     else:
         seconds = [c["seconds"] for c in rv["cells"] if c["seconds"] is not None]
         steps = [c["simulated_steps"] for c in rv["cells"] if c["simulated_steps"] is not None]
-        low, high = STEPS[task]
+        low, high = STEPS.get(task, (0.0, math.inf))
+        thesis_seconds = thesis_values(THESIS_SECONDS, task, "reachable-volume")
         headlines = [
             Headline("reachable-volume: simulated control steps per evaluation (mean over cells)",
                      sum(steps) / len(steps), low, high, None,
                      "the metric's work, independent of the machine's load: measured "
-                     f"{STEPS_MEASURED[task]:.0f}; a change that makes it simulate far more (or nothing) fails"),
+                     f"{STEPS_MEASURED.get(task, math.nan):.0f}; a change that makes it simulate far more (or "
+                     "nothing) fails"),
             Headline("reachable-volume: mean seconds per evaluation", sum(seconds) / len(seconds), 0.0, 40.0,
-                     sum(THESIS_SECONDS[task]["reachable-volume"]) / 9,
+                     None if thesis_seconds is None else sum(thesis_seconds) / len(thesis_seconds),
                      "2-4 s on an idle core, 8-12 s with two at a time on a loaded 2-core machine; 40 s catches "
                      "only a large slowdown (wall time depends on the machine)")]
     notes = ("The thesis's ground truth is 100 executions of a real KUKA iiwa; ours is a dynamic simulator "
              "(docs/plugins/reachability.md), so the ground-truth rows are not expected to match. "
              f"The complete tables (every method, errors against the baselines) are in {directory / 'tables.md'}.")
     figures = [directory / f"{task}.png"] if (directory / f"{task}.png").exists() else []
-    settings = {"task": task, "mode": run.mode, "protocol": MODES[run.mode],
+    settings = {"task": task, "mode": mode, "protocol": MODES[mode],
                 "records": str(directory / "runs.jsonl")}
     return Outcome(rows, headlines, settings, records=[directory / "runs.jsonl", directory / "summary.json"],
                    figures=figures, notes=notes)
