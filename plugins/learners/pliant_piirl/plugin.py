@@ -61,12 +61,16 @@ def add_table_command(subparsers):
                     "RRT* (puncture check on, the task's funnel) for --max-time s with the recovered sensitivities, "
                     "and compare planned and demonstrated deformation in the true sensitivities.  Resumable.")
     parser.add_argument("--plans", type=int, default=3, help="RRT* runs per task (default 3; thesis 30 and 15)")
-    parser.add_argument("--max-time", type=float, default=60.0, help="seconds per plan (default 60; thesis 30 and "
+    budget = parser.add_mutually_exclusive_group()
+    budget.add_argument("--max-time", type=float, default=None, help="seconds per plan (default 60; thesis 30 and "
                         "60 minutes)")
+    budget.add_argument("--max-iterations", type=int, default=None,
+                        help="RRT* iterations per plan instead of seconds: the plans then depend on their seeds only")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="plans at a time (default: cores)")
     parser.add_argument("--refine", type=int, default=0, metavar="ROUNDS",
                         help="rounds of local search in the recovered cost after RRT* and shortcutting (default 0)")
-    parser.add_argument("--quick", action="store_true", help="CI-sized: 3 tasks, 1 plan of 10 s, a coarser expert")
+    parser.add_argument("--quick", action="store_true",
+                        help="CI-sized: 3 tasks, 1 plan of 1500 iterations, a coarser expert")
     parser.add_argument("--fresh", action="store_true", help="learn again and forget the plans on file")
     parser.add_argument("--output", default="out", help="directory (default out)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="an active-piirl option")
@@ -83,9 +87,12 @@ def _table_command(args) -> int:
 
     options = dict(parse_override(item, "--set") for item in args.set)
     plans = TABLE_QUICK["plans"] if args.quick and args.plans == 3 else args.plans
-    max_time = TABLE_QUICK["max_time"] if args.quick and args.max_time == 60.0 else args.max_time
-    summary = run_table41(plans=plans, max_time=max_time, jobs=args.jobs, output=Path(args.output),
-                          quick=args.quick, fresh=args.fresh, options=options, refine=args.refine)
+    max_time, max_iterations = args.max_time, args.max_iterations
+    if max_time is None and max_iterations is None:
+        max_time, max_iterations = (None, TABLE_QUICK["max_iterations"]) if args.quick else (60.0, None)
+    summary = run_table41(plans=plans, max_time=max_time, max_iterations=max_iterations, jobs=args.jobs,
+                          output=Path(args.output), quick=args.quick, fresh=args.fresh, options=options,
+                          refine=args.refine)
     print(render_table41(summary))
     return 0
 

@@ -1,27 +1,86 @@
-"""Eq. 4.1: known answers on small cases, its gradient against finite differences, its invariances, bad input."""
+"""Eq. 4.1 (objective "ratio") and the normalised PIIRL likelihood (the default): known answers on small cases,
+gradients against finite differences, invariances, bad input."""
 
 import numpy as np
 import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from pliant.errors import ConfigError
-from pliant_piirl.piirl import RecoveryOptions, recover
+from pliant_piirl.piirl import RecoveryOptions, _likelihood, recover
+from scipy.special import logsumexp
+
+RATIO = RecoveryOptions(objective="ratio")
 
 
 def test_an_object_the_demonstration_avoids_gets_the_upper_bound_and_the_deformed_one_the_lower():
     # the demonstration deforms object 0 only; its samples also deform object 1
     demos = np.array([[1.0, 0.0]])
     samples = [np.array([[1.0, 1.0], [2.0, 0.5], [1.5, 2.0]])]
-    s = recover(demos, samples)["sensitivities"]
+    s = recover(demos, samples, RATIO)["sensitivities"]
     assert s[0] == pytest.approx(0.1) and s[1] == pytest.approx(1000.0)
 
 
-def test_a_chain_of_preferences_is_ordered():
+@pytest.mark.parametrize("objective", ["likelihood", "ratio"])
+def test_a_chain_of_preferences_is_ordered(objective):
     # demo 1 prefers a over b, demo 2 prefers b over c: a < b < c
     demos = np.array([[2.0, 0.5, 0.0], [0.0, 2.0, 0.5]])
     samples = [np.array([[1.0, 2.0, 0.0], [1.5, 1.0, 0.0]]), np.array([[0.0, 1.0, 2.0], [0.0, 1.5, 1.0]])]
-    s = recover(demos, samples)["sensitivities"]
+    s = recover(demos, samples, RecoveryOptions(objective=objective))["sensitivities"]
     assert s[0] < s[1] < s[2]
+
+
+def test_the_likelihood_has_the_interior_optimum_where_eq_4_1_goes_to_a_vertex():
+    # demonstration (1, 1), samples (4, 0) and (0, 2); with r = S2 / S1 they cost 1 + r, 4 and 2r.  The demonstration
+    # is the cheapest for 1 < r < 3, and both samples are farthest above it (each at the top of the normalised range)
+    # at r = 2: the likelihood's unique optimum, returned with the smaller sensitivity at the lower bound.
+    demos, samples = np.array([[1.0, 1.0]]), [np.array([[4.0, 0.0], [0.0, 2.0]])]
+    s = recover(demos, samples)["sensitivities"]
+    assert s == pytest.approx([0.1, 0.2], rel=1e-4)
+    # eq. 4.1, (1 + r) / (4 + 2r), falls as r falls: it ends at the vertex S1 = upper, S2 = lower, where the sample
+    # (0, 2) costs 0.2 and the demonstration 1000.1
+    s = recover(demos, samples, RATIO)["sensitivities"]
+    assert s == pytest.approx([1000.0, 0.1])
+
+
+def likelihood(s, demos, samples, h=10.0):
+    """The normalised PIIRL negative log-likelihood at ``s`` (one point ``(n,)`` or many ``(P, n)``)."""
+    s = np.atleast_2d(s)
+    total = np.zeros(len(s))
+    for v, w in zip(demos, samples):
+        c = np.c_[s @ v, s @ w.T]
+        lo, hi = c.min(axis=1, keepdims=True), c.max(axis=1, keepdims=True)
+        u = (c - lo) / (hi - lo)
+        total += h * u[:, 0] + logsumexp(-h * u, axis=1)
+    return total if len(total) > 1 else float(total[0])
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000))
+def test_the_likelihood_is_no_worse_than_any_point_of_a_random_search_and_invariant_to_scale(seed):
+    rng = np.random.default_rng(seed)
+    demos = rng.uniform(0, 1, (3, 4))
+    samples = [rng.uniform(0, 2, (5, 4)) for _ in range(3)]
+    result = recover(demos, samples)
+    s = result["sensitivities"]
+    assert result["objective"] == pytest.approx(likelihood(s, demos, samples), rel=1e-9)
+    assert likelihood(s * 123.0, demos, samples) == pytest.approx(result["objective"], rel=1e-9)
+    best = likelihood(rng.uniform(0.1, 1000, (2000, 4)), demos, samples).min()
+    assert result["objective"] <= best + 1e-9
+    assert s.min() == pytest.approx(0.1) and s.max() <= 1000 + 1e-9
+
+
+def test_the_likelihood_gradient_matches_finite_differences_with_unequal_sample_counts():
+    from scipy.optimize import check_grad
+
+    rng = np.random.default_rng(1)
+    demos = [rng.uniform(0, 1, 3) for _ in range(4)]
+    samples = [rng.uniform(0, 2, (6, 3)) for _ in range(3)] + [rng.uniform(0, 2, (2, 3))]
+    objective, batch, _ = _likelihood(demos, samples, 10.0)
+    for s in rng.uniform(0.1, 10, (5, 3)):
+        f, g = (lambda x: objective(x)[0]), (lambda x: objective(x)[1])
+        assert f(s) == pytest.approx(likelihood(s, demos, samples), rel=1e-12)   # padding changes nothing
+        assert batch(s[None])[0] == pytest.approx(f(s), rel=1e-12)
+        assert check_grad(f, g, s, epsilon=1e-7) < 1e-5 * np.linalg.norm(g(s)) + 1e-9
 
 
 def objective(s, demos, samples):
@@ -36,7 +95,7 @@ def test_the_solution_is_no_worse_than_any_point_of_a_random_search(seed):
     rng = np.random.default_rng(seed)
     demos = rng.uniform(0, 1, (3, 4))
     samples = [rng.uniform(0, 2, (5, 4)) for _ in range(3)]
-    result = recover(demos, samples)
+    result = recover(demos, samples, RATIO)
     assert result["objective"] == pytest.approx(objective(result["sensitivities"], demos, samples), rel=1e-9)
     trials = rng.uniform(0.1, 1000, (2000, 4))
     best = min(objective(s, demos, samples) for s in trials)
@@ -63,10 +122,12 @@ def test_the_gradient_matches_finite_differences():
         assert check_grad(f, g, s, epsilon=1e-6 * s.mean()) < 1e-6 * np.linalg.norm(g(s)) + 1e-12
 
 
-def test_scaling_the_features_changes_nothing_and_empty_demonstrations_are_left_out():
+@pytest.mark.parametrize("objective", ["likelihood", "ratio"])
+def test_scaling_the_features_changes_nothing_and_empty_demonstrations_are_left_out(objective):
     demos = np.array([[1.0, 0.2], [0.0, 0.0]])
     samples = [np.array([[1.0, 1.0], [0.5, 2.0]]), np.array([[1.0, 1.0]])]
-    a, b = recover(demos, samples), recover(demos * 37.0, [s * 37.0 for s in samples])
+    options = RecoveryOptions(objective=objective)
+    a, b = recover(demos, samples, options), recover(demos * 37.0, [s * 37.0 for s in samples], options)
     assert np.allclose(a["sensitivities"], b["sensitivities"]) and a["used"] == [0]
 
 
@@ -78,3 +139,5 @@ def test_nothing_to_learn_from_says_so_and_bad_input_is_an_error():
         recover(np.ones((2, 2)), [np.ones((2, 2))])
     with pytest.raises(ConfigError, match="lower <= initial"):
         recover(np.ones((1, 2)), [np.ones((2, 2))], RecoveryOptions(lower=5.0, initial=1.0))
+    with pytest.raises(ConfigError, match="likelihood"):
+        recover(np.ones((1, 2)), [np.ones((2, 2))], RecoveryOptions(objective="margin"))
