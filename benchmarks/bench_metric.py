@@ -11,6 +11,8 @@ per path on se3-peg-tight, >= 10x fewer simulated steps than the baseline.  The 
     pliant bench metric [-- --tasks se2-through-passage --simulations 10000 --jobs 2 --set particles=4000]
     pliant bench metric -- --tasks se3-peg-in-hole --jobs 2
     pliant bench metric -- --alone      # only the proposed metric, one cell at a time: its seconds per path
+    pliant bench metric -- --replay out/bench/metric.json --tasks se3-peg-in-hole \
+        --ground-truth out/metric-tables/runs.jsonl    # a run's tables again, each method against the ground truth
 
 With --jobs 2 two cells run at once, so the table's seconds are those of a loaded machine; the proposed metric is
 timed again alone afterwards (its line under each table).
@@ -84,6 +86,11 @@ def main(argv=None) -> int:
     parser.add_argument("--jobs", type=int, default=1, help="cells at a time (default 1: timings on an idle core)")
     parser.add_argument("--set", action="append", default=[], help="metric option KEY=VALUE for every method")
     parser.add_argument("--alone", action="store_true", help="time only the proposed metric, one cell at a time")
+    parser.add_argument("--ground-truth", type=Path, metavar="RUNS_JSONL",
+                        help="a pliant metric-table runs.jsonl with ground-truth records: every method's mean "
+                             "absolute error against them and the cells it overestimates by more than 0.05")
+    parser.add_argument("--replay", type=Path, metavar="JSON",
+                        help="print the tables of a previous run (out/bench/metric.json) instead of running")
     args = parser.parse_args(argv)
     options = {}
     for item in args.set:
@@ -91,6 +98,9 @@ def main(argv=None) -> int:
         options[key] = _value(value)
     if args.alone:
         return _alone(args.tasks, args.cells, options)
+    truth = _ground_truth(args.ground_truth) if args.ground_truth else {}
+    if args.replay:
+        return _replay(args.replay, args.tasks, truth)
     results = []
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         for name in args.tasks:
@@ -110,21 +120,76 @@ def main(argv=None) -> int:
                 again = evaluate(name, "reachable-volume", r["epsilon"], r["alpha"], 0, density, args.simulations,
                                  **options)
                 r["reachable-volume"]["seconds_idle"] = again["seconds"]
+                r["density"] = density
+                r["simulations"] = task.simulations if args.simulations is None else args.simulations
             results += records
-            header = ("eps/alpha", "baseline", "s")
-            for method in METHODS[1:]:
-                header += (f"{method} (error) [thesis]", "s")
-            runs = task.simulations if args.simulations is None else args.simulations
-            print_table(f"{name}: P_exec against the kinematic baseline ({runs} runs), density {density:.4g}",
-                        header + ("baseline steps / metric steps",), [_row(r) for r in records])
-            errors = [abs(r["reachable-volume"]["p_exec"] - r["baseline"]["p_exec"]) for r in records]
-            seconds = [r["reachable-volume"]["seconds_idle"] for r in records]
-            thesis = thesis_values(THESIS_SECONDS, name, "reachable-volume")
-            print(f"reachable-volume: largest error {max(errors):.3f}, mean {sum(errors) / len(errors):.3f}; "
-                  f"seconds alone on the machine {min(seconds):.2f}-{max(seconds):.2f} (thesis, 16 threads: "
-                  f"{_thesis(thesis)})")
+            _report(name, records, truth.get(name, {}))
     write_json("metric", {"options": options, "simulations": args.simulations, "jobs": args.jobs,
                           "results": results})
+    return 0
+
+
+def _report(name: str, records: list[dict], truth: dict[int, float]) -> None:
+    """The task's table, the proposed metric's errors and seconds, and each method against the ground truth."""
+    header = ("eps/alpha", "baseline", "s")
+    for method in METHODS[1:]:
+        header += (f"{method} (error) [thesis]", "s")
+    density = records[0].get("density")
+    print_table(f"{name}: P_exec against the kinematic baseline ({records[0]['simulations']} runs)"
+                + ("" if density is None else f", density {density:.4g}"),
+                header + ("baseline steps / metric steps",), [_row(r) for r in records])
+    errors = [abs(r["reachable-volume"]["p_exec"] - r["baseline"]["p_exec"]) for r in records]
+    seconds = [r["reachable-volume"]["seconds_idle"] for r in records]
+    thesis = thesis_values(THESIS_SECONDS, name, "reachable-volume")
+    print(f"reachable-volume: largest error {max(errors):.3f}, mean {sum(errors) / len(errors):.3f}; "
+          f"seconds alone on the machine {min(seconds):.2f}-{max(seconds):.2f} (thesis, 16 threads: "
+          f"{_thesis(thesis)})")
+    if not truth:
+        return
+    cells_truth = [r for r in records if r["cell"] in truth]
+    rows = []
+    for method in ("baseline", *METHODS[1:]):
+        diff = [r[method]["p_exec"] - truth[r["cell"]] for r in cells_truth]
+        rows.append((method, f"{sum(abs(d) for d in diff) / len(diff):.3f}", f"{max(abs(d) for d in diff):.3f}",
+                     f"{sum(d > 0.05 for d in diff)} of {len(diff)}"))
+    print("ground truth per cell: " + " ".join(f"{truth[r['cell']]:.2f}" for r in cells_truth))
+    print_table(f"{name}: against the ground truth", ("method", "mean |error|", "largest", "overestimates > 0.05"),
+                rows)
+
+
+def _ground_truth(path: Path) -> dict[str, dict[int, float]]:
+    """``task -> cell -> P_exec`` of the ground-truth records in a ``pliant metric-table`` ``runs.jsonl``."""
+    from pliant.errors import ConfigError
+    from pliant.files import read_jsonl
+
+    if not path.exists():
+        raise ConfigError("no such file (a runs.jsonl of pliant metric-table)", field="--ground-truth",
+                          value=str(path))
+    records, _ = read_jsonl(path)
+    values: dict[str, dict[int, list[float]]] = {}
+    for r in records:
+        if r.get("method") == "ground truth":
+            values.setdefault(r["task"], {}).setdefault(r["cell"], []).append(r["p_exec"])
+    return {task: {cell: sum(v) / len(v) for cell, v in by_cell.items()} for task, by_cell in values.items()}
+
+
+def _replay(path: Path, tasks: list[str], truth: dict) -> int:
+    """The tables of a previous run's JSON (``out/bench/metric.json``), without running anything."""
+    import json
+
+    from pliant.errors import ConfigError
+
+    try:
+        data = json.loads(path.read_text())
+        results = data["results"]
+    except (OSError, ValueError, KeyError) as exc:
+        raise ConfigError(f"cannot read a benchmark's results: {exc}", field="--replay", value=str(path)) from None
+    for name in tasks:
+        records = sorted((r for r in results if r["task"] == name), key=lambda r: r["cell"])
+        for r in records:
+            r.setdefault("simulations", data.get("simulations") or TASKS[name].simulations)
+        if records:
+            _report(name, records, truth.get(name, {}))
     return 0
 
 

@@ -136,11 +136,17 @@ def test_the_reproduction_table_has_no_thesis_value_and_marks_nothing(tmp_path):
     assert result.rows[0].thesis == 1.0                       # Simulation (baseline), cell (0.125, 0.0625)
 
 
-def test_the_benchmark_prints_a_dash_where_the_thesis_has_no_number():
+def _bench():
+    """benchmarks/bench_metric.py as a module."""
     sys.path.insert(0, str(BENCHMARKS))
     spec = importlib.util.spec_from_file_location("bench_metric_under_test", BENCHMARKS / "bench_metric.py")
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
+    return bench
+
+
+def test_the_benchmark_prints_a_dash_where_the_thesis_has_no_number():
+    bench = _bench()
     result = {"p_exec": 0.9, "seconds": 1.0, "simulated_steps": 10.0}
     record = {"task": TASK, "cell": 0, "epsilon": 0.125, "alpha": 0.0625,
               "baseline": {**result, "simulated_steps": 1000.0},
@@ -149,3 +155,24 @@ def test_the_benchmark_prints_a_dash_where_the_thesis_has_no_number():
     assert row[3] == "0.900 (+0.000) [-]" and row[-1] == "100x"
     assert bench._thesis(None) == "-" and bench._thesis((1.0, 2.0), 1) == "2.00"
     assert bench._row({**record, "task": "se3-peg-tight"})[3] == "0.900 (+0.000) [1.00]"
+
+
+def test_the_benchmark_reports_each_method_against_the_ground_truth(tmp_path, capsys):
+    import json
+
+    bench = _bench()
+    result = {"p_exec": 0.9, "seconds": 1.0, "simulated_steps": 10.0, "seconds_idle": 0.5}
+    records = [{"task": TASK, "cell": k, "epsilon": e, "alpha": a, "baseline": {**result, "p_exec": 0.8},
+                **{m: result for m in ("simulation-scaled", "sampling-driven", "reachable-volume")}}
+               for k, (e, a) in enumerate(cells())]
+    (tmp_path / "metric.json").write_text(json.dumps({"simulations": 10000, "results": records}))
+    truth = [{"task": TASK, "method": "ground truth", "cell": k, "p_exec": 1.0 if k else 0.8} for k in range(9)]
+    (tmp_path / "runs.jsonl").write_text("".join(json.dumps(r) + "\n" for r in truth))
+    assert bench.main(["--replay", str(tmp_path / "metric.json"), "--tasks", TASK,
+                       "--ground-truth", str(tmp_path / "runs.jsonl")]) == 0
+    out = capsys.readouterr().out
+    assert "(10000 runs)" in out and "[-]" in out and "(thesis, 16 threads: -)" in out
+    assert "ground truth per cell: 0.80 1.00" in out
+    lines = {line.split()[0]: line.split() for line in out.splitlines() if line.startswith(("baseline ", "reach"))}
+    assert lines["baseline"][1:] == ["0.178", "0.200", "0", "of", "9"]          # (8 x 0.2 + 0) / 9
+    assert lines["reachable-volume"][1:] == ["0.100", "0.100", "1", "of", "9"]  # 0.9 against 0.8 in cell 0
