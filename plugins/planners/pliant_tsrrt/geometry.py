@@ -72,19 +72,21 @@ def extents(poses: np.ndarray, fp: Footprints) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _box_box(pa, ha, pb, hb, margin):
-    """Bool ``(...)``: boxes a and b (poses ``(..., 3)``, half extents ``(..., 2)``) overlap (separating axes)."""
-    ca, cb = box_corners(pa, ha), box_corners(pb, hb)                   # (..., 4, 2)
-    axes = []
-    for p in (pa, pb):
-        c, s = np.cos(p[..., 2]), np.sin(p[..., 2])
-        axes += [np.stack([c, s], -1), np.stack([-s, c], -1)]
-    separated = np.zeros(pa.shape[:-1], dtype=bool)
-    for ax in axes:                                                      # 4 axes, each (..., 2)
-        proj_a = np.einsum("...ij,...j->...i", ca, ax)
-        proj_b = np.einsum("...ij,...j->...i", cb, ax)
-        gap = np.maximum(proj_b.min(-1) - proj_a.max(-1), proj_a.min(-1) - proj_b.max(-1))
-        separated |= gap >= 2 * margin
-    return ~separated
+    """Bool ``(...)``: boxes a and b (poses ``(..., 3)``, half extents ``(..., 2)``) overlap (separating axes: the
+    four face normals; a box's extent along a unit axis ``n`` is ``hx |n . u| + hy |n . v|``)."""
+    ca, sa = np.cos(pa[..., 2]), np.sin(pa[..., 2])
+    cb, sb = np.cos(pb[..., 2]), np.sin(pb[..., 2])
+    dx, dy = pb[..., 0] - pa[..., 0], pb[..., 1] - pa[..., 1]
+    cross_c = np.abs(ca * cb + sa * sb)               # |cos(theta_b - theta_a)|
+    cross_s = np.abs(sa * cb - ca * sb)               # |sin(theta_b - theta_a)|
+    hax, hay, hbx, hby = ha[..., 0], ha[..., 1], hb[..., 0], hb[..., 1]
+    m2 = 2 * margin
+    # a's axes u_a = (ca, sa), v_a = (-sa, ca); b's extent along them
+    sep = np.abs(dx * ca + dy * sa) - hax - (hbx * cross_c + hby * cross_s) >= m2
+    sep |= np.abs(-dx * sa + dy * ca) - hay - (hbx * cross_s + hby * cross_c) >= m2
+    sep |= np.abs(dx * cb + dy * sb) - hbx - (hax * cross_c + hay * cross_s) >= m2
+    sep |= np.abs(-dx * sb + dy * cb) - hby - (hax * cross_s + hay * cross_c) >= m2
+    return ~sep
 
 
 def _box_circle(pb, hb, pc, r, margin):

@@ -119,6 +119,28 @@ def paddle_sweeps(poses: np.ndarray, fp: Footprints, settings: PushSettings) -> 
     return start_pose, sweep_pose, half
 
 
+def paddle_sweep_rows(poses: np.ndarray, objs: np.ndarray, prims: np.ndarray, fp: Footprints,
+                      settings: PushSettings, frames: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[
+                          np.ndarray, np.ndarray]:
+    """The swept boxes of :func:`paddle_sweeps` for one (object, primitive) per row: object ``objs[j]`` at
+    ``poses[j]`` ``(m, 3)`` pushed with ``prims[j]``; returns the boxes' centre poses ``(m, 3)`` and half extents
+    ``(m, 2)``.  ``frames``: :func:`contact_frames` of ``fp`` (computed when not given)."""
+    c, u = frames if frames is not None else contact_frames(fp, settings.turn_offset)
+    s = settings
+    turning = prims >= 4
+    along = np.where(turning, s.width, s.thickness)
+    across = np.where(turning, s.thickness, s.width)
+    travel = s.gap + np.where(turning, s.turn_depth, s.depth)
+    cj, uj = c[objs, prims], u[objs, prims]                                  # (m, 2)
+    cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    uw = np.stack([cos * uj[:, 0] - sin * uj[:, 1], sin * uj[:, 0] + cos * uj[:, 1]], -1)
+    local = cj + (0.5 * travel - s.gap - 0.5 * along)[:, None] * uj          # the box's centre in the object frame
+    centre = np.stack([cos * local[:, 0] - sin * local[:, 1], sin * local[:, 0] + cos * local[:, 1]], -1) \
+        + poses[:, :2]
+    pose = np.concatenate([centre, np.arctan2(uw[:, 1], uw[:, 0])[:, None]], -1)
+    return pose, np.stack([0.5 * (travel + along), 0.5 * across], -1)
+
+
 def apply_action(world, names: list[str], fp: Footprints, index: int, primitive: int, settings: PushSettings,
                  rng: np.random.Generator, poses: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """APPLY_ACTION (poster, LEARN_MODEL line 4): push object ``names[index]`` with primitive ``primitive`` (an index

@@ -53,7 +53,8 @@ from pliant.termination import Condition, Termination
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corners
 from pliant_tsrrt.models import compose
-from pliant_tsrrt.pushing import PushSettings, paddle_sweeps
+from pliant_tsrrt.pushing import PushSettings, contact_frames, paddle_sweep_rows
+from pliant_tsrrt.refine import improve
 
 N_PRIMITIVES = 6
 
@@ -63,7 +64,8 @@ class SearchSettings:
     """TASK_SPACE_RRT's parameters: ``epsilon`` (probability of a uniform sample, line 6), ``max_nodes`` (line 4),
     ``gd_step`` (DIRECTGD step, in mean push lengths), ``gd_pool`` and ``gd_tries`` (DIRECTGD's node choice),
     ``duplicate`` (rho below which a new state counts as an existing node, m), ``gd_noise`` (standard deviation of
-    a Gaussian added to DIRECTGD's sample, in mean push lengths)."""
+    a Gaussian added to DIRECTGD's sample, in mean push lengths); ``refine*``: the improvement phase
+    (:mod:`pliant_tsrrt.refine`; ``refine_share``: its share of a time budget, the tree gets the rest)."""
 
     epsilon: float = 0.1
     max_nodes: int = 5000
@@ -72,6 +74,14 @@ class SearchSettings:
     gd_tries: int = 2
     gd_noise: float = 0.7
     duplicate: float = 1e-3
+    refine: bool = True
+    refine_share: float = 0.4
+    refine_targets: int = 2
+    refine_rounds: int = 300
+    refine_slack: float = 0.003
+    refine_depth: int = 20
+    refine_width: int = 64
+    refine_passes: int = 2
 
 
 @dataclass
@@ -96,6 +106,7 @@ class ObjectSpace:
         square = np.abs(self.fp.half[:, 0] - self.fp.half[:, 1]) < 1e-9
         self.period = np.where(square, np.pi / 2, np.pi)
         self.step_length = float(np.mean(np.linalg.norm(self.means[..., :2], axis=-1)))
+        self.frames = contact_frames(self.fp, self.push.turn_offset)
 
     # --- MODEL, rho, IN_COLLISION ------------------------------------------------------------------------------
 
@@ -144,10 +155,9 @@ class ObjectSpace:
         objs, prims = actions // N_PRIMITIVES, actions % N_PRIMITIVES
         half = after.copy()
         half[rows, objs] = compose(before[rows, objs], 0.5 * self.means[objs, prims])
-        ok = ~self.checker.in_collision(after) & ~self.checker.in_collision(half)
-        _, sweep, sweep_half = paddle_sweeps(before, self.fp, self.push)
-        boxes = sweep[rows, objs, prims]
-        sh = sweep_half[objs, prims]
+        hit = self.checker.in_collision(np.concatenate([after, half]))
+        ok = ~hit[:m] & ~hit[m:]
+        boxes, sh = paddle_sweep_rows(before[rows, objs], objs, prims, self.fp, self.push, self.frames)
         ok &= ~self.checker.boxes_hit(before, boxes, sh, objs)
         corners = box_corners(boxes, sh)
         x0, y0, x1, y1 = self.bounds
@@ -232,9 +242,15 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
             best = n
         n += 1
     termination = termination or Termination()
+    budget = getattr(termination, "max_time", None)     # a time budget covers the tree, the improvement and shortcut
+    share = settings.refine_share if settings.refine else 0.0
+    tree_end = None if budget is None else t0 + (1.0 - share) * budget
+    deadline = None if budget is None else t0 + 0.97 * budget
     iteration = 0
     with termination.watch():
         while n < settings.max_nodes and not termination.should_stop(iteration, costs[best], solved=True):
+            if tree_end is not None and time.perf_counter() >= tree_end:
+                break
             iteration += 1
             gd_node = -1
             if rng.random() > settings.epsilon:
@@ -298,9 +314,19 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     plan.reverse()
     tree_time = time.perf_counter() - t0
     raw_length = len(plan)
+    stats.update(refine_targets=[], refine_connects=0, refine_gain=0.0, refine_pushes=0)
+    if settings.refine and not interrupted:
+        end, _ = space.rollout(s0, plan)
+        _, extra, more = improve(space, end[-1], rng, count=settings.refine_targets, rounds=settings.refine_rounds,
+                                 slack=settings.refine_slack, depth=settings.refine_depth, width=settings.refine_width,
+                                 passes=settings.refine_passes, deadline=deadline)
+        stats.update(more, refine_pushes=len(extra))
+        plan = plan + extra
+    refine_time = time.perf_counter() - t0 - tree_time
     plan, polished = descend(space, s0, plan)
     plan, path_states, final = shortcut(space, s0, plan)
     stats.update(iterations=iteration, nodes=n, time=time.perf_counter() - t0, tree_time=tree_time,
+                 refine_time=refine_time,
                  cost_history=history, tree_best_cost=float(costs[best]), actions_before_shortcut=raw_length,
                  actions=len(plan), polish_pushes=polished, interrupted=interrupted,
                  exhausted=int(np.sum(fails[:n] >= settings.gd_tries)))

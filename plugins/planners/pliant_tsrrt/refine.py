@@ -1,0 +1,202 @@
+"""The final improvement phase of TS-RRT: DIRECTGD's descent carried to a local minimum of the task cost (free
+placement), and the tree's best node connected to it through the learned models.
+
+The tree (lines 3-14) moves toward DIRECTGD's samples one push at a time; with pushes of 4-5 cm and turns of 11-13
+degrees it ends a push length or a few degrees from the arrangement the cost wants, while the cost's edge and area
+terms reward packing the objects to within the clearance margin.  This phase, run on the tree's result:
+
+1. **targets** (:func:`free_descent`): a batched stochastic descent of the task cost over *free* placements
+   (collision-free with ``margin + slack``: the slack leaves room for the pushes' quantisation), started from the
+   tree's best arrangement -- the continuous end of DIRECTGD -- and from its *variants*: every box turned a quarter
+   turn, every pair of objects with their places swapped (the local minima of the cost are separated by 45 degree
+   turns, where orthogonality costs most, and by objects passing each other, which the tree rarely does in a few
+   seconds).  The cheapest ``targets`` distinct minima are kept.
+2. **connect** (:func:`connect`): for each target and each order of the objects, each object in turn is pushed
+   toward its target pose by a beam search over its six primitives through MODEL (every step checked by
+   IN_COLLISION and the paddle's sweep, the other objects where they are then); the state with the lowest task cost
+   seen along any beam is where that object stops.  Only the learned models' mean displacements are used, as in the
+   tree.
+3. The cheapest of the connected plans (if cheaper than the tree's) is the result, before the final descent and the
+   shortcut of :mod:`pliant_tsrrt.search`.
+
+Everything is bounded by a deadline (``time.perf_counter()`` value; None: no limit) and returns the best so far.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from pliant_tsrrt.models import compose
+
+N_PRIMITIVES = 6
+
+
+def _late(deadline: float | None) -> bool:
+    return deadline is not None and time.perf_counter() >= deadline
+
+
+def variants(space, s: np.ndarray) -> np.ndarray:
+    """``s`` ``(k, 3)`` and its variants ``(v, k, 3)``: the objects' positions permuted among themselves (all
+    permutations up to four objects, else each pair swapped), each combined with every subset of the boxes turned by
+    a quarter turn (up to three boxes, else one at a time)."""
+    k = space.k
+    perms = list(itertools.permutations(range(k))) if k <= 4 else [tuple(range(k))] + [
+        tuple(np.where(np.arange(k) == a, b, np.where(np.arange(k) == b, a, np.arange(k))))
+        for a, b in itertools.combinations(range(k), 2)]
+    boxes = np.nonzero(space.scale > 0)[0]
+    turns = [c for r in range(len(boxes) + 1) for c in itertools.combinations(boxes, r)] if len(boxes) <= 3 else \
+        [()] + [(b,) for b in boxes]
+    out = []
+    for perm in perms:
+        for turn in turns:
+            t = s.copy()
+            t[:, :2] = s[list(perm), :2]
+            t[list(turn), 2] += 0.5 * np.pi
+            out.append(t)
+    return np.array(out)
+
+
+def free_descent(space, starts: np.ndarray, rng: np.random.Generator, rounds: int = 300, slack: float = 0.003,
+                 sigma_start: float = 0.02, sigma_end: float = 5e-4, deadline: float | None = None) -> tuple[
+                     np.ndarray, np.ndarray]:
+    """A batched stochastic descent of the task cost from ``starts`` ``(p, k, 3)`` over collision-free placements
+    (margin grown by ``slack`` m): each round moves one random object of every member by a Gaussian step (``sigma``
+    m, ``sigma / r_o`` rad, shrinking geometrically) and keeps cheaper collision-free moves.  Returns the members
+    and their costs (inf for a member that never was collision-free)."""
+    check = replace(space.checker, margin=space.checker.margin + slack)
+    pop = np.array(starts, dtype=np.float64)
+    p = len(pop)
+    cost = space.cost.cost(pop)
+    cost[check.in_collision(pop)] = np.inf
+    scale = np.maximum(space.fp.radius, 1e-3)
+    rows = np.arange(p)
+    for r in range(rounds):
+        if r % 16 == 0 and _late(deadline):
+            break
+        sigma = sigma_start * (sigma_end / sigma_start) ** (r / max(1, rounds - 1))
+        trial = pop.copy()
+        obj = rng.integers(space.k, size=p)
+        step = rng.normal(0.0, sigma, (p, 3))
+        step[:, 2] /= scale[obj]
+        trial[rows, obj] += step
+        c = space.cost.cost(trial)
+        better = (c < cost) & ~check.in_collision(trial)
+        pop[better], cost[better] = trial[better], c[better]
+    return pop, cost
+
+
+def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, rounds: int = 300,
+            slack: float = 0.003, deadline: float | None = None) -> np.ndarray:
+    """The ``count`` cheapest distinct local minima ``(c, k, 3)`` of the free descent from ``s`` and its
+    :func:`variants`, each as it is and with the positions spread by a factor 1.3 about their mean (a variant that
+    overlaps cannot descend; spread out it can).  The first member descends from ``s`` itself."""
+    v = variants(space, s)
+    spread = v.copy()
+    centre = v[:, :, :2].mean(axis=1, keepdims=True)
+    spread[:, :, :2] = centre + 1.3 * (v[:, :, :2] - centre)
+    starts = np.concatenate([v, spread])
+    pop, cost = free_descent(space, starts, rng, rounds=rounds, slack=slack, deadline=deadline)
+    order = np.argsort(cost)
+    picked: list[int] = []
+    for i in order:
+        if not np.isfinite(cost[i]) or len(picked) == count:
+            break
+        if all(space.rho(pop[j][None], pop[i])[0] > 0.02 for j in picked):
+            picked.append(int(i))
+    return pop[picked]
+
+
+def _pose_error(space, o: int, poses: np.ndarray, target: np.ndarray) -> np.ndarray:
+    d = poses - target
+    period = space.period[o]
+    dtheta = (d[..., 2] + period / 2) % period - period / 2
+    return np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2 + (space.scale[o] * dtheta) ** 2)
+
+
+def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 20, width: int = 64,
+                deadline: float | None = None) -> tuple[float, list[int], np.ndarray]:
+    """Object ``o`` of arrangement ``s`` pushed toward pose ``target`` ``(3,)``: a beam search over its primitives
+    (the ``width`` outcomes closest to the target per depth, duplicates within 0.5 mm / 0.1 degree merged, every step
+    valid), up to ``depth`` pushes.  Returns the lowest task cost seen, the actions to it and its state (``s``
+    itself when no push lowers the cost)."""
+    acts_o = np.arange(N_PRIMITIVES) + N_PRIMITIVES * o
+    means = space.means[o]
+    frontier = s[None]
+    seqs: list[list[int]] = [[]]
+    best = (float(space.cost.cost(s[None])[0]), [], s)
+    for _ in range(depth):
+        if _late(deadline):
+            break
+        b = len(frontier)
+        before = np.repeat(frontier, N_PRIMITIVES, axis=0)
+        acts = np.tile(acts_o, b)
+        after = before.copy()
+        after[:, o] = compose(before[:, o], means[acts % N_PRIMITIVES])
+        err = _pose_error(space, o, after[:, o], target)
+        ix = np.round(after[:, o, 0] / 5e-4).astype(np.int64)
+        iy = np.round(after[:, o, 1] / 5e-4).astype(np.int64)
+        it = np.round(((after[:, o, 2] + np.pi) % (2 * np.pi)) / 2e-3).astype(np.int64)
+        _, first = np.unique((ix * 1_000_003 + iy) * 4099 + it, return_index=True)
+        keep = first[np.argsort(err[first], kind="stable")][: 2 * width]
+        ok = space.valid_steps(before[keep], after[keep], acts[keep])
+        keep = keep[ok][:width]
+        if not len(keep):
+            break
+        seqs = [seqs[i // N_PRIMITIVES] + [int(acts[i])] for i in keep]
+        frontier = after[keep]
+        c = space.cost.cost(frontier)
+        j = int(np.argmin(c))
+        if c[j] < best[0] - 1e-12:
+            best = (float(c[j]), seqs[j], frontier[j])
+    return best
+
+
+def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, width: int = 64,
+            deadline: float | None = None) -> tuple[float, list[int]]:
+    """The objects pushed toward ``target`` ``(k, 3)`` one after another in ``order`` (:func:`push_toward`); returns
+    the final cost and the actions."""
+    actions: list[int] = []
+    cost = float(space.cost.cost(s[None])[0])
+    for o in order:
+        cost, seq, s = push_toward(space, s, int(o), target[int(o)], depth, width, deadline)
+        actions += seq
+    return cost, actions
+
+
+def improve(space, s: np.ndarray, rng: np.random.Generator, *, count: int = 2, rounds: int = 300,
+            slack: float = 0.003, depth: int = 20, width: int = 64, max_orders: int = 6, passes: int = 2,
+            deadline: float | None = None) -> tuple[float, list[int], dict]:
+    """The improvement phase from arrangement ``s``: :func:`targets`, then :func:`connect` for each target and up to
+    ``max_orders`` orders of the objects (all of them for three objects; else the identity and its rotations); up to
+    ``passes`` times, each from the previous pass's result, while a pass gains.  Returns the cheapest cost reached,
+    its actions (empty when nothing beat ``s``) and statistics."""
+    base = best_cost = float(space.cost.cost(s[None])[0])
+    k = space.k
+    orders = list(itertools.permutations(range(k))) if k <= 3 else [tuple(np.roll(np.arange(k), -i)) for i in range(k)]
+    orders = orders[:max_orders]
+    best_actions: list[int] = []
+    tried, goal_costs = 0, []
+    for _ in range(passes):
+        if _late(deadline):
+            break
+        goals = targets(space, s, rng, count=count, rounds=rounds, slack=slack, deadline=deadline)
+        goal_costs += [float(c) for c in space.cost.cost(goals)] if len(goals) else []
+        found = None
+        for goal in goals:
+            for order in orders:
+                if _late(deadline):
+                    break
+                tried += 1
+                cost, actions = connect(space, s, goal, order, depth, width, deadline)
+                if cost < best_cost - 1e-12:
+                    best_cost, found = cost, actions
+        if found is None:
+            break
+        best_actions = best_actions + found
+        s = space.rollout(s, found)[0][-1]
+    stats = {"refine_targets": goal_costs, "refine_connects": tried, "refine_gain": base - best_cost}
+    return best_cost, best_actions, stats
