@@ -56,6 +56,17 @@ class TSRRTOptions(PushOptions):
     gd_tries: int = option(2, "descents without a cheaper child after which a node is exhausted", minimum=1)
     gd_noise: float = option(0.7, "standard deviation of a Gaussian added to DIRECTGD's sample, in mean push lengths "
                              "(a stochastic descent)", minimum=0.0)
+    refine: bool = option(True, "after the tree: the improvement phase (free descent of the task cost to a local "
+                          "minimum, each object pushed toward it by a beam search through the models)")
+    refine_share: float = option(0.4, "share of a time budget (max_time, replan_time) for the improvement phase; "
+                                 "the tree gets the rest", minimum=0.0, maximum=1.0)
+    refine_targets: int = option(2, "improvement: local minima to connect to, per pass", minimum=1)
+    refine_rounds: int = option(300, "improvement: rounds of the free descent", minimum=1)
+    refine_slack: float = option(0.003, "improvement: clearance added to the margin in the free descent (m): room "
+                                 "for the pushes' quantisation", minimum=0.0)
+    refine_depth: int = option(20, "improvement: most pushes per object toward its target", minimum=1)
+    refine_width: int = option(64, "improvement: beam width of the search toward a target", minimum=1)
+    refine_passes: int = option(2, "improvement: passes (each from the previous one's result)", minimum=1)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
     w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
@@ -174,7 +185,10 @@ def paddle_path(space: ObjectSpace, problem: PlanningProblem, states: np.ndarray
 
 def search_settings(o: TSRRTOptions) -> SearchSettings:
     return SearchSettings(epsilon=o.epsilon, max_nodes=o.max_nodes, gd_step=o.gd_step, gd_pool=o.gd_pool,
-                          gd_tries=o.gd_tries, gd_noise=o.gd_noise)
+                          gd_tries=o.gd_tries, gd_noise=o.gd_noise, refine=o.refine, refine_share=o.refine_share,
+                          refine_targets=o.refine_targets, refine_rounds=o.refine_rounds,
+                          refine_slack=o.refine_slack, refine_depth=o.refine_depth, refine_width=o.refine_width,
+                          refine_passes=o.refine_passes)
 
 
 def learn_settings(o) -> LearnSettings:

@@ -121,15 +121,17 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
                 deadline: float | None = None) -> tuple[float, list[int], np.ndarray]:
     """Object ``o`` of arrangement ``s`` pushed toward pose ``target`` ``(3,)``: a beam search over its primitives
     (the ``width`` outcomes closest to the target per depth, duplicates within 0.5 mm / 0.1 degree merged, every step
-    valid), up to ``depth`` pushes.  Returns the lowest task cost seen, the actions to it and its state (``s``
+    valid), up to ``depth`` pushes, stopping early within 1 mm of the target or when four pushes came no closer.
+    Returns the lowest task cost seen, the actions to it and its state (``s``
     itself when no push lowers the cost)."""
     acts_o = np.arange(N_PRIMITIVES) + N_PRIMITIVES * o
     means = space.means[o]
     frontier = s[None]
     seqs: list[list[int]] = [[]]
     best = (float(space.cost.cost(s[None])[0]), [], s)
+    closest, stale = float(_pose_error(space, o, s[o], target)), 0
     for _ in range(depth):
-        if _late(deadline):
+        if _late(deadline) or closest < 1e-3 or stale >= 4:      # there, or no closer for four pushes
             break
         b = len(frontier)
         before = np.repeat(frontier, N_PRIMITIVES, axis=0)
@@ -148,6 +150,10 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
             break
         seqs = [seqs[i // N_PRIMITIVES] + [int(acts[i])] for i in keep]
         frontier = after[keep]
+        if err[keep[0]] < closest - 1e-4:
+            closest, stale = float(err[keep[0]]), 0
+        else:
+            stale += 1
         c = space.cost.cost(frontier)
         j = int(np.argmin(c))
         if c[j] < best[0] - 1e-12:
@@ -167,36 +173,48 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
     return cost, actions
 
 
-def improve(space, s: np.ndarray, rng: np.random.Generator, *, count: int = 2, rounds: int = 300,
+def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2, rounds: int = 300,
             slack: float = 0.003, depth: int = 20, width: int = 64, max_orders: int = 6, passes: int = 2,
-            deadline: float | None = None) -> tuple[float, list[int], dict]:
-    """The improvement phase from arrangement ``s``: :func:`targets`, then :func:`connect` for each target and up to
-    ``max_orders`` orders of the objects (all of them for three objects; else the identity and its rotations); up to
-    ``passes`` times, each from the previous pass's result, while a pass gains.  Returns the cheapest cost reached,
-    its actions (empty when nothing beat ``s``) and statistics."""
+            branch_points: int = 3, deadline: float | None = None) -> tuple[float, int, list[int], dict]:
+    """The improvement phase on the tree's best path ``path`` ``(m + 1, k, 3)`` (its states, start to best node):
+    :func:`targets` from the best node, then :func:`connect` to each target from the best node and from
+    ``branch_points - 1`` earlier nodes of the path (evenly spaced, the root included; the objects have more room
+    there), for up to ``max_orders`` orders of the objects (all of them for three objects; else the identity and its
+    rotations), the orders outermost.  Later
+    passes (up to ``passes``, while one gains) start from the previous pass's result.  Returns the cheapest cost
+    reached, how many of the path's actions to keep, the actions to append, and statistics."""
+    s = path[-1]
     base = best_cost = float(space.cost.cost(s[None])[0])
+    keep = len(path) - 1
     k = space.k
     orders = list(itertools.permutations(range(k))) if k <= 3 else [tuple(np.roll(np.arange(k), -i)) for i in range(k)]
     orders = orders[:max_orders]
+    branches = sorted({round(float(x)) for x in np.linspace(len(path) - 1, 0, max(1, branch_points))}, reverse=True)
     best_actions: list[int] = []
     tried, goal_costs = 0, []
-    for _ in range(passes):
+    for p in range(passes):
         if _late(deadline):
             break
         goals = targets(space, s, rng, count=count, rounds=rounds, slack=slack, deadline=deadline)
         goal_costs += [float(c) for c in space.cost.cost(goals)] if len(goals) else []
         found = None
-        for goal in goals:
-            for order in orders:
-                if _late(deadline):
-                    break
-                tried += 1
-                cost, actions = connect(space, s, goal, order, depth, width, deadline)
-                if cost < best_cost - 1e-12:
-                    best_cost, found = cost, actions
+        # order-major, so that a deadline leaves every target and branch point tried with the first orders
+        for order, goal, b in itertools.product(orders, goals, branches if p == 0 else [None]):
+            if _late(deadline):
+                break
+            tried += 1
+            cost, actions = connect(space, s if b is None else path[b], goal, order, depth, width, deadline)
+            if cost < best_cost - 1e-12:
+                best_cost, found = cost, (b, actions)
         if found is None:
             break
-        best_actions = best_actions + found
-        s = space.rollout(s, found)[0][-1]
-    stats = {"refine_targets": goal_costs, "refine_connects": tried, "refine_gain": base - best_cost}
-    return best_cost, best_actions, stats
+        b, actions = found
+        if b is not None:
+            keep, best_actions = b, actions
+            s = space.rollout(path[b], actions)[0][-1]
+        else:
+            best_actions = best_actions + actions
+            s = space.rollout(s, actions)[0][-1]
+    stats = {"refine_targets": goal_costs, "refine_connects": tried, "refine_gain": base - best_cost,
+             "refine_branch": keep}
+    return best_cost, keep, best_actions, stats

@@ -82,6 +82,7 @@ class SearchSettings:
     refine_depth: int = 20
     refine_width: int = 64
     refine_passes: int = 2
+    refine_branches: int = 3
 
 
 @dataclass
@@ -314,17 +315,19 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     plan.reverse()
     tree_time = time.perf_counter() - t0
     raw_length = len(plan)
-    stats.update(refine_targets=[], refine_connects=0, refine_gain=0.0, refine_pushes=0)
+    stats.update(refine_targets=[], refine_connects=0, refine_gain=0.0, refine_pushes=0, refine_branch=len(plan))
     if settings.refine and not interrupted:
-        end, _ = space.rollout(s0, plan)
-        _, extra, more = improve(space, end[-1], rng, count=settings.refine_targets, rounds=settings.refine_rounds,
-                                 slack=settings.refine_slack, depth=settings.refine_depth, width=settings.refine_width,
-                                 passes=settings.refine_passes, deadline=deadline)
+        path, _ = space.rollout(s0, plan)
+        _, keep, extra, more = improve(space, path, rng, count=settings.refine_targets,
+                                       rounds=settings.refine_rounds, slack=settings.refine_slack,
+                                       depth=settings.refine_depth, width=settings.refine_width,
+                                       passes=settings.refine_passes, branch_points=settings.refine_branches,
+                                       deadline=deadline)
         stats.update(more, refine_pushes=len(extra))
-        plan = plan + extra
+        plan = plan[:keep] + extra
     refine_time = time.perf_counter() - t0 - tree_time
     plan, polished = descend(space, s0, plan)
-    plan, path_states, final = shortcut(space, s0, plan)
+    plan, path_states, final = shortcut(space, s0, plan, deadline=None if budget is None else t0 + budget)
     stats.update(iterations=iteration, nodes=n, time=time.perf_counter() - t0, tree_time=tree_time,
                  refine_time=refine_time,
                  cost_history=history, tree_best_cost=float(costs[best]), actions_before_shortcut=raw_length,
@@ -403,11 +406,12 @@ def descend(space: ObjectSpace, s0: np.ndarray, plan: list[int], limit: int = 20
     return plan, added
 
 
-def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 4000) -> tuple[list[int], np.ndarray,
-                                                                                              float]:
+def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 4000,
+             deadline: float | None = None) -> tuple[list[int], np.ndarray, float]:
     """Drop actions -- single ones, then pairs of opposite actions on one object -- while the plan stays valid and its
     final cost does not rise, until none can be dropped or ``budget`` trial plans have been checked; returns the plan,
-    its predicted states and its final cost."""
+    its predicted states and its final cost.  After ``deadline`` (a ``time.perf_counter()`` value) no pairs are tried
+    and no further round starts, but a round of single drops in progress is finished."""
     plan = list(plan)
     states, _ = space.rollout(s0, plan)
     cost = float(space.cost.cost(states[-1][None])[0])
@@ -427,6 +431,8 @@ def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 
 
     changed = True
     while changed and plan and trials < budget:
+        if deadline is not None and time.perf_counter() >= deadline and trials:
+            break
         changed = False
         j = len(plan) - 1
         while j >= 0 and trials < budget:              # from the end: a drop there changes the fewest states
@@ -435,7 +441,8 @@ def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 
             j = min(j, len(plan)) - 1
         for i in range(len(plan)):
             for k in range(i + 1, len(plan)):
-                if trials >= budget or i >= len(plan) or k >= len(plan):
+                if trials >= budget or i >= len(plan) or k >= len(plan) or \
+                        (deadline is not None and time.perf_counter() >= deadline):
                     break
                 a, b = plan[i], plan[k]
                 if a // N_PRIMITIVES == b // N_PRIMITIVES and (a % N_PRIMITIVES) ^ 1 == b % N_PRIMITIVES \
