@@ -22,6 +22,7 @@ Simulator interface); planning uses the learned models.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -77,11 +78,24 @@ def relations_for(names: list[str]) -> tuple[str, ...]:
     return tuple(out)
 
 
+def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """The Wilson score interval (95 %) of a proportion."""
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return float(centre - half), float(centre + half)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="3 seeds, 1 execution each, short reference search")
     parser.add_argument("--seeds", type=int, default=None)
-    parser.add_argument("--budget", type=float, default=5.0, help="TS-RRT time budget (s)")
+    parser.add_argument("--budget", type=float, default=5.0, help="TS-RRT time budget (s): tree, improvement and "
+                        "shortcut together")
+    parser.add_argument("--iterations", type=int, default=None, help="instead of the time budget: this many tree "
+                        "iterations, the improvement phase without a deadline (results independent of the machine)")
+    parser.add_argument("--plan-only", action="store_true", help="parts 1-2 only: no executions, no scaling (the "
+                        "quietest run for the planning time)")
     parser.add_argument("--executions", type=int, default=None, help="noisy executions per plan")
     parser.add_argument("--rounds", type=int, default=None, help="rounds of the free-placement optimisation")
     parser.add_argument("--nodes", type=int, default=1500, help="tree size for the scaling runs")
@@ -92,13 +106,20 @@ def main() -> None:
     parser.add_argument("--set", action="append", default=[], help="a TS-RRT option, NAME=VALUE (TOML value)")
     args = parser.parse_args()
     seeds = args.seeds or (3 if args.quick else 10)
-    executions = args.executions or (1 if args.quick else 2)
+    executions = 0 if args.plan_only else (args.executions or (1 if args.quick else 2))
+    if args.plan_only:
+        args.skip_scaling = True
     rounds = args.rounds or (1500 if args.quick else 6000)
     import tomllib
 
     extra = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (s.split("=", 1) for s in args.set)}
     options = TSRRTOptions(placement_noise=args.noise, **extra)
-    out: dict = {"budget": args.budget, "seeds": seeds, "noise": args.noise, "options": extra}
+    out: dict = {"budget": args.budget, "iterations": args.iterations, "seeds": seeds, "noise": args.noise,
+                 "options": extra}
+    load0 = f"{os.getloadavg()[0]:.2f}"
+    name = "tsrrt" + ("-quick" if args.quick else "") + ("-plan" if args.plan_only else "") + \
+        (f"-it{args.iterations}" if args.iterations else "")
+    out["load_average_start"] = os.getloadavg()
 
     if not args.only_scaling:
         # 1. model learning, with noise
@@ -129,7 +150,9 @@ def main() -> None:
         for seed in range(seeds):
             rng = np.random.default_rng(1000 + seed)
             s0 = random_arrangements(space, rng, 1, clearance=options.start_clearance)[0]
-            found = grow(space, s0, rng, search_settings(options), Termination(max_time=args.budget))
+            term = Termination(max_iterations=args.iterations) if args.iterations else \
+                Termination(max_time=args.budget)
+            found = grow(space, s0, rng, search_settings(options), term)
             st = found.statistics
             best_at = st["cost_history"][-1][0]
             _, ref_cost = optimise(space, np.random.default_rng(seed), rounds=rounds,
@@ -153,17 +176,20 @@ def main() -> None:
                          "ratio": ratio, "collision": collided, "redundant": redundant, "actions": len(found.actions),
                          "actions_before_shortcut": st["actions_before_shortcut"], "nodes": st["nodes"],
                          "iterations": st["iterations"], "tree_time": st["tree_time"], "time": st["time"],
-                         "time_to_best": best_at, "executions": ex})
-            rows.append((seed, f"{runs[-1]['start_cost']:.3f}", f"{found.cost:.3f}", f"{ref_cost:.3f}", f"{ratio:.3f}",
-                         "yes" if collided else "no", redundant, len(found.actions), st["nodes"], f"{best_at:.2f}",
-                         f"{st['time']:.2f}",
+                         "refine_time": st["refine_time"], "tree_best_cost": st["tree_best_cost"],
+                         "refine_branch": st["refine_branch"], "refine_pushes": st["refine_pushes"],
+                         "refine_targets": st["refine_targets"], "time_to_best": best_at, "executions": ex})
+            rows.append((seed, f"{runs[-1]['start_cost']:.3f}", f"{st['tree_best_cost']:.3f}", f"{found.cost:.3f}",
+                         f"{ref_cost:.3f}", f"{ratio:.3f}", "yes" if collided else "no", redundant,
+                         f"{st['refine_branch']}/{st['actions_before_shortcut']}+{st['refine_pushes']}",
+                         len(found.actions), st["nodes"], f"{st['tree_time']:.2f}", f"{st['time']:.2f}",
                          " ".join(f"{x['ratio_reference']:.3f}/{x['ratio_plan']:.3f}/{x['replans']}" for x in ex)))
             print(f"seed {seed}: cost {found.cost:.4f} ref {ref_cost:.4f} ratio {ratio:.3f}", flush=True)
-        print_table(f"2-3. TS-RRT on tsrrt-table, 3 objects at random poses, budget {args.budget:g} s; executed in "
-                    "pymunk "
+        budget = f"{args.iterations} iterations" if args.iterations else f"budget {args.budget:g} s"
+        print_table(f"2-3. TS-RRT on tsrrt-table, 3 objects at random poses, {budget}; executed in pymunk "
                     f"with noise (placement {args.noise * 1000:.0f} mm, actuation 0.01 m/s) and replanning",
-                    ("seed", "start", "TS-RRT", "free opt", "ratio", "collision", "redundant", "pushes", "nodes",
-                     "t best s", "t total s", "exec: /ref /plan replans"), rows)
+                    ("seed", "start", "tree", "TS-RRT", "free opt", "ratio", "collision", "redundant",
+                     "kept+added", "pushes", "nodes", "t tree s", "t total s", "exec: /ref /plan replans"), rows)
         # every seed arranges the same objects under the same cost: the best free placement over all seeds is the
         # reference
         best_ref = min(min(r["reference_cost"], r["reference_random_starts_cost"]) for r in runs)
@@ -175,8 +201,10 @@ def main() -> None:
               + " ".join(f"{r['ratio']:.3f}" for r in runs))
         ratios = np.array([r["ratio"] for r in runs])
         exr = [x for r in runs for x in r["executions"]]
-        within_ref = np.mean([x["ratio_reference"] <= 1.1 and not x["collided"] for x in exr])
-        within_plan = np.mean([x["ratio_plan"] <= 1.1 and not x["collided"] for x in exr])
+        within_ref = np.mean([x["ratio_reference"] <= 1.1 and not x["collided"] for x in exr]) if exr else float("nan")
+        within_plan = np.mean([x["ratio_plan"] <= 1.1 and not x["collided"] for x in exr]) if exr else float("nan")
+        n_ok = sum(x["ratio_plan"] <= 1.1 and not x["collided"] for x in exr)
+        lo, hi = wilson(n_ok, len(exr)) if exr else (float("nan"), float("nan"))
         summary = {"reference_cost": best_ref, "ratio_median": float(np.median(ratios)),
                    "ratio_max": float(ratios.max()),
                    "plans_within_10pct": float(np.mean(ratios <= 1.1)),
@@ -184,13 +212,20 @@ def main() -> None:
                    "redundant_actions": int(sum(r["redundant"] for r in runs)),
                    "executions": len(exr), "executions_within_10pct_of_reference": float(within_ref),
                    "executions_within_10pct_of_plan": float(within_plan),
+                   "executions_within_10pct_of_plan_wilson95": [lo, hi],
                    "execution_collisions": int(sum(x["collided"] for x in exr)),
-                   "replans_mean": float(np.mean([x["replans"] for x in exr])),
-                   "time_to_best_median": float(np.median([r["time_to_best"] for r in runs])),
-                   "time_total_median": float(np.median([r["time"] for r in runs]))}
+                   "replans_mean": float(np.mean([x["replans"] for x in exr])) if exr else float("nan"),
+                   "tree_best_median": float(np.median([r["tree_best_cost"] for r in runs])) / best_ref,
+                   "time_tree_median": float(np.median([r["tree_time"] for r in runs])),
+                   "time_total_median": float(np.median([r["time"] for r in runs])),
+                   "time_total_max": float(np.max([r["time"] for r in runs])),
+                   "nodes_median": float(np.median([r["nodes"] for r in runs])),
+                   "pushes_median": float(np.median([r["actions"] for r in runs]))}
         out["runs"], out["summary"] = runs, summary
-        write_json("tsrrt" + ("-quick" if args.quick else ""), out)          # again below with the scaling
-        print("\nsummary: " + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+        write_json(name, out)          # again below with the scaling
+        print(f"load average before / after: {load0} / {os.getloadavg()[0]:.2f}")
+        print("\nsummary: " + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else
+                                        f"{k} {v[0]:.2f}-{v[1]:.2f}" if isinstance(v, list) else f"{k} {v}"
                                         for k, v in summary.items()))
         out["runs"], out["summary"] = runs, summary
 
@@ -202,31 +237,34 @@ def main() -> None:
         rows, scaling = [], []
         for k in range(2, 9):
             sub = SETTING_ORDER[:k]
-            ok = TSRRTOptions(w_setting=1.0, relations=relations_for(sub), objects=tuple(sub),
-                              max_nodes=args.nodes)
+            ok = TSRRTOptions(**{"w_setting": 1.0, "relations": relations_for(sub), "objects": tuple(sub),
+                                 "max_nodes": args.nodes, **extra})
             sp = build_space(scene, ok, models, sub)
-            times, nodes, costs, starts, best_t, its = [], [], [], [], [], []
+            times, nodes, costs, starts, best_t, its, tree_t = [], [], [], [], [], [], []
             for seed in range(min(seeds, 3)):
                 rng = np.random.default_rng(2000 + seed)
                 s0 = random_arrangements(sp, rng, 1, clearance=0.02)[0]      # 8 objects do not fit 6 cm apart
                 found = grow(sp, s0, rng, search_settings(ok), Termination(max_time=120.0))
                 times.append(found.statistics["time"])
+                tree_t.append(found.statistics["tree_time"])
                 best_t.append(found.statistics["cost_history"][-1][0])
                 nodes.append(found.statistics["nodes"])
                 its.append(found.statistics["iterations"])
                 costs.append(found.cost)
                 starts.append(float(sp.cost.cost(s0[None])[0]))
-            scaling.append({"objects": k, "time": times, "nodes": nodes, "iterations": its, "cost": costs,
+            scaling.append({"objects": k, "time": times, "tree_time": tree_t, "nodes": nodes, "iterations": its,
+                            "cost": costs,
                             "start_cost": starts, "time_to_best": best_t})
-            rows.append((k, f"{np.median(times):.2f}", f"{np.median(best_t):.2f}", int(np.median(nodes)),
-                         int(np.median(its)), f"{1000 * np.median(times) / np.median(its):.2f}",
+            rows.append((k, f"{np.median(times):.2f}", f"{np.median(tree_t):.2f}", f"{np.median(best_t):.2f}",
+                         int(np.median(nodes)), int(np.median(its)), f"{1000 * np.median(tree_t) / np.median(its):.2f}",
                          f"{np.median(starts):.2f}", f"{np.median(costs):.2f}"))
             print(f"{k} objects: {np.median(times):.2f} s", flush=True)
         print_table(f"4. scaling on tsrrt-setting (table-setting cost), tree of {args.nodes} nodes, median of "
-                    f"{min(seeds, 3)} random starts", ("objects", "time s", "t best s", "nodes", "iterations",
-                                                       "ms/iteration", "start cost", "final cost"), rows)
+                    f"{min(seeds, 3)} random starts{'' if ok.refine else ' (no improvement phase)'}; load average "
+                    f"{os.getloadavg()[0]:.2f}", ("objects", "time s", "tree s", "t best s", "nodes", "iterations",
+                                                  "ms/iteration", "start cost", "final cost"), rows)
         out["scaling"] = scaling
-    write_json("tsrrt" + ("-quick" if args.quick else ""), out)
+    write_json(name, out)
 
 
 if __name__ == "__main__":

@@ -67,6 +67,8 @@ class TSRRTOptions(PushOptions):
     refine_depth: int = option(20, "improvement: most pushes per object toward its target", minimum=1)
     refine_width: int = option(64, "improvement: beam width of the search toward a target", minimum=1)
     refine_passes: int = option(2, "improvement: passes (each from the previous one's result)", minimum=1)
+    refine_branches: int = option(3, "improvement: nodes of the best path (the best node, the root and evenly "
+                                  "between) that connect to the targets", minimum=1)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
     w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
@@ -188,7 +190,7 @@ def search_settings(o: TSRRTOptions) -> SearchSettings:
                           gd_tries=o.gd_tries, gd_noise=o.gd_noise, refine=o.refine, refine_share=o.refine_share,
                           refine_targets=o.refine_targets, refine_rounds=o.refine_rounds,
                           refine_slack=o.refine_slack, refine_depth=o.refine_depth, refine_width=o.refine_width,
-                          refine_passes=o.refine_passes)
+                          refine_passes=o.refine_passes, refine_branches=o.refine_branches)
 
 
 def learn_settings(o) -> LearnSettings:
