@@ -22,6 +22,7 @@ Chromium renders in software here (SwiftShader; no GPU), 1280 x 800, and the mac
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import statistics
 import subprocess
@@ -42,48 +43,70 @@ from pliant_viewer.viewer import Viewer, build_content, free_port
 SHOTS = Path("out/bench/viewer")
 
 
-def first_frame(run: Path, b: browser.Browser, extra: tuple[str, ...] = (), timeout: float = 120.0) -> dict:
-    """Seconds from starting ``pliant view RUN`` to its first frame in the browser, and to the robot's meshes."""
-    from selenium.common.exceptions import WebDriverException
+def signatures(view) -> dict[str, list[str]]:
+    """The WebGL draw signatures (:data:`pliant_viewer.browser.DRAW_PROBE`) of the view's nodes: its voxel objects,
+    planned path, policy edges, nodes and particles ("scene"), and the robot's meshes ("robot")."""
+    sig = {"objects": [browser.mesh_signature(len(o.faces)) for o in view.objects]}
+    if view.path_xyz is not None and len(view.path_xyz) > 1:
+        sig["path"] = [browser.segments_signature(len(view.path_xyz) - 1)]
+    if view.tree is not None:
+        sig["policy"] = [browser.segments_signature(len(view.tree.edges)),
+                         browser.points_signature(len(view.tree.nodes)),
+                         browser.points_signature(len(view.tree.particles))]
+    return sig
 
+
+def robot_signatures(view, meshes: str = "collision") -> list[str]:
+    from pliant_viewer import robot_mesh
+
+    robot = robot_mesh.load_or_convert(view.urdf, meshes)
+    return [browser.mesh_signature(len(f)) for _, _, f, _ in robot.meshes]
+
+
+def first_frame(run: Path, b: browser.Browser, expect: dict, robot: list[str], extra: tuple[str, ...] = (),
+                timeout: float = 120.0) -> dict:
+    """Seconds from starting ``pliant view RUN`` to its first frame in the browser (the first animation frame in
+    which WebGL has drawn every node of ``expect``: the voxel objects, the planned path and the policy), and to the
+    frame that also holds the robot's meshes.  The browser opens the address when the command prints it."""
     d = b.driver
     d.get("about:blank")
     port = free_port()
     url = f"http://127.0.0.1:{port}/"
     exe = shutil.which("pliant") or str(Path(sys.executable).with_name("pliant"))
-    t0 = time.perf_counter()
+    t0 = time.time()
     proc = subprocess.Popen([exe, "view", str(run), "--port", str(port), "--hold", "120", *extra],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     try:
-        loaded = False
-        while not loaded:
-            if time.perf_counter() - t0 > timeout:
-                raise TimeoutError("the page did not load")
-            try:
-                d.get(url)
-                loaded = "viser" in d.title.lower() or d.execute_script("return !!document.getElementById('root')")
-            except WebDriverException:
-                time.sleep(0.05)
-        t_page = time.perf_counter() - t0
-        while "/scene" not in browser.scene_tree(d):
-            if time.perf_counter() - t0 > timeout:
-                raise TimeoutError("the scene did not arrive")
+        line = proc.stdout.readline()
+        if url not in line:
+            raise RuntimeError(f"pliant view printed {line!r}")
+        t_printed = time.time() - t0
+        d.get(url)
+        nav = d.execute_script("const n = performance.getEntriesByType('navigation')[0];"
+                               "return [performance.timeOrigin, n.responseEnd];")
+        t_page = (nav[0] + nav[1]) / 1000.0 - t0
+        wanted = [s for group in expect.values() for s in group]
+        while True:
+            draws = browser.first_draws(d)
+            if all(s in draws for s in wanted):
+                break
+            if time.time() - t0 > timeout:
+                raise TimeoutError(f"not drawn: {[s for s in wanted if s not in draws]}")
             time.sleep(0.02)
-        t_scene = time.perf_counter() - t0
-        browser.wait_for_text(d, "policy:", timeout)
-        d.set_script_timeout(30)
-        d.execute_async_script("const done = arguments[0]; requestAnimationFrame(() => done(1));")
-        t_first = time.perf_counter() - t0
+        parts = {k: max(draws[s] for s in group) - t0 for k, group in expect.items()}
+        t_first = max(parts.values())
         d.save_screenshot(str(SHOTS / "first-frame.png"))
-        while "/robot" not in browser.scene_tree(d):
-            if time.perf_counter() - t0 > timeout:
-                raise TimeoutError("the robot did not arrive")
+        while not all(s in draws for s in robot):
+            if time.time() - t0 > timeout:
+                raise TimeoutError("the robot was not drawn")
             time.sleep(0.02)
-        t_robot = time.perf_counter() - t0
+            draws = browser.first_draws(d)
+        t_robot = max(draws[s] for s in robot) - t0
         time.sleep(1.0)
         browser.dismiss_notifications(d)
         d.save_screenshot(str(SHOTS / "robot-in.png"))
-        return {"page": t_page, "scene": t_scene, "first_frame": t_first, "robot": t_robot}
+        return {"printed": t_printed, "page": t_page, **{f"{k}_drawn": v for k, v in parts.items()},
+                "first_frame": t_first, "robot": t_robot}
     finally:
         proc.terminate()
         proc.wait(10)
@@ -157,9 +180,12 @@ def tree_fps(scene, robot, b: browser.Browser, seconds: float, rng) -> dict:
         viewer.stop()
 
 
-def execution_fps(scene, robot, run, b: browser.Browser, rng, seconds: float = 10.0, rate: float = 25.0) -> dict:
+def execution_fps(scene, robot, run, b: browser.Browser, rng, seconds: float = 10.0, rate: float = 25.0,
+                  live_rate: float | None = None) -> dict:
+    """Stream ``seconds`` of the execution at ``rate`` steps a second, each with 24 particles, into a page that
+    draws at most ``live_rate`` updates a second (the viewer's default when ``None``)."""
     view = build_content(scene, robot)
-    viewer = Viewer()
+    viewer = Viewer() if live_rate is None else Viewer(live_rate=live_rate)
     try:
         viewer.show(view)
         open_page(viewer, b, f"pliant -- {scene.name}")
@@ -170,12 +196,12 @@ def execution_fps(scene, robot, run, b: browser.Browser, rng, seconds: float = 1
         steps = int(seconds * rate)
         idx = np.minimum(np.arange(steps) * len(executed) // steps, len(executed) - 1)
         offsets = rng.normal(0.0, 0.03, (24, len(scene.start)))
+        idle = b.frames_per_second(3.0)
         browser.start_frame_counter(b.driver)
         t0 = time.perf_counter()
         late = 0.0
         for k in range(steps):
             q = executed[idx[k]]
-            viewer._live_sent = 0.0                   # every step goes to the page (no throttling)
             viewer.on_step(ExecutionStep(k / rate, q, np.zeros(len(q)), q, False, {}))
             viewer.show_particles(q + offsets)
             wait = t0 + (k + 1) / rate - time.perf_counter()
@@ -186,7 +212,8 @@ def execution_fps(scene, robot, run, b: browser.Browser, rng, seconds: float = 1
         wall = time.perf_counter() - t0
         fps = browser.read_frame_counter(b.driver)
         b.driver.save_screenshot(str(SHOTS / "execution-24.png"))
-        return {"steps": steps, "particles": 24, "stream_s": wall, "max_lag_s": late, "fps": fps}
+        return {"steps": steps, "particles": 24, "stream_s": wall, "max_lag_s": late, "fps": fps, "fps_idle": idle,
+                "live_rate": viewer.live_rate, "updates": viewer.live_updates}
     finally:
         viewer.stop()
 
@@ -198,7 +225,10 @@ def main() -> None:
                              "out/baxter-policy; make one with `pliant run baxter-policy`)")
     parser.add_argument("--repeats", type=int, default=3, help="time-to-first-frame repeats (default 3)")
     parser.add_argument("--seconds", type=float, default=5.0, help="fps measuring window (default 5 s)")
+    parser.add_argument("--parts", default="first,tree,execution",
+                        help="what to measure, comma-separated: first (time to first frame), tree, execution")
     args = parser.parse_args()
+    parts = set(args.parts.split(","))
     reason = browser.missing()
     if reason:
         print(f"skipped: {reason}")
@@ -214,43 +244,65 @@ def main() -> None:
     run = read_run(run_dir)
     scene = pliant.load_scene(run.scene_name)
     rng = np.random.default_rng(0)
-    results: dict = {"run": str(run_dir), "policy_nodes": len(run.policy["nodes"]),
+    results: dict = {"load_before": os.getloadavg(), "run": str(run_dir), "policy_nodes": len(run.policy["nodes"]),
                      "result_status": (run.result or {}).get("status")}
-    with browser.Browser(1280, 800) as b:
-        cold = [first_frame(run_dir, b, ("--no-cache",)) for _ in range(args.repeats)]
-        first_frame(run_dir, b)                          # writes the run folder's view cache (if it is stale)
-        ttff = [first_frame(run_dir, b) for _ in range(args.repeats)]
-        results["first_frame_cold"] = cold
-        results["first_frame"] = ttff
-        from pliant_viewer.viewer import make_robot
+    from pliant_viewer.viewer import build_content, make_robot
 
-        robot = make_robot(scene)
-        results["tree"] = tree_fps(scene, robot, b, args.seconds, rng)
-        results["execution"] = execution_fps(scene, robot, run, b, rng)
+    robot = make_robot(scene)
+    view = build_content(scene, robot, run=run)
+    expect, robot_sigs = signatures(view), robot_signatures(view)
+    results["signatures"] = {"scene": expect, "robot": robot_sigs}
+    with browser.Browser(1280, 800) as b:
+        browser.install_draw_probe(b.driver)
+        if "first" in parts:
+            cold = [first_frame(run_dir, b, expect, robot_sigs, ("--no-cache",)) for _ in range(args.repeats)]
+            first_frame(run_dir, b, expect, robot_sigs)      # writes the view caches (if they are stale)
+            ttff = [first_frame(run_dir, b, expect, robot_sigs) for _ in range(args.repeats)]
+            results["first_frame_cold"] = cold
+            results["first_frame"] = ttff
+        if "tree" in parts:
+            results["tree"] = tree_fps(scene, robot, b, args.seconds, rng)
+        if "execution" in parts:
+            results["execution"] = execution_fps(scene, robot, run, b, rng)
+            results["execution_every_step"] = execution_fps(scene, robot, run, b, rng, live_rate=25.0)
+    if "first" in parts:
+        rows = []
+        measures = [("printed", "address printed", ""), ("page", "page loaded", ""),
+                    ("objects_drawn", "voxel objects drawn", ""), ("path_drawn", "planned path drawn", ""),
+                    ("policy_drawn", "policy drawn", ""),
+                    ("first_frame", "first frame (objects, path, policy)", "<= 2 s"),
+                    ("robot", "robot meshes drawn", "")]
+        for label, runs in (("--no-cache", results["first_frame_cold"]), ("cached", results["first_frame"])):
+            for key, text, target in measures:
+                values = [r[key] for r in runs if key in r]
+                if values:
+                    rows.append((label, text, f"{statistics.median(values):.2f}",
+                                 " ".join(f"{v:.2f}" for v in values), target))
+        print_table(f"time to first frame: pliant view {run_dir} (baxter-reach, {results['policy_nodes']}-node "
+                    f"policy), median of {args.repeats}, headless Chromium 1280x800 (software WebGL)",
+                    ("view", "measure", "seconds", "runs", "target"), rows)
     rows = []
-    for label, runs in (("--no-cache", cold), ("cached", ttff)):
-        med = {k: statistics.median(r[k] for r in runs) for k in ("page", "scene", "first_frame", "robot")}
-        rows += [(label, "page served", f"{med['page']:.2f}", " ".join(f"{r['page']:.2f}" for r in runs), ""),
-                 (label, "voxel objects in the page", f"{med['scene']:.2f}",
-                  " ".join(f"{r['scene']:.2f}" for r in runs), ""),
-                 (label, "first frame (scene, path, policy)", f"{med['first_frame']:.2f}",
-                  " ".join(f"{r['first_frame']:.2f}" for r in runs), "<= 2 s"),
-                 (label, "robot meshes in", f"{med['robot']:.2f}", " ".join(f"{r['robot']:.2f}" for r in runs), "")]
-    print_table(f"time to first frame: pliant view {run_dir} (baxter-reach, {results['policy_nodes']}-node policy), "
-                f"median of {args.repeats}, headless Chromium 1280x800 (software WebGL)",
-                ("view", "measure", "seconds", "runs", "target"), rows)
-    t, e = results["tree"], results["execution"]
-    print_table("interactivity in headless Chromium (frames per second)", ("case", "content", "fps"),
-                [("10,000-node tree, idle", f"first {t['nodes_drawn']} nodes and the solutions drawn (default)",
+    if "tree" in parts:
+        t = results["tree"]
+        rows += [("10,000-node tree, idle", f"first {t['nodes_drawn']} nodes and the solutions drawn (default)",
                   f"{t['fps_idle']:.1f}"),
                  ("10,000-node tree, orbiting", f"the same, {t['strokes']} mouse strokes in {args.seconds:.0f} s",
                   f"{t['fps_orbit']:.1f}"),
                  ("10,000-node tree, whole, idle", f"{t['whole_nodes_drawn']} nodes, {t['particles_drawn']} "
                   "particles drawn", f"{t['whole_fps_idle']:.1f}"),
-                 ("10,000-node tree, whole, orbiting", "the same, mouse strokes", f"{t['whole_fps_orbit']:.1f}"),
-                 ("24-particle execution, live", f"{e['steps']} steps at 25 Hz in {e['stream_s']:.1f} s "
-                  f"(largest lag {e['max_lag_s']:.2f} s)", f"{e['fps']:.1f}")])
-    print(f"\ntree: built in {t['build_s']:.1f} s, in the page after {t['page_s']:.1f} s; screenshots in {SHOTS}/")
+                 ("10,000-node tree, whole, orbiting", "the same, mouse strokes", f"{t['whole_fps_orbit']:.1f}")]
+    if "execution" in parts:
+        rows += [("24-particle execution, live", f"{x['steps']} steps at 25 Hz in {x['stream_s']:.1f} s, "
+                  f"{x['updates']} updates sent (at most {x['live_rate']:.0f}/s; largest lag {x['max_lag_s']:.2f} s; "
+                  f"the page idle before: {x['fps_idle']:.1f})", f"{x['fps']:.1f}")
+                 for x in (results["execution"], results["execution_every_step"])]
+    if rows:
+        print_table("interactivity in headless Chromium (frames per second)", ("case", "content", "fps"), rows)
+    if "tree" in parts:
+        print(f"\ntree: built in {t['build_s']:.1f} s, in the page after {t['page_s']:.1f} s; screenshots in {SHOTS}/")
+    results["load_after"] = os.getloadavg()
+    print("load average before: {:.2f} {:.2f} {:.2f}; after: {:.2f} {:.2f} {:.2f}".format(*results["load_before"],
+                                                                                         *results["load_after"]))
     write_json("viewer", results)
 
 

@@ -134,3 +134,51 @@ def orbit(driver, seconds: float) -> int:
             .move_by_offset(dx, 10).move_by_offset(dx, -10).release().perform()
         strokes += 1
     return strokes
+
+
+# Every WebGL draw call of the page, by signature "mode:count:instances" (mode 4 triangles, 0 points; count the
+# indices or vertices drawn; instances 1 unless instanced), with the time (Date.now(), ms) it was first drawn.  A
+# drawn node has its own signature: a mesh of F triangles "4:3F:1", a cloud of N points "0:N:1", S line segments
+# "4:18:S" (viser draws them as instanced quads).  viser renders every animation frame, so a node drawn once is drawn
+# in every frame after it (while in view): the first frame holding a set of nodes is the latest of their first draws.
+DRAW_PROBE = """
+window.__pliantDraws = {};
+for (const C of [window.WebGL2RenderingContext, window.WebGLRenderingContext]) {
+  if (!C) continue;
+  const P = C.prototype;
+  for (const f of ['drawElements', 'drawArrays', 'drawElementsInstanced', 'drawArraysInstanced']) {
+    const orig = P[f];
+    if (!orig) continue;
+    P[f] = function (...a) {
+      const count = f.startsWith('drawElements') ? a[1] : a[2];
+      const instances = f.endsWith('Instanced') ? a[a.length - 1] : 1;
+      const key = a[0] + ':' + count + ':' + instances;
+      if (!(key in window.__pliantDraws)) window.__pliantDraws[key] = Date.now();
+      return orig.apply(this, a);
+    };
+  }
+}
+"""
+
+
+def install_draw_probe(driver) -> None:
+    """Record the page's WebGL draw calls (:data:`DRAW_PROBE`) in every page this browser opens from now on."""
+    driver.execute_cdp_cmd("Page.addScriptToEvaluateOnNewDocument", {"source": DRAW_PROBE})
+
+
+def first_draws(driver) -> dict[str, float]:
+    """``{signature: seconds since the epoch}`` of the draw calls the current page made (see :data:`DRAW_PROBE`)."""
+    draws = driver.execute_script("return window.__pliantDraws || {}")
+    return {k: v / 1000.0 for k, v in draws.items()}
+
+
+def mesh_signature(triangles: int) -> str:
+    return f"4:{3 * int(triangles)}:1"
+
+
+def points_signature(n: int) -> str:
+    return f"0:{int(n)}:1"
+
+
+def segments_signature(n: int) -> str:
+    return f"4:18:{int(n)}"

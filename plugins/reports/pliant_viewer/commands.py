@@ -37,7 +37,8 @@ def add_commands(subparsers) -> None:
     p.add_argument("--frames", type=int, default=60, help="poses of the timeline in an export (default 60)")
     p.add_argument("--open", action="store_true", help="open the page in the default browser")
     p.add_argument("--no-cache", action="store_true",
-                   help="neither read nor write the run folder's view-cache.npz (kept for articulated robots)")
+                   help="neither read nor write the run folder's view-cache.npz (kept for articulated robots) nor "
+                        "the converted robot meshes (~/.cache/pliant/viewer)")
     p.set_defaults(handler=cmd_view)
 
     run = subparsers.choices.get("run")
@@ -91,17 +92,32 @@ def _load_scene(pliant, name: str, base: Path):
 
 
 def cmd_view(args) -> int:
-    from pliant.geometry.voxelgrid import VoxelGrid
-
-    from pliant_viewer import cache
-    from pliant_viewer.content import voxel_objects
-    from pliant_viewer.viewer import Viewer, build_content
-
     t0 = time.perf_counter()
-    scene, run, policy = resolve(args.target, args.scene)
     _warn_if_exposed(args.host)
-    viewer = Viewer(host=args.host, port=args.port or None, robot_meshes=args.robot_meshes)
+    viewer = None
+    if not args.export:
+        # serve the page first: the browser loads and starts viser's client (~1 s in software WebGL) while the
+        # scene and the run are read; the scene's nodes reach it when they are ready
+        from pliant_viewer.viewer import Viewer
+
+        viewer = Viewer(host=args.host, port=args.port or None, robot_meshes=args.robot_meshes,
+                        use_cache=not args.no_cache)
+        print(f"viewer: {viewer.url}  (loading {args.target})", flush=True)
+        if args.open:
+            import webbrowser
+
+            webbrowser.open(viewer.url)
     try:
+        from pliant.geometry.voxelgrid import VoxelGrid
+
+        from pliant_viewer import cache
+        from pliant_viewer.content import voxel_objects
+        from pliant_viewer.viewer import Viewer, build_content
+
+        scene, run, policy = resolve(args.target, args.scene)
+        if viewer is None:
+            viewer = Viewer(host=args.host, port=args.port or None, robot_meshes=args.robot_meshes,
+                            use_cache=not args.no_cache)
         folder = Path(args.target) if run is not None and Path(args.target).is_dir() else None
         view = cache.load(folder, scene) if folder is not None and not args.no_cache else None
         if view is None:
@@ -115,18 +131,16 @@ def cmd_view(args) -> int:
         else:
             viewer.show(view)
         if args.export:
+            viewer.robot_drawing.ready.wait(120)
             out = viewer.export_html(Path(args.export), frames=args.frames)
             print(f"exported {out} ({out.stat().st_size / 1e6:.1f} MB)")
             return 0
         print(f"viewer: {viewer.url}  ({scene.name}, ready in {time.perf_counter() - t0:.2f} s; Ctrl-C to stop)",
               flush=True)
-        if args.open:
-            import webbrowser
-
-            webbrowser.open(viewer.url)
         _hold(args.hold)
     finally:
-        viewer.stop()
+        if viewer is not None:
+            viewer.stop()
     return 0
 
 
@@ -171,9 +185,7 @@ def run_with_view(args, original) -> int:
         folder = pipeline.output
         if (folder / "run.json").is_file():
             viewer.robot_drawing.ready.wait(30)
-            viewer.server.scene.reset()
-            viewer.server.gui.reset()
-            viewer.nodes.clear()
+            viewer.reset()
             viewer.show(build_content(scene, robot, run=read_run(folder)))
         print(f"viewer: {viewer.url}  (the finished run; {len(viewer._live)} steps streamed live; Ctrl-C to stop)",
               flush=True)

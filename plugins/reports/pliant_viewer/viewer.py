@@ -4,7 +4,8 @@ Scene graph (the names the page's scene tree shows and the tests look for):
 
 - ``/scene/objects/<name>``   each voxel object, its surface voxels as instanced cubes coloured by material
 - ``/scene/start``, ``/scene/goal``   the task's ends (at the robot's tip for an articulated robot)
-- ``/robot``                  the robot: URDF meshes (PR2, Baxter, iiwa) or the rigid body's voxels
+- ``/robot``                  the robot: URDF meshes (PR2, Baxter, iiwa; merged per planned joint, see
+                              :mod:`pliant_viewer.robot_mesh`) or the rigid body's voxels
 - ``/path/planned``           the planned path (orange); ``/path/executed`` the executed trajectory (blue) and
                               ``/path/now`` where the robot is at the slider's time
 - ``/policy/edges``, ``/policy/nodes``, ``/policy/particles``, ``/policy/actions``   the belief tree / policy
@@ -37,6 +38,8 @@ from pliant_viewer import content
 log = logging.getLogger(__name__)
 
 DEFAULT_ROBOT = {"rigid": "rigid", "urdf": "pinocchio"}
+LIVE_RATE = 15.0        # live updates a second at most (software WebGL drew 30-45 frames/s of baxter-reach)
+LIVE_CHUNK = 64         # steps per node of a live trail
 
 
 def free_port(host: str = "127.0.0.1") -> int:
@@ -147,10 +150,11 @@ class RobotDrawing:
     """The robot in the page: a URDF's meshes posed by joint values, or a rigid body's voxels posed as one frame."""
 
     def __init__(self, server, robot, q0: np.ndarray, resolution: float, meshes: str = "collision",
-                 description=None) -> None:
+                 description=None, use_cache: bool = True) -> None:
         self.server = server
         self.robot = robot
         self.meshes = meshes
+        self.use_cache = use_cache
         self.urdf = None
         self.ready = threading.Event()
         self.error: BaseException | None = None
@@ -158,7 +162,7 @@ class RobotDrawing:
         self._set_lock = threading.Lock()
         description = description if robot is None else robot.urdf_description()
         if description is not None:
-            # meshes take seconds to parse (yourdfpy, trimesh): the rest of the scene is drawn meanwhile
+            # converting the meshes takes seconds the first time (yourdfpy, trimesh): the scene is drawn meanwhile
             self.thread = threading.Thread(target=self._load_urdf_safely, args=(description,), daemon=True)
             self.thread.start()
             return
@@ -193,34 +197,27 @@ class RobotDrawing:
                 self.ready.set()
 
     def _load_urdf(self, description) -> None:
-        import yourdfpy
-        from viser.extras import ViserUrdf
-
-        dirs = [FilePath(d) for d in description.package_dirs]
-
-        def handler(fname: str) -> str:
-            if fname.startswith("package://"):
-                rest = fname[len("package://"):]
-                for d in dirs:
-                    for candidate in (d / rest, d.parent / rest):
-                        if candidate.exists():
-                            return str(candidate)
-            return yourdfpy.filename_handler_magic(fname, dir=FilePath(description.urdf).parent)
+        """The robot's merged meshes (:mod:`pliant_viewer.robot_mesh`: from the disk cache, or converted with yourdfpy
+        once), one frame per planned joint's group of links and one mesh per group and colour."""
+        from pliant_viewer import robot_mesh
 
         # collision meshes by default: Baxter's visual meshes are 412,633 triangles in 59 pieces (2.6 s to parse, under
-        # 1 frame/s in software WebGL), its collision meshes 18,955 in 37 (0.3 s)
-        visual = self.meshes == "visual"
-        urdf = yourdfpy.URDF.load(str(description.urdf), build_scene_graph=visual, load_meshes=visual,
-                                  build_collision_scene_graph=not visual, load_collision_meshes=not visual,
-                                  filename_handler=handler)
-        self.urdf = ViserUrdf(self.server, urdf, root_node_name="/robot", load_meshes=visual,
-                              load_collision_meshes=not visual, collision_mesh_color_override=(0.75, 0.22, 0.2))
-        self.joint_names = list(self.urdf.get_actuated_joint_names())
-        base = np.zeros(len(self.joint_names))
-        for i, name in enumerate(self.joint_names):
-            base[i] = description.posture.get(name, 0.0)
-        self.base = base
-        self.slots = [self.joint_names.index(n) if n in self.joint_names else -1 for n in description.joint_names]
+        # 1 frame/s in software WebGL), its collision meshes 18,955 in 37 (0.3 s; 14,155 with lighter spheres)
+        meshes = robot_mesh.load_or_convert(description, self.meshes, use_cache=self.use_cache)
+        s = self.server.scene
+        poses = meshes.poses(self._q)
+        with self.server.atomic():
+            self.root = s.add_frame("/robot", show_axes=False)
+            self.group_frames = []
+            for g, name in enumerate(meshes.names):
+                wxyz, position = _pose(poses[g])
+                self.group_frames.append(s.add_frame(f"/robot/{name}", show_axes=False, wxyz=wxyz,
+                                                     position=position))
+            for i, (g, v, f, colour) in enumerate(meshes.meshes):
+                s.add_mesh_simple(f"/robot/{meshes.names[g]}/mesh{i}", v, f, color=colour, material="toon3",
+                                  cast_shadow=False, receive_shadow=False)
+        self._sent = poses
+        self.urdf = meshes
 
     def set(self, q: np.ndarray) -> None:
         q = np.asarray(q, dtype=np.float64)
@@ -232,11 +229,13 @@ class RobotDrawing:
 
     def _apply(self, q: np.ndarray) -> None:
         if self.urdf is not None:
-            cfg = self.base.copy()
-            for i, slot in enumerate(self.slots):
-                if slot >= 0:
-                    cfg[slot] = q[i]
-            self.urdf.update_cfg(cfg)
+            # only the groups that moved: one orientation and one position message each, applied together
+            poses = self.urdf.poses(q)
+            moved = np.nonzero(np.abs(poses - self._sent).reshape(len(poses), -1).max(axis=1) > 1e-9)[0]
+            with self.server.atomic():
+                for g in moved:
+                    self.group_frames[g].wxyz, self.group_frames[g].position = _pose(poses[g])
+            self._sent = poses
         elif self.error is not None or not hasattr(self, "_rigid"):
             return
         elif self._rigid:
@@ -247,10 +246,15 @@ class RobotDrawing:
             self.body.batched_positions = self.robot.body_points(q[None])[0].astype(np.float32)
 
 
-def _wxyz(R: np.ndarray) -> np.ndarray:
-    from scipy.spatial.transform import Rotation
+def _pose(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return _wxyz(T[:3, :3]), T[:3, 3].copy()
 
-    x, y, z, w = Rotation.from_matrix(R).as_quat()
+
+def _wxyz(R: np.ndarray) -> np.ndarray:
+    # the core's rotations (numpy only): scipy's Rotation took 0.66 s to import on this machine under load
+    from pliant.geometry.rotations import matrix_to_quat
+
+    x, y, z, w = matrix_to_quat(np.asarray(R, dtype=np.float64))
     return np.array([w, x, y, z])
 
 
@@ -258,10 +262,11 @@ class Viewer:
     """A viser server drawing one :class:`ViewContent`; ``host`` is loopback unless asked otherwise."""
 
     def __init__(self, host: str = "127.0.0.1", port: int | None = None, robot_meshes: str = "collision",
-                 tree_limit: int = 2000) -> None:
+                 tree_limit: int = 2000, use_cache: bool = True, live_rate: float = LIVE_RATE) -> None:
         import viser
 
         self.robot_meshes = robot_meshes
+        self.use_cache = use_cache
         self.tree_limit = tree_limit
         self.tree_drawn = 0
         self.host = host
@@ -274,19 +279,24 @@ class Viewer:
         # HDRI environment map held the page at 0.2-2 frames/s for many seconds after loading (baxter-reach with its
         # policy; 46 without it) and delayed every later message; shadows cost 42 -> 30 fps on triple-wall.  A
         # hemisphere and an ambient light keep the faces that look away from the default lights readable.
-        self.server.scene.configure_environment_map(hdri=None)
-        self.server.scene.configure_default_lights(True, cast_shadow=False)
-        self.server.scene.add_light_hemisphere("/lights/sky", sky_color=(255, 255, 255), ground_color=(90, 90, 110),
-                                               intensity=1.2)
-        self.server.scene.add_light_ambient("/lights/ambient", intensity=0.6)
+        self._lights()
         self.nodes: dict[str, object] = {}
         self.view: ViewContent | None = None
         self.robot_drawing: RobotDrawing | None = None
         self.slider = None
         self.slider_moves = 0                   # how many times the slider's value arrived from the page
         self._live: list[np.ndarray] = []
+        self.live_steps = 0
+        self.live_rate = live_rate              # live updates a second at most (:meth:`flush_live`)
+        self.live_updates = 0
         self._live_sent = 0.0
-        self._lock = threading.Lock()
+        self._live_placed = 0
+        self._live_trail: list = []
+        self._particles: np.ndarray | None = None
+        self._trail_pending: list[np.ndarray] = []
+        self._particle_trail: list = []
+        self._flush_timer: threading.Timer | None = None
+        self._lock = threading.RLock()
         self.created = time.perf_counter()
 
     @property
@@ -294,7 +304,29 @@ class Viewer:
         host = f"[{self.host}]" if ":" in self.host else self.host
         return f"http://{host}:{self.port}/"
 
+    def _lights(self) -> None:
+        self.server.scene.configure_environment_map(hdri=None)
+        self.server.scene.configure_default_lights(True, cast_shadow=False)
+        self.server.scene.add_light_hemisphere("/lights/sky", sky_color=(255, 255, 255), ground_color=(90, 90, 110),
+                                               intensity=1.2)
+        self.server.scene.add_light_ambient("/lights/ambient", intensity=0.6)
+
+    def reset(self) -> None:
+        """Remove every node and control (e.g. to show the finished run after a live one)."""
+        with self._lock:
+            if self._flush_timer is not None:
+                self._flush_timer.cancel()
+                self._flush_timer = None
+            self.view = None
+            self.server.scene.reset()
+            self.server.gui.reset()
+            self.nodes.clear()
+            self._lights()
+            self._live_trail, self._particle_trail, self._trail_pending, self._particles = [], [], [], None
+
     def stop(self) -> None:
+        if self._flush_timer is not None:
+            self._flush_timer.cancel()
         with contextlib.redirect_stdout(io.StringIO()):
             self.server.stop()
 
@@ -339,7 +371,8 @@ class Viewer:
             self._add("/scene/goal", s.add_icosphere("/scene/goal", radius=radius, color=(220, 40, 200),
                                                      position=ends[1]))
             self.robot_drawing = RobotDrawing(self.server, view.robot, scene.start, scene.resolution,
-                                              meshes=self.robot_meshes, description=view.urdf)
+                                              meshes=self.robot_meshes, description=view.urdf,
+                                              use_cache=self.use_cache)
             self._add("/robot", self.robot_drawing)
             if view.path is not None and len(view.path) > 1:
                 self._polyline("/path/planned", view.path_xyz, content.PATH_COLOUR, 4.0)
@@ -354,18 +387,29 @@ class Viewer:
         self._gui(view)
 
     def _voxel_mesh(self, name: str, obj: content.VoxelObject):
-        """One mesh of the object's exposed voxel faces: one colour (``add_mesh_simple``), or per-voxel materials
-        as vertex colours (through trimesh, which viser sends as GLB)."""
-        colours = np.unique(obj.vertex_colours, axis=0)
+        """One mesh of the object's exposed voxel faces in its material's colour; an object of per-voxel materials
+        gets one mesh per colour (``name`` is then a frame holding ``name/<k>``)."""
+        colours, inverse = np.unique(obj.vertex_colours[::4], axis=0, return_inverse=True)   # one colour a quad
         if len(colours) <= 1:
             colour = tuple(int(c) for c in (colours[0] if len(colours) else obj.colours[0]))
-            return self.server.scene.add_mesh_simple(name, obj.vertices.astype(np.float32), obj.faces,
-                                                     color=colour, side="double", flat_shading=True,
-                                                     cast_shadow=False, receive_shadow=False)
-        import trimesh
+            return self._mesh(name, obj.vertices, obj.faces, colour)
+        frame = self.server.scene.add_frame(name, show_axes=False)
+        quad = np.asarray(inverse).ravel()
+        for k, colour in enumerate(colours):
+            quads = np.nonzero(quad == k)[0]
+            # exposed_faces lists every quad's first triangle, then every quad's second
+            faces = np.concatenate([obj.faces[quads], obj.faces[quads + len(quad)]])
+            used, local = np.unique(faces, return_inverse=True)
+            self._mesh(f"{name}/{k}", obj.vertices[used], local.reshape(-1, 3).astype(np.uint32),
+                       tuple(int(c) for c in colour))
+        return frame
 
-        mesh = trimesh.Trimesh(obj.vertices, obj.faces, vertex_colors=obj.vertex_colours, process=False)
-        return self.server.scene.add_mesh_trimesh(name, mesh, cast_shadow=False, receive_shadow=False)
+    def _mesh(self, name: str, vertices: np.ndarray, faces: np.ndarray, colour, flat: bool = True):
+        # toon shading: in software WebGL a frame of baxter-reach drew in about half the time of the standard
+        # (physically based) material's, and the faces still read by their light
+        return self.server.scene.add_mesh_simple(name, np.asarray(vertices, dtype=np.float32), faces, color=colour,
+                                                 material="toon3", side="double", flat_shading=flat,
+                                                 cast_shadow=False, receive_shadow=False)
 
     def _polyline(self, name: str, points: np.ndarray, colour, width: float) -> None:
         pts = np.asarray(points, dtype=np.float32)
@@ -455,10 +499,8 @@ class Viewer:
         for n in names:
             handle = self.nodes[n]
             if isinstance(handle, RobotDrawing):
-                if handle.urdf is not None and handle.meshes == "visual":
-                    handle.urdf.show_visual = event.target.value
-                elif handle.urdf is not None:
-                    handle.urdf.show_collision = event.target.value
+                if handle.urdf is not None:
+                    handle.root.visible = event.target.value
                 elif hasattr(handle, "frame"):
                     handle.frame.visible = event.target.value
             else:
@@ -495,49 +537,120 @@ class Viewer:
     # --- live ---------------------------------------------------------------------------------------------------
 
     def on_step(self, step) -> None:
-        """The execution loop's per-step hook: move the robot and extend the trail (at most ~30 updates a second)."""
+        """The execution loop's per-step hook: record the step; the robot and the trail move in the page at most
+        :attr:`live_rate` times a second (:meth:`flush_live`)."""
         with self._lock:
             self._live.append(np.asarray(step.configuration, dtype=np.float64))
-            now = time.perf_counter()
-            if now - self._live_sent < 1 / 30 or self.view is None:
-                return
-            self._live_sent = now
-            q = self._live[-1]
-            self.robot_drawing.set(q)
-            # only the configurations not yet placed go through the tracer (a robot model's kinematics)
-            placed = getattr(self, "_live_xyz", [])
-            placed.extend(self.view.tracer.points(np.array(self._live[len(placed):])))
-            self._live_xyz = placed
-            if len(placed) > 1:
-                pts = np.asarray(placed, dtype=np.float32)
-                segments = np.stack([pts[:-1], pts[1:]], axis=1)
-                handle = self.nodes.get("/path/live")
-                if handle is None:
-                    self._polyline("/path/live", pts, (0, 170, 255), 3.0)
-                else:
-                    handle.points = segments
             self.live_steps = len(self._live)
+        self._maybe_flush()
 
     def show_particles(self, q: np.ndarray, trail: bool = True) -> None:
         """Draw particles ``(n, d)`` (e.g. the belief's particles during an execution) as points at their tips, and
-        with ``trail`` extend each particle's trail."""
+        with ``trail`` extend each particle's trail; sent with the next live update (:meth:`flush_live`)."""
         xyz = self.view.tracer.points(q).astype(np.float32)
-        handle = self.nodes.get("/live/particles")
-        if handle is not None and len(handle.points) == len(xyz):
-            handle.points = xyz                     # an update of the existing cloud, not a new scene node
-        else:
-            self.nodes["/live/particles"] = self.server.scene.add_point_cloud(
-                "/live/particles", xyz, colors=(230, 80, 30), point_size=max(self.view.scene.resolution, 0.01),
-                point_shape="circle")
-        if trail:
-            # trails as points (a point cloud stays cheap where thousands of line segments do not), re-sent every
-            # fifth call
-            self._trails = getattr(self, "_trails", [])
-            self._trails.append(xyz)
-            if len(self._trails) % 5 == 1:
-                self.nodes["/live/trails"] = self.server.scene.add_point_cloud(
-                    "/live/trails", np.concatenate(self._trails), colors=(240, 160, 110),
-                    point_size=max(self.view.scene.resolution, 0.01) * 0.4, point_shape="circle")
+        with self._lock:
+            self._particles = xyz
+            if trail:
+                self._trail_pending.append(xyz)
+        self._maybe_flush()
+
+    def _maybe_flush(self) -> None:
+        """Send now when the last update is older than ``1 / live_rate`` s, else once that time has passed (so the
+        page always ends at the latest step)."""
+        with self._lock:
+            if self.view is None:
+                return
+            wait = self._live_sent + 1.0 / self.live_rate - time.perf_counter()
+            if wait > 0:
+                if self._flush_timer is None:
+                    self._flush_timer = threading.Timer(wait, self._timer_flush)
+                    self._flush_timer.daemon = True
+                    self._flush_timer.start()
+                return
+        self.flush_live()
+
+    def _timer_flush(self) -> None:
+        with self._lock:
+            self._flush_timer = None
+        self.flush_live()
+
+    def flush_live(self) -> None:
+        """One live update, as one batch of messages the page applies together: the robot at the latest step, the
+        steps' trail since the last update, the particles and their trails.  Trails are drawn in chunks of
+        ``LIVE_CHUNK`` steps, so an update re-sends at most one chunk, however long the execution."""
+        with self._lock:
+            if self.view is None:
+                return
+            self._live_sent = time.perf_counter()
+            self.live_updates += 1
+            new = self._live[self._live_placed:]
+            self._live_placed = len(self._live)
+            particles, self._particles = self._particles, None
+            trail, self._trail_pending = self._trail_pending, []
+            s = self.server.scene
+            with self.server.atomic():
+                if new:
+                    self.robot_drawing.set(new[-1])
+                    # only the configurations not yet placed go through the tracer (a robot model's kinematics)
+                    xyz = self.view.tracer.points(np.array(new)).astype(np.float32)
+                    if "/path/live" not in self.nodes:
+                        self.nodes["/path/live"] = s.add_frame("/path/live", show_axes=False)
+                    self._live_trail = self._extend_chunks(self._live_trail, xyz, LIVE_CHUNK, "/path/live/",
+                                                           self._trail_segments, overlap=True)
+                if particles is not None:
+                    handle = self.nodes.get("/live/particles")
+                    if handle is not None and len(handle.points) == len(particles):
+                        handle.points = particles       # an update of the existing cloud, not a new scene node
+                    else:
+                        self.nodes["/live/particles"] = s.add_point_cloud(
+                            "/live/particles", particles, colors=(230, 80, 30),
+                            point_size=max(self.view.scene.resolution, 0.01), point_shape="circle")
+                if trail:
+                    # trails as points (a point cloud stays cheap where thousands of line segments do not)
+                    steps = np.stack(trail)                                     # (k, n, 3)
+                    self._particle_trail = self._extend_chunks(self._particle_trail, steps, LIVE_CHUNK // 2,
+                                                               "/live/trails/", self._trail_points, overlap=False)
+
+    def _extend_chunks(self, chunks: list, items: np.ndarray, size: int, prefix: str, draw, overlap: bool) -> list:
+        """Append ``items`` to the last chunk (a list of arrays) until it holds ``size``; each chunk changed is
+        re-drawn as one node ``prefix<k>``; with ``overlap`` a chunk starts at the last item of the one before (so
+        a line stays unbroken)."""
+        chunks = chunks or [[]]
+        touched = set()
+        for item in items:
+            if len(chunks[-1]) >= size:
+                chunks.append([chunks[-1][-1]] if overlap else [])
+            chunks[-1].append(item)
+            touched.add(len(chunks) - 1)
+        for k in sorted(touched):
+            name = f"{prefix}{k}"
+            handle = draw(name, np.asarray(chunks[k]), size, self.nodes.get(name))
+            if handle is not None:
+                self.nodes[name] = handle
+        return chunks
+
+    def _trail_segments(self, name: str, pts: np.ndarray, size: int, handle):
+        """A chunk of the live trail as ``size`` line segments, the ones not reached yet collapsed onto its last
+        point: the node keeps its size, so an update is one message (its points), not a new node."""
+        if len(pts) < 2:
+            return None
+        full = np.concatenate([pts, np.repeat(pts[-1:], size + 1 - len(pts), axis=0)])
+        segments = np.stack([full[:-1], full[1:]], axis=1)
+        if handle is not None:
+            handle.points = segments
+            return handle
+        return self.server.scene.add_line_segments(name, segments, colors=(0, 170, 255), thickness=3.0,
+                                                   thickness_units="screen")
+
+    def _trail_points(self, name: str, steps: np.ndarray, size: int, handle):
+        """A chunk of the particles' trails: ``size`` steps of points, those not reached yet at the last step's."""
+        full = np.concatenate([steps, np.repeat(steps[-1:], size - len(steps), axis=0)]).reshape(-1, 3)
+        if handle is not None:
+            handle.points = full
+            return handle
+        return self.server.scene.add_point_cloud(name, full, colors=(240, 160, 110),
+                                                 point_size=max(self.view.scene.resolution, 0.01) * 0.4,
+                                                 point_shape="circle")
 
     # --- export -------------------------------------------------------------------------------------------------
 

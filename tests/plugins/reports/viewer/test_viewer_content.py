@@ -147,7 +147,7 @@ def test_live_steps_move_the_robot(viewer):
     scene = small_scene()
     viewer.show(build_content(scene))
     for i, q in enumerate(np.linspace([0.05, 0.05, 0.95], [0.5, 0.5, 0.95], 5)):
-        viewer._live_sent = 0.0              # do not throttle in the test
+        viewer._live_sent = 0.0              # do not throttle in the test (each step is sent at once)
         viewer.on_step(ExecutionStep(0.1 * i, q, np.zeros(3), q, False, {}))
     np.testing.assert_allclose(viewer.robot_drawing.frame.position, [0.5, 0.5, 0.95], atol=1e-6)
     assert viewer.live_steps == 5 and "/path/live" in viewer.nodes
