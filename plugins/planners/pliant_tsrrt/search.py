@@ -316,6 +316,7 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     tree_time = time.perf_counter() - t0
     raw_length = len(plan)
     stats.update(refine_targets=[], refine_connects=0, refine_gain=0.0, refine_pushes=0, refine_branch=len(plan))
+    plan, polished = descend(space, s0, plan)
     if settings.refine and not interrupted:
         path, _ = space.rollout(s0, plan)
         _, keep, extra, more = improve(space, path, rng, count=settings.refine_targets,
@@ -326,7 +327,9 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
         stats.update(more, refine_pushes=len(extra))
         plan = plan[:keep] + extra
     refine_time = time.perf_counter() - t0 - tree_time
-    plan, polished = descend(space, s0, plan)
+    if stats["refine_pushes"]:
+        plan, more_polished = descend(space, s0, plan)
+        polished += more_polished
     plan, path_states, final = shortcut(space, s0, plan, deadline=None if budget is None else t0 + budget)
     stats.update(iterations=iteration, nodes=n, time=time.perf_counter() - t0, tree_time=tree_time,
                  refine_time=refine_time,

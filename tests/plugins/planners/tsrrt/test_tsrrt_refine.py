@@ -1,0 +1,93 @@
+"""The improvement phase of TS-RRT (pliant_tsrrt.refine) on hand-made models: variants, the free descent, pushing
+one object toward a target, and grow() with and without it."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from pliant.termination import Termination
+from pliant_tsrrt.cost import TaskCost
+from pliant_tsrrt.geometry import BOX, CIRCLE, CollisionChecker, Footprints
+from pliant_tsrrt.pushing import PushSettings
+from pliant_tsrrt.refine import free_descent, improve, push_toward, targets, variants
+from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow, redundant_actions
+
+TABLE = (0.0, 0.0, 1.0, 0.8)
+BOUNDS = (-0.2, -0.2, 1.2, 1.0)
+NO_OBSTACLES = (Footprints(np.zeros(0, dtype=int), np.zeros((0, 2))), np.zeros((0, 3)))
+CAN_MODEL = [[0.05, 0, 0], [-0.05, 0, 0], [0, 0.05, 0], [0, -0.05, 0], [-0.01, 0.02, 0], [0.01, 0.02, 0]]
+BOOK_MODEL = [[0.047, 0, 0], [-0.047, 0, 0], [0, 0.047, 0], [0, -0.046, 0], [0, 0.001, 0.19], [0, -0.001, -0.2]]
+
+
+def _space(fp, means, weights, margin=0.01):
+    checker = CollisionChecker(fp, NO_OBSTACLES[0], NO_OBSTACLES[1], TABLE, margin)
+    return ObjectSpace(fp, np.asarray(means, dtype=float), checker, TaskCost(fp, TABLE, weights), PushSettings(),
+                       BOUNDS)
+
+
+def _three():
+    fp = Footprints([BOX, BOX, CIRCLE], [[0.12, 0.08], [0.05, 0.05], [0.05, 0.05]])
+    return _space(fp, [BOOK_MODEL, BOOK_MODEL, CAN_MODEL], (1.0, 1.0, 1.0, 0.0))
+
+
+def test_variants_permute_places_and_turn_boxes():
+    space = _three()
+    s = np.array([[0.3, 0.3, 0.1], [0.6, 0.5, 0.0], [0.7, 0.2, 0.0]])
+    v = variants(space, s)
+    assert v.shape == (6 * 4, 3, 3)                   # 3! places x every subset of the two boxes turned
+    assert np.array_equal(v[0], s)
+    for t in v:                                       # the same places, each box turned by 0 or a quarter turn
+        assert sorted(map(tuple, t[:, :2])) == sorted(map(tuple, s[:, :2]))
+        assert np.all(np.isclose((t[:2, 2] - s[:2, 2]) % (0.5 * np.pi), 0.0) | np.isclose(t[:2, 2] - s[:2, 2],
+                                                                                           0.5 * np.pi))
+        assert t[2, 2] == s[2, 2]
+
+
+def test_free_descent_keeps_members_collision_free_and_never_raises_their_cost():
+    space = _three()
+    s = np.array([[0.3, 0.3, 0.1], [0.6, 0.5, 0.0], [0.7, 0.2, 0.0]])
+    starts = np.repeat(s[None], 8, axis=0)
+    pop, cost = free_descent(space, starts, np.random.default_rng(0), rounds=200, slack=0.003)
+    assert np.all(cost <= space.cost.cost(s[None])[0] + 1e-12)
+    assert not replace(space.checker, margin=0.013).in_collision(pop).any()
+    assert np.allclose(space.cost.cost(pop), cost)
+    goals = targets(space, s, np.random.default_rng(1), count=2, rounds=200)
+    assert 1 <= len(goals) <= 2 and not space.checker.in_collision(goals).any()
+
+
+def test_push_toward_reaches_a_reachable_target_exactly():
+    fp = Footprints([CIRCLE], [[0.05, 0.05]])
+    space = _space(fp, [CAN_MODEL], (0.0, 0.0, 1.0, 0.0), margin=0.0)
+    s = np.array([[0.2, 0.3, 0.0]])
+    cost, actions, end = push_toward(space, s, 0, np.array([0.4, 0.4, 0.0]), depth=10, width=16)
+    assert np.isclose(cost, 0.125) and len(actions) == 6                  # 4 x push+x, 2 x push+y in some order
+    assert sorted(actions) == [0, 0, 0, 0, 2, 2]
+    assert np.allclose(end, [[0.4, 0.4, 0.0]])
+    states, ok = space.rollout(s, actions)
+    assert ok and np.allclose(states[-1], end)
+
+
+def test_improve_never_returns_a_worse_or_invalid_plan():
+    space = _three()
+    path = np.array([[[0.25, 0.25, 0.3], [0.75, 0.55, 0.2], [0.8, 0.2, 0.0]]])
+    cost, keep, actions, stats = improve(space, path, np.random.default_rng(2), rounds=150, depth=12, width=16,
+                                         passes=1, max_orders=2)
+    assert keep == 0 and stats["refine_connects"] > 0
+    states, ok = space.rollout(path[0], actions)
+    assert ok and np.isclose(space.cost.cost(states[-1][None])[0], cost)
+    assert cost < space.cost.cost(path[:1])[0]
+
+
+def test_grow_with_the_improvement_phase_is_no_worse_and_has_no_redundant_actions():
+    space = _three()
+    s0 = np.array([[0.25, 0.25, 0.3], [0.75, 0.55, 0.2], [0.8, 0.2, 0.0]])
+    base = SearchSettings(refine_width=16, refine_depth=12, refine_rounds=150, refine_passes=1, refine_branches=1)
+    plain = grow(space, s0, np.random.default_rng(3), replace(base, refine=False), Termination(max_iterations=150))
+    better = grow(space, s0, np.random.default_rng(3), base, Termination(max_iterations=150))
+    assert better.statistics["tree_best_cost"] == plain.statistics["tree_best_cost"]     # the same tree
+    assert better.cost <= plain.cost + 1e-12
+    states, ok = space.rollout(s0, better.actions)
+    assert ok and np.isclose(space.cost.cost(states[-1][None])[0], better.cost)
+    assert not space.checker.in_collision(states).any()
+    assert redundant_actions(space, s0, better.actions) == 0
