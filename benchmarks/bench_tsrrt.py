@@ -86,6 +86,65 @@ def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return float(centre - half), float(centre + half)
 
 
+def reach_pose(space, o: int, pose: np.ndarray, target: np.ndarray, depth: int, width: int = 3000) -> list[float]:
+    """The least pose error (m; yaw as the circumscribed radius times the angle, modulo the footprint's symmetry)
+    to ``target`` that object ``o`` reaches from ``pose`` with 1 .. ``depth`` of its pushes (mean displacements; a
+    beam of ``width`` poses closest to the target, duplicates within 0.5 mm / 0.1 degree merged; no collision
+    checks)."""
+    from pliant_tsrrt.models import compose
+
+    def err(p):
+        d = p - target
+        dth = (d[..., 2] + space.period[o] / 2) % space.period[o] - space.period[o] / 2
+        return np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2 + (space.scale[o] * dth) ** 2)
+
+    frontier, best, out = pose[None], float(err(pose)), []
+    for _ in range(depth):
+        after = compose(np.repeat(frontier, 6, axis=0), np.tile(space.means[o], (len(frontier), 1)))
+        e = err(after)
+        key = np.round(np.stack([after[:, 0] / 5e-4, after[:, 1] / 5e-4, ((after[:, 2] + np.pi) % (2 * np.pi)) / 2e-3],
+                                axis=-1)).astype(np.int64)
+        _, first = np.unique(key, axis=0, return_index=True)
+        keep = first[np.argsort(e[first])][:width]
+        frontier, best = after[keep], min(best, float(e[keep[0]]))
+        out.append(best)
+    return out
+
+
+def reachability(options, seeds: int, rounds: int) -> None:
+    """Whether the free-placement optimum can be reached with the six primitives' quantised steps."""
+    scene, sim = world_for("tsrrt-table", noise=True)
+    models, _ = learn_models(arena(sim, scene, options), learn_settings(options), np.random.default_rng(0))
+    names = [o.name for o in scene.objects if o.movable]
+    space = build_space(scene, options, models, names)
+    ref, ref_cost = optimise(space, np.random.default_rng(0), rounds=rounds)
+    depths = (4, 8, 12, 16, 20, 24)
+    rows, out = [], []
+    for seed in range(seeds):
+        rng = np.random.default_rng(1000 + seed)
+        s0 = random_arrangements(space, rng, 1, clearance=options.start_clearance)[0]
+        errs = [reach_pose(space, o, s0[o], ref[o], max(depths)) for o in range(space.k)]
+        for o, name in enumerate(names):
+            rows.append((seed, name, *(f"{1000 * errs[o][d - 1]:.1f}" for d in depths)))
+        out.append({"seed": seed, "errors": errs})
+    print_table(f"reachability: least pose error (mm) to the free-placement optimum (cost {ref_cost:.4f}) with n "
+                "pushes of the object alone (mean displacements, no collision checks)",
+                ("seed", "object", *(f"n={d}" for d in depths)), rows)
+    # what a pose error costs: the optimum with each object moved by e along the worst direction for its edge term
+    for e in (0.002, 0.005, 0.01):
+        worst = []
+        for _ in range(200):
+            t = ref.copy()
+            ang = np.random.default_rng(len(worst)).uniform(-np.pi, np.pi, space.k)
+            t[:, 0] += e * np.cos(ang)
+            t[:, 1] += e * np.sin(ang)
+            worst.append(float(space.cost.cost(t[None])[0]))
+        print(f"every object {1000 * e:.0f} mm off in a random direction: cost / optimum median "
+              f"{np.median(worst) / ref_cost:.3f}, worst {max(worst) / ref_cost:.3f}")
+    write_json("tsrrt-reach", {"reference": ref.tolist(), "reference_cost": ref_cost, "depths": list(depths),
+                               "runs": out})
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="3 seeds, 1 execution each, short reference search")
@@ -101,6 +160,9 @@ def main() -> None:
     parser.add_argument("--nodes", type=int, default=1500, help="tree size for the scaling runs")
     parser.add_argument("--holdout", type=int, default=5)
     parser.add_argument("--noise", type=float, default=0.004, help="paddle placement noise (m, std)")
+    parser.add_argument("--reach", action="store_true", help="only the reachability check: how close each object "
+                        "gets to its pose in the best free-placement arrangement with its own pushes (beam search "
+                        "through the models, the other objects ignored), from each seed's start")
     parser.add_argument("--skip-scaling", action="store_true")
     parser.add_argument("--only-scaling", action="store_true")
     parser.add_argument("--set", action="append", default=[], help="a TS-RRT option, NAME=VALUE (TOML value)")
@@ -121,6 +183,9 @@ def main() -> None:
         (f"-it{args.iterations}" if args.iterations else "")
     out["load_average_start"] = os.getloadavg()
 
+    if args.reach:
+        reachability(options, seeds, rounds)
+        return
     if not args.only_scaling:
         # 1. model learning, with noise
         scene, sim = world_for("tsrrt-table", noise=True)
