@@ -180,7 +180,7 @@ def main() -> None:
                  "options": extra}
     load0 = f"{os.getloadavg()[0]:.2f}"
     name = "tsrrt" + ("-quick" if args.quick else "") + ("-plan" if args.plan_only else "") + \
-        (f"-it{args.iterations}" if args.iterations else "")
+        (f"-it{args.iterations}" if args.iterations else "") + ("-scaling" if args.only_scaling else "")
     out["load_average_start"] = os.getloadavg()
 
     if args.reach:
