@@ -104,7 +104,9 @@ class TSRRTOptions(PushOptions):
 class TSRRTPlanner(Planner):
     """TS-RRT over the joint poses of the scene's movable objects (poster ICHR 2010).
 
-    Statistics: ``iterations``, ``nodes`` (tree size), ``time`` (s, tree growth, descent and shortcut),
+    Statistics: ``iterations``, ``nodes`` (tree size), ``time`` (s, tree growth, improvement phase, descent and
+    shortcut), ``refine_time``, ``refine_branch``, ``refine_pushes``, ``refine_targets``, ``refine_connects``,
+    ``refine_gain`` (the improvement phase, :mod:`pliant_tsrrt.refine`),
     ``tree_time``, ``total_time`` (s, with learning), ``learn_time`` (s, when the models were learned here),
     ``actions``, ``actions_before_shortcut``, ``polish_pushes`` (appended by the final descent), ``start_cost``,
     ``tree_best_cost``, ``gd_samples``, ``random_samples``, ``invalid``, ``duplicates``, ``rewired``, ``exhausted``,

@@ -36,7 +36,9 @@ primitive); MODEL moves that object by its class's mean displacement for the pri
   batched squared distance over the tree.
 * The result is the path to the cheapest node (the one with the fewest pushes among equally cheap ones; poster:
   "returns a plan from the starting state to the most optimal reachable state"), extended by :func:`descend` (the
-  steepest single pushes while they lower the cost, the discrete end of DIRECTGD's descent), then :func:`shortcut`:
+  steepest single pushes while they lower the cost, the discrete end of DIRECTGD's descent), improved by
+  :func:`pliant_tsrrt.refine.improve` (not in the poster: free descent to local minima of the cost, each object
+  pushed toward them through the models; ``refine``), then :func:`shortcut`:
   drop any action -- or any pair of opposite actions on one object -- whose removal keeps the plan valid and does
   not raise the final cost, until none can be dropped ("all paths free of collisions and redundant actions").
 """
@@ -243,7 +245,8 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
             best = n
         n += 1
     termination = termination or Termination()
-    budget = getattr(termination, "max_time", None)     # a time budget covers the tree, the improvement and shortcut
+    # a time budget covers the tree (1 - refine_share of it), the improvement phase (until 97 %) and the shortcut
+    budget = getattr(termination, "max_time", None)
     share = settings.refine_share if settings.refine else 0.0
     tree_end = None if budget is None else t0 + (1.0 - share) * budget
     deadline = None if budget is None else t0 + 0.97 * budget
