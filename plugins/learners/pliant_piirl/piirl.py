@@ -11,11 +11,14 @@ among its samples (the chapter's [8]), with PI^2's per-demonstration cost normal
     u_kj = (c_kj - min_j c_kj) / (max_j c_kj - min_j c_kj)
 
 where ``c_k0 = S . V_k`` is the demonstration's cost, ``c_kl = S . V_kl`` (``l >= 1``) its samples' and ``j`` runs
-over the demonstration and its samples; ``h`` is ``temperature`` (PI^2's 10).  ``exp(-h u_k0) / sum_j exp(-h u_kj)``
-is the probability of the demonstration among its samples; without the normalisation it grows without bound along
+over the demonstration and its samples; ``h`` is ``temperature``.  ``exp(-h u_k0) / sum_j exp(-h u_kj)`` is the
+probability of the demonstration among its samples; without the normalisation it grows without bound along
 any direction in which the demonstration is cheaper than every sample, and the optimum sits at the bounds (the scale
 problem of maximum-likelihood IRL); with it, only ratios matter, and a demonstration that is optimal among its
-samples has an interior optimum.
+samples has an interior optimum.  ``h`` sets how much the samples nearest the demonstration's cost weigh: as
+``h`` grows the objective tends to the smallest normalised margin between the demonstration and its samples (the
+chapter's "maximize the margin").  PI^2 uses 10; the default is 30, chosen after h = 10 recovered one active-learning
+trial out of order (docs/plugins/piirl.md gives the measurements).
 
 Both objectives are homogeneous of degree 0 in ``S``: only ratios are recovered.  ``V_k`` are the features of
 demonstration ``k`` and ``V_kl`` those of its ``l``-th sample path, all divided by the largest feature value (the
@@ -61,7 +64,8 @@ class RecoveryOptions:
 
     objective: str = option("likelihood", "likelihood: PIIRL's likelihood with PI^2's cost normalisation (the form "
                             "eq. 4.1 modifies); ratio: eq. 4.1 as printed", choices=OBJECTIVES)
-    temperature: float = option(10.0, "h of the likelihood: PI^2's 10 (unused by ratio)", minimum=1e-9)
+    temperature: float = option(30.0, "h of the likelihood (PI^2 uses 10; see the module doc; unused by ratio)",
+                                minimum=1e-9)
     lower: float = option(0.1, "lower bound of every sensitivity (thesis 0.1)", minimum=1e-12)
     upper: float = option(1000.0, "upper bound of every sensitivity (thesis 1000)", minimum=1e-12)
     initial: float = option(500.0, "initial value of every sensitivity (thesis 500)", minimum=1e-12)

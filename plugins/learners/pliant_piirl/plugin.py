@@ -70,7 +70,7 @@ def add_table_command(subparsers):
     parser.add_argument("--refine", type=int, default=0, metavar="ROUNDS",
                         help="rounds of local search in the recovered cost after RRT* and shortcutting (default 0)")
     parser.add_argument("--quick", action="store_true",
-                        help="CI-sized: 3 tasks, 1 plan of 1500 iterations, a coarser expert")
+                        help="CI-sized: 3 tasks, 1 plan of 3000 iterations, a coarser expert")
     parser.add_argument("--fresh", action="store_true", help="learn again and forget the plans on file")
     parser.add_argument("--output", default="out", help="directory (default out)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="an active-piirl option")
