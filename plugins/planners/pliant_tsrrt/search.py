@@ -245,11 +245,12 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
             best = n
         n += 1
     termination = termination or Termination()
-    # a time budget covers the tree (1 - refine_share of it), the improvement phase (until 97 %) and the shortcut
+    # a time budget covers the tree (1 - refine_share of it), the improvement phase (until 90 %) and the shortcut
+    # (pair drops until 95 %; the rest is the final descent and a round of single drops)
     budget = getattr(termination, "max_time", None)
     share = settings.refine_share if settings.refine else 0.0
     tree_end = None if budget is None else t0 + (1.0 - share) * budget
-    deadline = None if budget is None else t0 + 0.97 * budget
+    deadline = None if budget is None else t0 + 0.9 * budget
     iteration = 0
     with termination.watch():
         while n < settings.max_nodes and not termination.should_stop(iteration, costs[best], solved=True):
@@ -333,7 +334,7 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     if stats["refine_pushes"]:
         plan, more_polished = descend(space, s0, plan)
         polished += more_polished
-    plan, path_states, final = shortcut(space, s0, plan, deadline=None if budget is None else t0 + budget)
+    plan, path_states, final = shortcut(space, s0, plan, deadline=None if budget is None else t0 + 0.95 * budget)
     stats.update(iterations=iteration, nodes=n, time=time.perf_counter() - t0, tree_time=tree_time,
                  refine_time=refine_time,
                  cost_history=history, tree_best_cost=float(costs[best]), actions_before_shortcut=raw_length,
