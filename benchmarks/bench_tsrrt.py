@@ -17,6 +17,9 @@ Simulator interface); planning uses the learned models.
 
     python benchmarks/bench_tsrrt.py --quick        (3 seeds, short reference optimisation)
     python benchmarks/bench_tsrrt.py                (10 seeds, 2 executions per plan)
+    python benchmarks/bench_tsrrt.py --plan-only    (parts 1-2: planning alone, for the planning time)
+    python benchmarks/bench_tsrrt.py --iterations 3000 --plan-only   (an iteration budget: machine-independent)
+    python benchmarks/bench_tsrrt.py --reach        (how close each object gets to the free optimum's pose)
 """
 
 from __future__ import annotations
