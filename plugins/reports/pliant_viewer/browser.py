@@ -58,17 +58,12 @@ class Browser:
         self.quit()
 
     def frames_per_second(self, seconds: float = 3.0) -> float:
-        """Animation frames the page drew per second over ``seconds`` (``requestAnimationFrame`` callbacks; the
-        viewer's canvas renders on each)."""
-        script = """
-            const done = arguments[arguments.length - 1];
-            const seconds = arguments[0];
-            let frames = 0; const t0 = performance.now();
-            function tick(now) { frames++; if (now - t0 < seconds * 1000) requestAnimationFrame(tick);
-                                 else done(frames / ((now - t0) / 1000)); }
-            requestAnimationFrame(tick);"""
-        self.driver.set_script_timeout(seconds + 30)
-        return float(self.driver.execute_async_script(script, seconds))
+        """Frames the page drew per second over ``seconds`` (see :func:`start_frame_counter`)."""
+        import time
+
+        start_frame_counter(self.driver)
+        time.sleep(seconds)
+        return read_frame_counter(self.driver)
 
 
 def wait_for_text(driver, text: str, timeout: float = 60.0) -> float:
@@ -106,16 +101,33 @@ def dismiss_notifications(driver) -> None:
 
 
 def start_frame_counter(driver) -> None:
-    """Count the page's animation frames from now on (read with :func:`read_frame_counter`)."""
+    """Count the page's frames from now on (read with :func:`read_frame_counter`): animation frames, and drawn
+    frames -- those in which WebGL drew anything.  viser renders on demand: a page left alone draws about one frame a
+    second while its animation frames run at the display's rate, so only drawn frames say how smooth a moving view
+    is.  Drawn frames need :func:`install_draw_probe` before the page was opened (else they read 0)."""
     driver.execute_script("""
-        window.__pliantFrames = 0; window.__pliantT0 = performance.now();
-        (function tick() { window.__pliantFrames++; requestAnimationFrame(tick); })();""")
+        window.__pliantFrames = 0; window.__pliantDrawn = 0; window.__pliantT0 = performance.now();
+        const token = {}; window.__pliantCounter = token;
+        let last = window.__pliantDrawCalls;
+        (function tick() {
+            if (window.__pliantCounter !== token) return;
+            window.__pliantFrames++;
+            if (window.__pliantDrawCalls !== last) { window.__pliantDrawn++; last = window.__pliantDrawCalls; }
+            requestAnimationFrame(tick);
+        })();""")
+
+
+def read_frame_counters(driver) -> dict[str, float]:
+    """``{"drawn": frames drawn a second, "animation": animation frames a second}`` since
+    :func:`start_frame_counter`."""
+    frames, drawn, ms = driver.execute_script(
+        "return [window.__pliantFrames, window.__pliantDrawn, performance.now() - window.__pliantT0];")
+    return {"drawn": drawn / (ms / 1000.0), "animation": frames / (ms / 1000.0)}
 
 
 def read_frame_counter(driver) -> float:
-    """Frames per second since :func:`start_frame_counter`."""
-    frames, ms = driver.execute_script("return [window.__pliantFrames, performance.now() - window.__pliantT0];")
-    return frames / (ms / 1000.0)
+    """Frames drawn per second since :func:`start_frame_counter`."""
+    return read_frame_counters(driver)["drawn"]
 
 
 def orbit(driver, seconds: float) -> int:
@@ -143,6 +155,7 @@ def orbit(driver, seconds: float) -> int:
 # in every frame after it (while in view): the first frame holding a set of nodes is the latest of their first draws.
 DRAW_PROBE = """
 window.__pliantDraws = {};
+window.__pliantDrawCalls = 0;
 for (const C of [window.WebGL2RenderingContext, window.WebGLRenderingContext]) {
   if (!C) continue;
   const P = C.prototype;
@@ -154,6 +167,7 @@ for (const C of [window.WebGL2RenderingContext, window.WebGLRenderingContext]) {
       const instances = f.endsWith('Instanced') ? a[a.length - 1] : 1;
       const key = a[0] + ':' + count + ':' + instances;
       if (!(key in window.__pliantDraws)) window.__pliantDraws[key] = Date.now();
+      window.__pliantDrawCalls++;
       return orig.apply(this, a);
     };
   }
