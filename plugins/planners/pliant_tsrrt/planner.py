@@ -61,7 +61,7 @@ class TSRRTOptions(PushOptions):
     refine_share: float = option(0.4, "share of a time budget (max_time, replan_time) for the improvement phase; "
                                  "the tree gets the rest", minimum=0.0, maximum=1.0)
     refine_targets: int = option(2, "improvement: local minima to connect to, per pass", minimum=1)
-    refine_rounds: int = option(300, "improvement: rounds of the free descent", minimum=1)
+    refine_rounds: int = option(800, "improvement: rounds of the free descent", minimum=1)
     refine_slack: float = option(0.003, "improvement: clearance added to the margin in the free descent (m): room "
                                  "for the pushes' quantisation", minimum=0.0)
     refine_depth: int = option(20, "improvement: most pushes per object toward its target", minimum=1)

@@ -89,7 +89,7 @@ def free_descent(space, starts: np.ndarray, rng: np.random.Generator, rounds: in
     return pop, cost
 
 
-def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, rounds: int = 300,
+def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, rounds: int = 800,
             slack: float = 0.003, deadline: float | None = None) -> np.ndarray:
     """The ``count`` cheapest distinct local minima ``(c, k, 3)`` of the free descent from ``s`` and its
     :func:`variants`, each as it is and with the positions spread by a factor 1.3 about their mean (a variant that
@@ -99,7 +99,7 @@ def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, roun
     centre = v[:, :, :2].mean(axis=1, keepdims=True)
     spread[:, :, :2] = centre + 1.3 * (v[:, :, :2] - centre)
     starts = np.concatenate([v, spread])
-    pop, cost = free_descent(space, starts, rng, rounds=rounds, slack=slack, deadline=deadline)
+    pop, cost = free_descent(space, starts, rng, rounds=rounds, slack=slack, sigma_start=0.04, deadline=deadline)
     order = np.argsort(cost)
     picked: list[int] = []
     for i in order:
@@ -173,7 +173,7 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
     return cost, actions
 
 
-def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2, rounds: int = 300,
+def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2, rounds: int = 800,
             slack: float = 0.003, depth: int = 20, width: int = 64, max_orders: int = 6, passes: int = 2,
             branch_points: int = 3, deadline: float | None = None) -> tuple[float, int, list[int], dict]:
     """The improvement phase on the tree's best path ``path`` ``(m + 1, k, 3)`` (its states, start to best node):

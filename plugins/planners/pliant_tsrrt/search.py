@@ -79,7 +79,7 @@ class SearchSettings:
     refine: bool = True
     refine_share: float = 0.4
     refine_targets: int = 2
-    refine_rounds: int = 300
+    refine_rounds: int = 800
     refine_slack: float = 0.003
     refine_depth: int = 20
     refine_width: int = 64
