@@ -2,7 +2,8 @@
 
 Drawing a URDF through yourdfpy and viser's ``ViserUrdf`` costs, on every view: importing yourdfpy and trimesh
 (1.3-1.6 s on this machine under load), parsing the meshes, one scene node per joint frame and per mesh (Baxter: 56
-frames and 37 meshes, sent as GLB files the page parses) and, for every pose, two messages per joint frame.  Here
+frames and 37 meshes, sent as GLB files the page parses) and, for every pose, every joint frame's transform through
+yourdfpy.  Here
 the robot is converted once, with yourdfpy, into:
 
 - groups: the base (everything that never moves: the joints that are not planned stay at the robot model's fixed
