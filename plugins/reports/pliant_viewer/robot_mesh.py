@@ -153,6 +153,18 @@ def _write(robot: RobotMeshes, path: Path) -> None:
         tmp.unlink(missing_ok=True)
 
 
+def _vertex_colours(mesh) -> np.ndarray:
+    """``(n, 3)`` uint8 colours of a trimesh's vertices (a texture's main colour; grey when it has none)."""
+    try:
+        look = mesh.visual.to_color() if hasattr(mesh.visual, "to_color") else mesh.visual
+        colours = np.asarray(look.vertex_colors)
+        if colours.ndim == 2 and len(colours) == len(mesh.vertices) and colours.shape[1] >= 3:
+            return colours[:, :3].astype(np.uint8)
+    except (AttributeError, ValueError):
+        pass
+    return np.full((len(mesh.vertices), 3), 170, dtype=np.uint8)
+
+
 def convert(description, meshes: str = "collision") -> RobotMeshes:
     """Load the URDF with yourdfpy at the robot's fixed posture (planned joints at zero) and group its meshes."""
     import trimesh
@@ -217,7 +229,7 @@ def convert(description, meshes: str = "collision") -> RobotMeshes:
         v = np.asarray(mesh.vertices, dtype=np.float64) @ local[:3, :3].T + local[:3, 3]
         f = np.asarray(mesh.faces, dtype=np.uint32)
         if visual:
-            colours = np.asarray(mesh.visual.to_color().vertex_colors)[:, :3].astype(np.uint8)
+            colours = _vertex_colours(mesh)
             face_colour = colours[f[:, 0]]
             for c in np.unique(face_colour, axis=0):
                 sel = np.all(face_colour == c, axis=1)

@@ -110,3 +110,15 @@ def test_resolve_file_finds_the_urdfs_meshes(baxter):
     for name in names:
         found = robot_mesh.resolve_file(name, Path(description.urdf), description.package_dirs)
         assert found is not None and found.is_file(), name
+
+
+@pytest.mark.slow
+def test_visual_meshes_keep_their_colours(baxter):
+    """``--robot-meshes visual``: Baxter's detailed meshes, merged per group and colour."""
+    _, description = baxter
+    meshes = robot_mesh.convert(description, "visual")
+    assert meshes.names == ["base", *description.joint_names]
+    assert meshes.triangles > 300_000
+    assert len({colour for _, _, _, colour in meshes.meshes}) > 1
+    for _, v, f, _ in meshes.meshes:
+        assert f.max() < len(v)
