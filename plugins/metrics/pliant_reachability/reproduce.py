@@ -85,11 +85,11 @@ def outcome(task: str, quantity: str, rows_by_method: dict, directory, mode: str
                      sum(steps) / len(steps), low, high, None,
                      "the metric's work, independent of the machine's load: measured "
                      f"{STEPS_MEASURED.get(task, math.nan):.0f}; a change that makes it simulate far more (or "
-                     "nothing) fails"),
-            Headline("reachable-volume: mean seconds per evaluation", sum(seconds) / len(seconds), 0.0, 40.0,
-                     None if thesis_seconds is None else sum(thesis_seconds) / len(thesis_seconds),
-                     "2-4 s on an idle core, 8-12 s with two at a time on a loaded 2-core machine; 40 s catches "
-                     "only a large slowdown (wall time depends on the machine)")]
+                     "nothing) fails")]
+        # wall time depends on the machine: reported, never a checked headline (the speed figure is a benchmark's)
+        rows.append(Row("reachable-volume: mean seconds per evaluation (2-4 s on an idle core; not checked)",
+                        None if thesis_seconds is None else sum(thesis_seconds) / len(thesis_seconds),
+                        sum(seconds) / len(seconds), unit="s"))
     notes = ("The thesis's ground truth is 100 executions of a real KUKA iiwa; ours is a dynamic simulator "
              "(docs/plugins/reachability.md), so the ground-truth rows are not expected to match. "
              f"The complete tables (every method, errors against the baselines) are in {directory / 'tables.md'}.")

@@ -153,16 +153,21 @@ def experiments() -> dict[str, list[Variant]]:
 
 
 def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exec_time: float,
-             policy_file: Path | None = None) -> dict:
+             policy_file: Path | None = None, plan_iterations: int | None = None) -> dict:
     """Plan one policy and execute it ``executions`` times in every world; a JSON-ready record.
 
     ``policy_file``: where to save the planned policy (JSON, :meth:`PartialPolicy.to_dict`), to replay it.
+    ``plan_iterations``: an iteration budget for the planner; ``plan_time`` is then only a safety cap.  With it the
+    record depends on the seed alone, not on the machine's speed or load (nor on the first call's JIT compilation,
+    which a time budget pays for).
     """
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     import pliant
     from pliant.interfaces import PlanningProblem
 
     base = [*variant.overrides, f"planner.max_time={plan_time}", "planner.progress=false", f"seed={seed}"]
+    if plan_iterations is not None:
+        base.append(f"planner.max_iterations={plan_iterations}")
     pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=base)
     context = pipeline.build()
     problem = PlanningProblem.from_context(context)
@@ -271,12 +276,12 @@ def _slug(label: str) -> str:
 
 
 #: settings that give a record its meaning: a resume with other values would mix incomparable tasks
-RESUME_SETTINGS = ("plan_time", "executions", "exec_time")
+RESUME_SETTINGS = ("plan_time", "plan_iterations", "executions", "exec_time")
 
 
 def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, exec_time: float, jobs: int,
                    fresh: bool, output: Path, only: list[str] | None = None, echo=print,
-                   replay: bool = False) -> list[dict]:
+                   replay: bool = False, plan_iterations: int | None = None) -> list[dict]:
     """Run (or resume) experiment ``name``; returns the summary rows.
 
     Every finished task is appended to ``runs.jsonl`` at once (fsynced).  Ctrl-C cancels the queued tasks, ends
@@ -285,6 +290,8 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     resume; a resume whose planning time, executions or execution time differ from the run's ``settings.json`` is
     refused.  ``replay``: plan nothing; execute the saved policies of the selected variants' planned tasks on file
     again (``executions`` times per world) and replace their executions, rewriting the file after each task.
+    ``plan_iterations``: plan each policy to this iteration budget (``plan_time`` is then a safety cap only), so
+    that the records depend on the seeds alone -- what a check of the results on another machine needs.
     """
     table = experiments()
     if name not in table:
@@ -295,6 +302,9 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     for key, value in (("plan_time", plan_time), ("exec_time", exec_time)):
         if not (isinstance(value, (int, float)) and value > 0):
             raise ConfigError("must be a positive number of seconds", field=key, value=value)
+    if plan_iterations is not None and (isinstance(plan_iterations, bool) or not isinstance(plan_iterations, int)
+                                        or plan_iterations < 1):
+        raise ConfigError("must be a positive integer", field="plan_iterations", value=plan_iterations)
     if replay and fresh:
         raise ConfigError("replay executes the policies on file; fresh would forget them", field="replay/fresh",
                           value=[replay, fresh])
@@ -306,7 +316,8 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     variants = [v for v in table[name] if not only or v.label in only]
     directory = output / name
     log, records = open_log(directory, "--output", echo)
-    settings = check_settings(directory, {"experiment": name, "plan_time": plan_time, "executions": executions,
+    settings = check_settings(directory, {"experiment": name, "plan_time": plan_time,
+                                          "plan_iterations": plan_iterations, "executions": executions,
                                           "exec_time": exec_time, "pliant": _version()}, RESUME_SETTINGS,
                               replace=fresh or replay or not records)
     if fresh:                                    # forget the selected variants' tasks, keep the others'
@@ -326,8 +337,8 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
         return (f"{record['variant']} seed {record['seed']}: {'planned' if record['planned'] else 'no policy'}, "
                 f"executions {outcome}")
 
-    tasks = [(v, s, plan_time, executions, exec_time, directory / "policies" / f"{_slug(v.label)}-seed{s}.json")
-             for v, s in todo]
+    tasks = [(v, s, plan_time, executions, exec_time, directory / "policies" / f"{_slug(v.label)}-seed{s}.json",
+              plan_iterations) for v, s in todo]
     run_tasks(run_task, tasks, jobs=jobs, log=log, records=records, describe=describe, echo=echo,
               on_interrupt=lambda: _summary(name, records, variants, settings, directory))
     return _summary(name, records, variants, settings, directory)

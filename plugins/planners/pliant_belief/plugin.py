@@ -33,6 +33,9 @@ def pliant_add_commands(subparsers):
     parser.add_argument("--plans", type=int, default=30, help="policies per variant (default 30)")
     parser.add_argument("--executions", type=int, default=8, help="executions per policy and world (default 8)")
     parser.add_argument("--plan-time", type=float, default=120.0, help="planning time per policy (s, default 120)")
+    parser.add_argument("--plan-iterations", type=int, default=None,
+                        help="plan each policy to this many iterations instead (--plan-time is then a safety cap): "
+                             "the results then depend on the seeds only, not on the machine's speed")
     parser.add_argument("--exec-time", type=float, default=600.0, help="execution time limit (s, default 600)")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="tasks at a time (default: cores)")
     parser.add_argument("--only", nargs="*", help="variant labels to run (default all)")
@@ -51,7 +54,7 @@ def _experiment_command(args) -> int:
 
     rows = run_experiment(args.name, plans=args.plans, executions=args.executions, plan_time=args.plan_time,
                           exec_time=args.exec_time, jobs=args.jobs, fresh=args.fresh, output=Path(args.output),
-                          only=args.only, replay=args.replay)
+                          only=args.only, replay=args.replay, plan_iterations=args.plan_iterations)
     header = ("variant", "world", "plans", "P_plan", "P_exec", "actions", "t first (s)", "simulated", "stored",
               "solutions")
     lines = [header] + [(r["variant"], r["world"], str(r["plans"]), f"{r['p_plan']:.2f}",

@@ -25,20 +25,21 @@ for _g, _simple, _contact, _p24, _p48 in (
 SETTINGS = {
     "table-5.1": {"full": {"plans": 30, "executions": 40, "plan_time": 300.0, "exec_time": 300.0, "only": None},
                   "quick": {"plans": 2, "executions": 4, "plan_time": 30.0, "exec_time": 120.0, "only": None},
-                  "ci": {"plans": 1, "executions": 2, "plan_time": 20.0, "exec_time": 120.0,
+                  "ci": {"plans": 1, "executions": 2, "plan_time": 600.0, "plan_iterations": 60, "exec_time": 120.0,
                          "only": ["AC", "WCR 0.75"]}},
     "table-5.2": {"full": {"plans": 30, "executions": 40, "plan_time": 300.0, "exec_time": 300.0, "only": None},
                   "quick": {"plans": 1, "executions": 4, "plan_time": 30.0, "exec_time": 120.0, "only": None},
-                  "ci": {"plans": 1, "executions": 2, "plan_time": 20.0, "exec_time": 120.0,
+                  "ci": {"plans": 1, "executions": 2, "plan_time": 600.0, "plan_iterations": 60, "exec_time": 120.0,
                          "only": ["simple, gamma 0.125", "contact, gamma 0.125", "24 particles, gamma 0.125"]}},
 }
 MODES = {
     "table-5.1": {"full": "every row, 30 policies of 300 s, 40 executions each (the thesis's protocol)",
                   "quick": "every row, 2 policies of 30 s, 4 executions each",
-                  "ci": "rows AC and WCR 0.75, 1 policy of 20 s, 2 executions"},
+                  "ci": "rows AC and WCR 0.75, 1 policy of 60 iterations (about 20 s), 2 executions"},
     "table-5.2": {"full": "every row, 30 policies of 300 s, 40 executions each (the thesis's protocol)",
                   "quick": "every row, 1 policy of 30 s, 4 executions each",
-                  "ci": "gamma 1/8: Simple RRT, Contact RRT, 24 particles; 1 policy of 20 s, 2 executions"},
+                  "ci": "gamma 1/8: Simple RRT, Contact RRT, 24 particles; 1 policy of 60 iterations (about 20 s), "
+                        "2 executions"},
 }
 MINUTES = {"table-5.1": {"full": 24 * 60 * 0.5, "quick": 8, "ci": 1.5},
            "table-5.2": {"full": 40 * 60 * 0.5, "quick": 10, "ci": 2}}

@@ -14,8 +14,11 @@ from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
 #: thesis Table 3.1: (planner, nFailMax) -> time mean, std (s), cost mean, std
 THESIS = {("trrt", 10): (112.0, 45.6, 515.0, 82.3), ("trrt", 20): (736.0, 260.0, 478.0, 56.9),
           ("gradient-trrt", 10): (20.6, 10.7, 714.0, 326.0), ("gradient-trrt", 20): (175.0, 69.4, 563.0, 164.0)}
-#: mode -> (runs per row, nFailMax values, budget of one run in s)
-MODES = {"full": (30, (10, 20), 1200.0), "quick": (4, (10, 20), 120.0), "ci": (3, (10,), 60.0)}
+#: mode -> (runs per row, nFailMax values, budget of one run in s).  Both planners stop at their first solution
+#: (8-10 s at nFailMax 10 even at a load average of 24 on 2 cores), so a run's record depends on its seed alone as
+#: long as the budget does not bind: the ci budget is a generous safety cap, so that a slow CI machine checks the
+#: same numbers.
+MODES = {"full": (30, (10, 20), 1200.0), "quick": (4, (10, 20), 120.0), "ci": (3, (10,), 600.0)}
 
 
 def plan_once(planner: str, n_fail_max: int, seed: int, max_time: float) -> dict:
@@ -87,9 +90,10 @@ def table_31(run: ReproductionRun) -> Outcome:
                  "ours 543 (136) over 30 runs; a mean of a few runs within about 2.5 std of it"),
         Headline("T-RRT nFailMax 10 mean cost", t["cost"], 350.0, 1300.0, 515.0,
                  "ours 785 (203) over 30 runs; a mean of a few runs within about 2.5 std of it"),
-        Headline("GradienT-RRT nFailMax 10 mean time (s)", g["time"], 0.0, 15.0, 20.6,
-                 "ours 2.09 s on an idle core (target 3 s), 5.8 s on a loaded one; 15 s leaves room for that"),
     ]
+    # wall time depends on the machine: reported beside the thesis's, never a checked headline
+    rows.append(Row("GradienT-RRT nFailMax 10 mean time (ours 2.09 s on an idle core; not checked)", 20.6, g["time"],
+                    unit="s"))
     notes = ("Times are not comparable with the thesis's (other hardware, and our planners stop at the first "
              "solution, then shortcut): differences beyond the thesis's std are expected there and marked. "
              "T-RRT's cost is above the thesis's at nFailMax 10; docs/plugins/trrt.md shows the anytime and "

@@ -52,14 +52,15 @@ def test_a_second_run_resumes_from_the_tasks_on_file(tmp_path):
 
 @pytest.mark.parametrize("name, options, field", [
     ("nope", {}, "NAME"), ("maze", {"plans": 0}, "plans"), ("maze", {"jobs": True}, "jobs"),
-    ("maze", {"plan_time": -1.0}, "plan_time")])
+    ("maze", {"plan_time": -1.0}, "plan_time"), ("maze", {"plan_iterations": 0}, "plan_iterations"),
+    ("maze", {"plan_iterations": 2.5}, "plan_iterations")])
 def test_bad_input_names_the_field(tmp_path, name, options, field):
     kwargs = {"plans": 1, "executions": 1, "plan_time": 1.0, "exec_time": 1.0, "jobs": 1, **options}
     with pytest.raises(ConfigError, match=field):
         run_experiment(name, fresh=False, output=tmp_path, echo=lambda *_: None, **kwargs)
 
 
-def _fake_task(variant, seed, plan_time, executions, exec_time, policy_file=None):
+def _fake_task(variant, seed, plan_time, executions, exec_time, policy_file=None, plan_iterations=None):
     return _record(variant.label, seed, True, {w: ["success"] * executions for w in variant.worlds})
 
 
@@ -80,6 +81,26 @@ def test_fresh_forgets_only_the_variants_being_run(tmp_path, monkeypatch):
     assert [r["variant"] for r in left] == [first, second]             # the other variant's task is kept
     run = [{"outcome": "success", "actions": 10, "seconds": 5.0}]
     assert left[1]["executions"] == {"unblocked": run, "blocked (first route)": run, "blocked (right)": run}
+
+
+def _budget_task(variant, seed, plan_time, executions, exec_time, policy_file=None, plan_iterations=None):
+    return {**_fake_task(variant, seed, plan_time, executions, exec_time), "statistics": {
+        "plan_iterations": plan_iterations}}
+
+
+def test_an_iteration_budget_reaches_the_planner_and_a_resume_with_another_is_refused(tmp_path, monkeypatch):
+    import pliant_belief.experiments as module
+
+    monkeypatch.setattr(module, "run_task", _budget_task)
+    label = experiments()["maze"][0].label
+    run_experiment("maze", plans=1, executions=1, plan_time=600.0, exec_time=1.0, jobs=1, fresh=False,
+                   output=tmp_path, only=[label], echo=lambda *_: None, plan_iterations=60)
+    records = [json.loads(x) for x in (tmp_path / "maze" / "runs.jsonl").read_text().splitlines()]
+    assert [r["statistics"]["plan_iterations"] for r in records] == [60]
+    assert json.loads((tmp_path / "maze" / "settings.json").read_text())["plan_iterations"] == 60
+    with pytest.raises(ConfigError, match="--plan-iterations"):
+        run_experiment("maze", plans=2, executions=1, plan_time=600.0, exec_time=1.0, jobs=1, fresh=False,
+                       output=tmp_path, only=[label], echo=lambda *_: None, plan_iterations=80)
 
 
 def test_baxter_reach_compares_the_belief_planner_with_contact_rrt_and_its_pipeline_builds():
@@ -143,7 +164,7 @@ signal.signal(signal.SIGINT, signal.default_int_handler)
 
 pids = Path(sys.argv[2])
 
-def task(variant, seed, plan_time, executions, exec_time, policy_file=None):
+def task(variant, seed, plan_time, executions, exec_time, policy_file=None, plan_iterations=None):
     (pids / str(os.getpid())).write_text("")
     time.sleep(float(sys.argv[3]) if seed else 0.2)
     return {"variant": variant.label, "seed": seed, "planned": True, "plan_seconds": 0.1, "statistics": {},
