@@ -1,4 +1,5 @@
-"""The two tasks of thesis 6.5 and the thesis's Tables 6.1-6.4, for the benchmark and the table command.
+"""The two tasks of thesis 6.5 and the thesis's Tables 6.1-6.4 (and a third task of ours, with no thesis numbers),
+for the benchmark and the table command.
 
 Each task is one waypoint pair (the thesis evaluates "the most challenging pair of adjacent waypoints" of each
 task) in a bundled scene, with the kinematic simulator's settings; the noise model is eq. 6.14-6.15 (the
@@ -33,7 +34,8 @@ The robot's wrist.  Whether a contact turns the body or stops it depends on the 
 to its force: the lever arm beyond which a contact force turns the body.  The metric's model (the kinematic
 simulator's ``effort_length``) and the ground truth's dynamic simulator (its ``max_torque / max_force``) are given
 the same ratio, :data:`WRIST_LEVER`: the thesis's robot, a KUKA iiwa under Cartesian impedance control, at the
-controller's default stiffness (200 N m/rad over 2000 N/m).
+controller's default stiffness (200 N m/rad over 2000 N/m); on se3-peg-in-hole, ten times larger, ten times that
+(:data:`PEG_IN_HOLE_LEVER`).
 """
 
 from __future__ import annotations
