@@ -58,7 +58,7 @@ class TSRRTOptions(PushOptions):
                              "(a stochastic descent)", minimum=0.0)
     refine: bool = option(True, "after the tree: the improvement phase (free descent of the task cost to a local "
                           "minimum, each object pushed toward it by a beam search through the models)")
-    refine_share: float = option(0.4, "share of a time budget (max_time, replan_time) for the improvement phase; "
+    refine_share: float = option(0.6, "share of a time budget (max_time, replan_time) for the improvement phase; "
                                  "the tree gets the rest", minimum=0.0, maximum=1.0)
     refine_targets: int = option(2, "improvement: local minima to connect to, per pass", minimum=1)
     refine_rounds: int = option(800, "improvement: rounds of the free descent", minimum=1)

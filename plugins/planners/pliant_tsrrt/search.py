@@ -77,7 +77,7 @@ class SearchSettings:
     gd_noise: float = 0.7
     duplicate: float = 1e-3
     refine: bool = True
-    refine_share: float = 0.4
+    refine_share: float = 0.6
     refine_targets: int = 2
     refine_rounds: int = 800
     refine_slack: float = 0.003
