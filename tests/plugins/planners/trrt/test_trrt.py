@@ -110,7 +110,7 @@ def test_the_reported_cost_is_the_cost_recomputed_on_the_returned_path(name, see
 
     context = pliant.Pipeline.from_file("cube-wall-trrt", overrides=[f"planner={name}"]).build()
     problem, planner = PlanningProblem.from_context(context), context.extras["planner"]
-    result = planner.plan(problem, np.random.default_rng(seed), Termination(max_time=2.0))
+    result = planner.plan(problem, np.random.default_rng(seed), Termination(max_iterations=20000, stop_on_first=True))
     assert result.path is not None, result.status
     recomputed = problem.path_cost(result.path.configurations, planner._check_step)
     assert result.cost == pytest.approx(recomputed, rel=1e-9)
