@@ -93,6 +93,8 @@ class TSRRTOptions(PushOptions):
                                      "(1 + this) x the plan's final cost, replan once more", minimum=0.0)
     replan_time: float = option(5.0, "time budget of each replanning (s)", minimum=0.0)
     max_replans: int = option(20, "most replannings in one execution", minimum=0)
+    replan_refine: bool = option(False, "execution: the improvement phase in every replanning; else (default) only "
+                                 "in the replanning after the plan is done, deviations are replanned by the tree")
 
     def validate(self) -> None:
         if self.min_pushes > self.max_pushes:
@@ -193,6 +195,13 @@ def search_settings(o: TSRRTOptions) -> SearchSettings:
                           refine_targets=o.refine_targets, refine_rounds=o.refine_rounds,
                           refine_slack=o.refine_slack, refine_depth=o.refine_depth, refine_width=o.refine_width,
                           refine_passes=o.refine_passes, refine_branches=o.refine_branches)
+
+
+def replan_settings(o: TSRRTOptions, reason: str) -> SearchSettings:
+    """The search settings of a replanning during execution: the improvement phase only when the plan is done
+    (``reason`` ``finish``) unless ``replan_refine``."""
+    settings = search_settings(o)
+    return settings if o.replan_refine or reason == "finish" else replace(settings, refine=False)
 
 
 def learn_settings(o) -> LearnSettings:
@@ -368,7 +377,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                     outcome = "failure"
                     break
                 reason = "blocked"
-                found = grow(_room_for(space, observed), observed, rng, search_settings(o),
+                found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
                              Termination(max_time=o.replan_time), seed_plan=actions[j + 1:])
                 replans.append({"after_action": len(records), "reason": reason,
                                 "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
@@ -387,7 +396,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             if not (replan and len(replans) < o.max_replans):
                 continue
             reason = "deviation"
-        found = grow(_room_for(space, observed), observed, rng, search_settings(o), Termination(max_time=o.replan_time),
+        found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
+                     Termination(max_time=o.replan_time),
                      seed_plan=actions[j:])
         replans.append({"after_action": len(records), "reason": reason,
                         "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
