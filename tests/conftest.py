@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import os
+import signal
 
 import pytest
 from hypothesis import settings
@@ -30,3 +31,12 @@ def _context(scene: str, cost: str | None = None) -> Context:
 def scene_context():
     """``scene_context(name, cost=None)`` -> a cached Context with the rigid robot (and the cost model)."""
     return _context
+
+
+@pytest.fixture
+def python_sigint():
+    """Python's own Ctrl-C handler for the test, whatever this process inherited (a process started in the
+    background by a non-interactive shell inherits SIGINT ignored, and Python then leaves it ignored)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)

@@ -90,14 +90,6 @@ def test_termination_rules():
     t.start()
     assert t.should_stop(0, solved=True) and not t.should_stop(0)
 
-@pytest.fixture
-def python_sigint():
-    """Python's own Ctrl-C handler for the test, whatever this process inherited (a process started in the
-    background by a non-interactive shell inherits SIGINT ignored, and Python then leaves it ignored)."""
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    yield
-    signal.signal(signal.SIGINT, previous)
-
 
 def test_ctrl_c_sets_interrupted_inside_watch(python_sigint):
     t = Termination()

@@ -146,14 +146,6 @@ def test_bad_budgets_name_the_field():
     with pytest.raises(ConfigError, match=r"termination\.all_of"):
         all_of()
 
-@pytest.fixture
-def python_sigint():
-    """Python's own Ctrl-C handler for the test, whatever this process inherited (a process started in the
-    background by a non-interactive shell inherits SIGINT ignored, and Python then leaves it ignored)."""
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    yield
-    signal.signal(signal.SIGINT, previous)
-
 
 def test_ctrl_c_inside_watch_of_a_combination_terminates_it(python_sigint):
     c = any_of(iteration_limit(10), time_limit(60))

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from pliant.errors import PlanningError
 
+from pliant_tsrrt.refine import free_descent
 from pliant_tsrrt.search import ObjectSpace
 
 
@@ -37,25 +38,13 @@ def random_arrangements(space: ObjectSpace, rng: np.random.Generator, count: int
 def optimise(space: ObjectSpace, rng: np.random.Generator, rounds: int = 4000, population: int = 64,
              starts: np.ndarray | None = None, sigma_start: float = 0.05, sigma_end: float = 5e-4) -> tuple[
                  np.ndarray, float]:
-    """The cheapest collision-free arrangement found, and its cost."""
+    """The cheapest collision-free arrangement found, and its cost: :func:`free_descent` from ``population``
+    random collision-free arrangements (and ``starts``), with no extra margin."""
     pop = random_arrangements(space, rng, population)
     if starts is not None and len(starts):
         starts = np.asarray(starts, dtype=np.float64).reshape(-1, space.k, 3)
         starts = starts[~space.checker.in_collision(starts)]
         pop[: len(starts)] = starts[:population]
-    cost = space.cost.cost(pop)
-    scale = np.maximum(space.fp.radius, 1e-3)
-    rows = np.arange(population)
-    for r in range(rounds):
-        sigma = sigma_start * (sigma_end / sigma_start) ** (r / max(1, rounds - 1))
-        trial = pop.copy()
-        obj = rng.integers(space.k, size=population)
-        step = rng.normal(0.0, sigma, (population, 3))
-        step[:, 2] /= scale[obj]
-        trial[rows, obj] += step
-        ok = ~space.checker.in_collision(trial)
-        c = space.cost.cost(trial)
-        better = ok & (c < cost)
-        pop[better], cost[better] = trial[better], c[better]
+    pop, cost = free_descent(space, pop, rng, rounds=rounds, slack=0.0, sigma_start=sigma_start, sigma_end=sigma_end)
     best = int(np.argmin(cost))
     return pop[best], float(cost[best])
