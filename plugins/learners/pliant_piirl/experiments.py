@@ -365,7 +365,7 @@ def run_table42(*, max_time: float | None = None, max_iterations: int | None = N
         raise ConfigError("must be a positive whole number", field="--max-iterations", value=max_iterations)
     planner_options = dict(PLANAR_PLANNER)
     if max_iterations is not None:
-        planner_options.update(max_time=None, max_iterations=max_iterations)
+        planner_options["max_iterations"] = max_iterations
     budget = f"{max_time:g} s" if max_time is not None else f"{max_iterations} iterations"
     directory = Path(output) / "learn-table-4.2"
     directory.mkdir(parents=True, exist_ok=True)
@@ -377,7 +377,7 @@ def run_table42(*, max_time: float | None = None, max_iterations: int | None = N
     task = DemonstrationTask(scene.start, np.r_[scene.goal[:2], 0.0], goal=scene.goal)
     started = time.perf_counter()
     echo(f"the expert plans with the true sensitivities ({budget}) ...")
-    demonstration = PlannerExpert(features, truth, max_time=max_time or 0.0,
+    demonstration = PlannerExpert(features, truth, max_time=max_time,
                                   planner_options=planner_options).demonstrate(task, rng)
     save_demonstrations(directory / "demonstration.json", [demonstration], PLANAR)
     learner = _learner({**PLANAR_RECOVERY, "tip": (0.0, 0.0, 0.0)}, "piirl", scene=PLANAR)

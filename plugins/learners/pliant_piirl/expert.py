@@ -134,14 +134,16 @@ def _rotate(quaternion: np.ndarray, vector: np.ndarray) -> np.ndarray:
 
 class PlannerExpert:
     """A simulated expert for tasks that end at a goal configuration (the planar environment): the registered
-    ``rrtstar`` planner with the scene's true sensitivities for ``max_time`` s, shortcut (see
+    ``rrtstar`` planner with the scene's true sensitivities for ``max_time`` s (None: no time limit, for an
+    iteration budget in ``planner_options``), shortcut (see
     :mod:`pliant_piirl.verification`), then perturbed once by the smooth noise of the sample paths with largest
     standard deviations ``noise`` m and ``10 * noise`` rad (its documented sub-optimality; 0 for none)."""
 
-    def __init__(self, features, sensitivities: dict[str, float], *, max_time: float = 60.0,
+    def __init__(self, features, sensitivities: dict[str, float], *, max_time: float | None = 60.0,
                  noise: float = 0.002, planner_options: dict | None = None, shortcut_iterations: int = 500) -> None:
         self.features, self.sensitivities = features, dict(sensitivities)
-        self.max_time, self.noise = float(max_time), float(noise)
+        self.max_time = None if max_time is None else float(max_time)     # None: planner_options' budget
+        self.noise = float(noise)
         self.planner_options, self.shortcut_iterations = dict(planner_options or {}), int(shortcut_iterations)
 
     def demonstrate(self, task: DemonstrationTask, rng: np.random.Generator) -> Demonstration:

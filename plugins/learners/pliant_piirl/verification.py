@@ -32,7 +32,7 @@ def scene_with(scene, sensitivities: dict[str, float]):
 
 
 def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstration, tip, rng: np.random.Generator,
-              *, max_time: float, shortcut_iterations: int = 300, planner_options: dict | None = None,
+              *, max_time: float | None, shortcut_iterations: int = 300, planner_options: dict | None = None,
               planner: str = "rrtstar", refine_rounds: int = 0):
     """RRT* (puncture check on) for ``demonstration``'s task in ``scene`` with ``sensitivities``; the planner's
     result and its path after cost-aware shortcutting and ``refine_rounds`` of :func:`refine` (``None`` without a
