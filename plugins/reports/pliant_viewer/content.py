@@ -289,6 +289,12 @@ class RunData:
         return robot
 
     @property
+    def robot_options(self) -> dict:
+        """The options the run's robot was built with (``run.json``), without its name."""
+        robot = self.pipeline.get("robot")
+        return {k: v for k, v in robot.items() if k != "name"} if isinstance(robot, dict) else {}
+
+    @property
     def path(self) -> np.ndarray | None:
         p = (self.result or {}).get("path")
         return None if not p else np.asarray(p["configurations"], dtype=np.float64)

@@ -1,4 +1,5 @@
-"""Entry point of the 3-D viewer plugin: the ``pliant view`` command and ``pliant run ... --view`` (live).
+"""Entry point of the 3-D viewer plugin: the ``pliant view`` command, ``pliant run ... --view`` (live) and the run
+folder's view cache written with a run's report.
 
 Light on purpose: viser, yourdfpy and the drawing code load only when a view is opened.
 """
@@ -16,3 +17,16 @@ def pliant_add_commands(subparsers):
     from pliant_viewer.commands import add_commands
 
     add_commands(subparsers)
+
+
+@hookimpl
+def pliant_report(run, directory):
+    """Write the run folder's ``view-cache.npz`` (articulated robots), so the first ``pliant view`` of it is fast.
+
+    Not a figure: it is added to the run's files, not returned (the report lists returned files as images)."""
+    from pliant_viewer.report import write_view_cache
+
+    path = write_view_cache(run, directory)
+    if path is not None:
+        run.files.append(path)
+    return None

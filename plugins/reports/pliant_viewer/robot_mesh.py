@@ -128,6 +128,14 @@ def load_or_convert(description, meshes: str = "collision", use_cache: bool = Tr
     return robot
 
 
+def ensure_cached(description, meshes: str = "collision") -> Path:
+    """Convert the robot's meshes into the disk cache unless they are there already; returns the cache file."""
+    path = cache_dir() / f"robot-{key(description, meshes)}.npz"
+    if not path.is_file():
+        _write(convert(description, meshes), path)
+    return path
+
+
 def _read(path: Path) -> RobotMeshes:
     with np.load(path, allow_pickle=False) as data:
         a = {k: data[k] for k in data.files}

@@ -116,7 +116,8 @@ def make_tracer(scene, robot) -> content.Tracer:
 def build_content(scene, robot=None, *, run: content.RunData | None = None, policy: dict | None = None,
                   grid: VoxelGrid | None = None, max_particles: int = 50_000) -> ViewContent:
     """Translate a scene (and a run's path / policy / execution, or a policy file's JSON) into what is drawn."""
-    robot = robot if robot is not None else make_robot(scene, run.robot_name if run else None)
+    if robot is None:
+        robot = make_robot(scene, run.robot_name if run else None, run.robot_options if run else None)
     grid = grid if grid is not None else VoxelGrid.from_scene(scene)
     tracer = make_tracer(scene, robot)
     view = ViewContent(scene, robot, tracer, content.voxel_objects(grid), title=scene.name)

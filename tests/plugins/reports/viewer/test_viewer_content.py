@@ -243,3 +243,30 @@ def test_large_trees_drawn_from_their_first_nodes_and_solutions():
         assert "6 nodes drawn" in viewer.summary.content
     finally:
         viewer.stop()
+
+
+def test_pipeline_run_writes_the_view_cache(tmp_path, monkeypatch):
+    """``pliant run`` of an arm writes ``view-cache.npz`` beside the run (the viewer's report hook): it is what
+    ``pliant view`` of the folder would build, it is fresh for that view, and the robot's meshes are converted
+    into the user's cache; a rigid robot's run gets none."""
+    from pliant.pipeline import Pipeline
+    from pliant_viewer import cache, robot_mesh
+    from pliant_viewer.commands import resolve
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "user-cache"))
+    out = tmp_path / "arm"
+    record = Pipeline("baxter-reach", planner="straight", output=out).run()
+    assert out / cache.NAME in record.files
+    assert cache.NAME not in (out / "report.md").read_text()              # not listed as a figure
+    scene, run, policy = resolve(str(out), None)
+    cached = cache.load(out, scene)
+    assert cached is not None and cached.robot is None
+    built = build_content(scene, run=run, policy=policy)
+    for name in ("ends", "path", "path_xyz"):
+        np.testing.assert_allclose(getattr(cached, name), getattr(built, name), atol=1e-12)
+    assert [o.name for o in cached.objects] == [o.name for o in built.objects]
+    assert (robot_mesh.cache_dir() / f"robot-{robot_mesh.key(built.urdf, 'collision')}.npz").is_file()
+
+    rigid = tmp_path / "rigid"
+    record = Pipeline("triple-wall", planner="straight", output=rigid).run()
+    assert (rigid / "run.json").is_file() and not (rigid / cache.NAME).exists()
