@@ -19,3 +19,10 @@ def pliant_report(run, directory):
     from pliant_tsrrt.figures import draw_run
 
     return draw_run(run, directory)
+
+
+@hookimpl
+def pliant_reproductions():
+    from pliant_tsrrt.reproduce import declarations
+
+    return declarations()
