@@ -69,6 +69,8 @@ class TSRRTOptions(PushOptions):
     refine_passes: int = option(2, "improvement: passes (each from the previous one's result)", minimum=1)
     refine_branches: int = option(3, "improvement: nodes of the best path (the best node, the root and evenly "
                                   "between) that connect to the targets", minimum=1)
+    refine_randoms: int = option(0, "improvement: random collision-free arrangements whose free descent adds "
+                                 "targets (basins no variant of the tree's best arrangement lies in)", minimum=0)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
     w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
@@ -194,7 +196,8 @@ def search_settings(o: TSRRTOptions) -> SearchSettings:
                           gd_tries=o.gd_tries, gd_noise=o.gd_noise, refine=o.refine, refine_share=o.refine_share,
                           refine_targets=o.refine_targets, refine_rounds=o.refine_rounds,
                           refine_slack=o.refine_slack, refine_depth=o.refine_depth, refine_width=o.refine_width,
-                          refine_passes=o.refine_passes, refine_branches=o.refine_branches)
+                          refine_passes=o.refine_passes, refine_branches=o.refine_branches,
+                          refine_randoms=o.refine_randoms)
 
 
 def replan_settings(o: TSRRTOptions, reason: str) -> SearchSettings:
@@ -312,10 +315,17 @@ class _Recording:
 
 def _room_for(space: ObjectSpace, observed: np.ndarray) -> ObjectSpace:
     """The space to replan in from ``observed``: the planning space, or -- when noise has brought objects closer than
-    the clearance margin, so that every push would count as a collision -- the same with a margin of :data:`TOUCH`
-    (objects resting against each other in the simulator overlap by a fraction of a millimetre)."""
+    the clearance margin, so that every push would count as a collision -- the same with the largest margin, in 1 mm
+    steps down to :data:`TOUCH`, that ``observed`` satisfies (objects resting against each other in the simulator
+    overlap by a fraction of a millimetre)."""
     if not space.checker.in_collision(observed)[0]:
         return space
+    margin = space.checker.margin - 0.001
+    while margin > TOUCH:
+        narrower = replace(space.checker, margin=margin)
+        if not narrower.in_collision(observed)[0]:
+            return replace(space, checker=narrower)
+        margin -= 0.001
     return replace(space, checker=replace(space.checker, margin=TOUCH))
 
 
@@ -348,17 +358,25 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
     recorder = Recorder(world, on_step)
     rec_world = _Recording(world, recorder, [0.0])
     observed = plan.start.copy()
-    actions, expected, planned_cost = list(plan.actions), plan.states, plan.cost
+    actions, expected = list(plan.actions), plan.states
+    # the first plan's final arrangement and cost: what every replanning connects back to, and what the arrangement
+    # is judged against when a plan is done (a replanned plan may end higher than the first one)
+    goal, goal_cost = plan.states[-1], plan.cost
     records: list[dict] = []
     replans: list[dict] = []
     outcome = "success"
     blocked = 0
+    stalled = False           # a replanning when the plan was done found nothing cheaper than the arrangement
     j = 0
     while True:
         if j == len(actions):
-            # the plan is done: replan once more if the arrangement is clearly worse than planned
+            # the plan is done: replan if the arrangement is clearly worse than the first plan's
             cost_now = float(space.cost.cost(observed[None])[0])
-            if cost_now <= planned_cost * (1 + o.finish_tolerance) + 1e-12 or len(replans) >= o.max_replans:
+            if cost_now <= goal_cost * (1 + o.finish_tolerance) + 1e-12 or len(replans) >= o.max_replans \
+                    or stalled:
+                break
+            if len(records) >= action_limit:
+                outcome = "action limit"
                 break
             reason = "finish"
         else:
@@ -378,11 +396,11 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                     break
                 reason = "blocked"
                 found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
-                             Termination(max_time=o.replan_time), seed_plan=actions[j + 1:])
+                             Termination(max_time=o.replan_time), seed_plan=actions[j + 1:], goal=goal)
                 replans.append({"after_action": len(records), "reason": reason,
                                 "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
                                 "actions": len(found.actions)})
-                actions, expected, planned_cost, j = found.actions, found.states, found.cost, 0
+                actions, expected, j = found.actions, found.states, 0
                 continue
             observed = np.array([poses[n] for n in plan.names])
             j += 1
@@ -396,13 +414,14 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             if not (replan and len(replans) < o.max_replans):
                 continue
             reason = "deviation"
+        cost_now = float(space.cost.cost(observed[None])[0])
         found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
-                     Termination(max_time=o.replan_time),
-                     seed_plan=actions[j:])
-        replans.append({"after_action": len(records), "reason": reason,
-                        "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
-                        "actions": len(found.actions)})
-        actions, expected, planned_cost, j = found.actions, found.states, found.cost, 0
+                     Termination(max_time=o.replan_time), seed_plan=actions[j:], goal=goal)
+        replans.append({"after_action": len(records), "reason": reason, "cost_before": cost_now,
+                        "planned_cost": found.cost, "actions": len(found.actions)})
+        if reason == "finish" and found.cost >= cost_now - 1e-3 * goal_cost:
+            stalled = True
+        actions, expected, j = found.actions, found.states, 0
     final_cost = float(space.cost.cost(observed[None])[0])
     # the verdict: overlaps deeper than 2 mm with each other, the obstacles as the scene gives them, or off the table
     exact_fp, exact_poses, _ = domain.obstacles(scene, plan.names, space.checker.table)

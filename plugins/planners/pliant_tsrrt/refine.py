@@ -89,16 +89,33 @@ def free_descent(space, starts: np.ndarray, rng: np.random.Generator, rounds: in
     return pop, cost
 
 
+def random_free(space, rng: np.random.Generator, count: int, margin: float, tries: int = 20) -> np.ndarray:
+    """Up to ``count`` random arrangements ``(c, k, 3)`` (RANDOM_CONFIG) free of collisions with clearance
+    ``margin`` (m); fewer when the table is too crowded to find them in ``tries`` batches."""
+    check = replace(space.checker, margin=margin)
+    out: list[np.ndarray] = []
+    for _ in range(tries):
+        if len(out) >= count:
+            break
+        batch = np.stack([space.random_config(rng) for _ in range(4 * count)])
+        out.extend(batch[~check.in_collision(batch)])
+    return np.array(out[:count]).reshape(-1, space.k, 3)
+
+
 def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, rounds: int = 800,
-            slack: float = 0.003, deadline: float | None = None) -> np.ndarray:
+            slack: float = 0.003, deadline: float | None = None, randoms: int = 0) -> np.ndarray:
     """The ``count`` cheapest distinct local minima ``(c, k, 3)`` of the free descent from ``s`` and its
     :func:`variants`, each as it is and with the positions spread by a factor 1.3 about their mean (a variant that
-    overlaps cannot descend; spread out it can).  The first member descends from ``s`` itself."""
+    overlaps cannot descend; spread out it can), and from ``randoms`` random collision-free arrangements (the basins
+    that no variant of ``s`` lies in, e.g. the objects in a row where ``s`` has them in a cluster).  The first member
+    descends from ``s`` itself."""
     v = variants(space, s)
     spread = v.copy()
     centre = v[:, :, :2].mean(axis=1, keepdims=True)
     spread[:, :, :2] = centre + 1.3 * (v[:, :, :2] - centre)
     starts = np.concatenate([v, spread])
+    if randoms > 0:
+        starts = np.concatenate([starts, random_free(space, rng, randoms, space.checker.margin + slack)])
     pop, cost = free_descent(space, starts, rng, rounds=rounds, slack=slack, sigma_start=0.04, deadline=deadline)
     order = np.argsort(cost)
     picked: list[int] = []
@@ -175,14 +192,17 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
 
 def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2, rounds: int = 800,
             slack: float = 0.003, depth: int = 20, width: int = 64, max_orders: int = 6, passes: int = 2,
-            branch_points: int = 3, deadline: float | None = None) -> tuple[float, int, list[int], dict]:
+            branch_points: int = 3, deadline: float | None = None, goals: np.ndarray | None = None,
+            randoms: int = 0) -> tuple[
+                float, int, list[int], dict]:
     """The improvement phase on the tree's best path ``path`` ``(m + 1, k, 3)`` (its states, start to best node):
-    :func:`targets` from the best node, then :func:`connect` to each target from the best node and from
-    ``branch_points - 1`` earlier nodes of the path (evenly spaced, the root included; the objects have more room
-    there), for up to ``max_orders`` orders of the objects (all of them for three objects; else the identity and its
-    rotations), the orders outermost.  Later
-    passes (up to ``passes``, while one gains) start from the previous pass's result.  Returns the cheapest cost
-    reached, how many of the path's actions to keep, the actions to append, and statistics."""
+    :func:`targets` from the best node (after the given ``goals`` ``(g, k, 3)`` in the first pass: when replanning
+    during execution, the arrangement the first plan ends in), then :func:`connect` to each target from the best
+    node and from ``branch_points - 1`` earlier nodes of the path (evenly spaced, the root included; the objects
+    have more room there), for up to ``max_orders`` orders of the objects (all of them for three objects; else the
+    identity and its rotations), the orders outermost.  ``randoms``: random arrangements whose free descent adds
+    targets (first pass).  Later passes (up to ``passes``, while one gains) start from the previous pass's result.
+    Returns the cheapest cost reached, how many of the path's actions to keep, the actions to append, and statistics."""
     s = path[-1]
     base = best_cost = float(space.cost.cost(s[None])[0])
     keep = len(path) - 1
@@ -195,11 +215,15 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     for p in range(passes):
         if _late(deadline):
             break
-        goals = targets(space, s, rng, count=count, rounds=rounds, slack=slack, deadline=deadline)
-        goal_costs += [float(c) for c in space.cost.cost(goals)] if len(goals) else []
+        found_targets = targets(space, s, rng, count=count, rounds=rounds, slack=slack, deadline=deadline,
+                                randoms=randoms if p == 0 else 0)
+        if p == 0 and goals is not None and len(goals):
+            found_targets = np.concatenate([np.asarray(goals, dtype=np.float64).reshape(-1, k, 3),
+                                            found_targets.reshape(-1, k, 3)])
+        goal_costs += [float(c) for c in space.cost.cost(found_targets)] if len(found_targets) else []
         found = None
         # order-major, so that a deadline leaves every target and branch point tried with the first orders
-        for order, goal, b in itertools.product(orders, goals, branches if p == 0 else [None]):
+        for order, goal, b in itertools.product(orders, found_targets, branches if p == 0 else [None]):
             if _late(deadline):
                 break
             tried += 1

@@ -85,6 +85,7 @@ class SearchSettings:
     refine_width: int = 64
     refine_passes: int = 2
     refine_branches: int = 3
+    refine_randoms: int = 0
 
 
 @dataclass
@@ -207,11 +208,13 @@ class SearchResult:
 
 
 def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings: SearchSettings,
-         termination: Condition | None = None, seed_plan: list[int] | None = None) -> SearchResult:
+         termination: Condition | None = None, seed_plan: list[int] | None = None,
+         goal: np.ndarray | None = None) -> SearchResult:
     """TASK_SPACE_RRT lines 3-14 from ``s0`` ``(k, 3)`` until ``max_nodes`` nodes or ``termination``; returns the
     (shortcut) plan to the cheapest node.  Ctrl-C inside returns the best plan so far.  ``seed_plan``: actions whose
     valid prefix, rolled out from ``s0``, starts the tree as one branch (replanning during execution seeds the tree
-    with the rest of the plan it replaces, so a new plan is never worse than carrying on)."""
+    with the rest of the plan it replaces, so a new plan is never worse than carrying on).  ``goal`` ``(k, 3)``: an
+    arrangement the improvement phase also connects to (replanning: the one the first plan ends in)."""
     t0 = time.perf_counter()
     k = space.k
     n_actions = k * N_PRIMITIVES
@@ -327,7 +330,8 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
                                        rounds=settings.refine_rounds, slack=settings.refine_slack,
                                        depth=settings.refine_depth, width=settings.refine_width,
                                        passes=settings.refine_passes, branch_points=settings.refine_branches,
-                                       deadline=deadline)
+                                       deadline=deadline, goals=None if goal is None else goal[None],
+                                       randoms=settings.refine_randoms)
         stats.update(more, refine_pushes=len(extra))
         plan = plan[:keep] + extra
     refine_time = time.perf_counter() - t0 - tree_time
@@ -417,8 +421,9 @@ def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 
              deadline: float | None = None) -> tuple[list[int], np.ndarray, float]:
     """Drop actions -- single ones, then pairs of opposite actions on one object -- while the plan stays valid and its
     final cost does not rise, until none can be dropped or ``budget`` trial plans have been checked; returns the plan,
-    its predicted states and its final cost.  After ``deadline`` (a ``time.perf_counter()`` value) no pairs are tried
-    and no further round starts, but a round of single drops in progress is finished."""
+    its predicted states and its final cost.  After ``deadline`` (a ``time.perf_counter()`` value) no pairs are
+    tried, but rounds of single drops go on until none can be dropped (a pair drop may make a single one redundant;
+    a round costs one rollout per action)."""
     plan = list(plan)
     states, _ = space.rollout(s0, plan)
     cost = float(space.cost.cost(states[-1][None])[0])
@@ -438,14 +443,15 @@ def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 
 
     changed = True
     while changed and plan and trials < budget:
-        if deadline is not None and time.perf_counter() >= deadline and trials:
-            break
+        late = deadline is not None and time.perf_counter() >= deadline
         changed = False
         j = len(plan) - 1
         while j >= 0 and trials < budget:              # from the end: a drop there changes the fewest states
             if attempt((j,)):
                 changed = True
             j = min(j, len(plan)) - 1
+        if late:                                       # past the deadline: single drops until none is left
+            continue
         for i in range(len(plan)):
             for k in range(i + 1, len(plan)):
                 if trials >= budget or i >= len(plan) or k >= len(plan) or \
