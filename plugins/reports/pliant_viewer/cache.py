@@ -26,7 +26,7 @@ from pliant_viewer.viewer import Timeline, ViewContent
 
 log = logging.getLogger(__name__)
 
-FORMAT = 1
+FORMAT = 2              # 2: voxel faces wound to face out
 NAME = "view-cache.npz"
 
 

@@ -60,7 +60,8 @@ class VoxelObject:
 
 
 def exposed_faces(code: np.ndarray, lower: np.ndarray, resolution: float):
-    """The faces between the voxels of one object and the rest, as quads merged along runs of one colour.
+    """The faces between the voxels of one object and the rest, as quads merged along runs of one colour, wound
+    counter-clockwise seen from outside the object (so a renderer may cull back faces).
 
     ``code`` ``(nx, ny, nz)`` int: the colour index of each of the object's voxels, -1 elsewhere.  Returns
     ``(vertices (4q, 3), faces (2q, 3), colour index per quad (q,))``.  A 3 m wall of 3 cm voxels is ~200 strips
@@ -92,7 +93,12 @@ def exposed_faces(code: np.ndarray, lower: np.ndarray, resolution: float):
             v1 = ends[:, 2] + 1
             plane = layer + (1 if side > 0 else 0)
             corners = []
-            for uu, vv in ((u, v0), (u + 1, v0), (u + 1, v1), (u, v1)):
+            order = ((u, v0), (u + 1, v0), (u + 1, v1), (u, v1))
+            # counter-clockwise seen from outside (three.js front faces): that order's normal is +axis for x and z
+            # and -axis for y (the (x, z) plane), so flip it where that is not the side the face looks to
+            if (side > 0) == (axis == 1):
+                order = order[::-1]
+            for uu, vv in order:
                 c = np.empty((len(layer), 3))
                 c[:, axis], c[:, others[0]], c[:, others[1]] = plane, uu, vv
                 corners.append(c)

@@ -40,6 +40,11 @@ log = logging.getLogger(__name__)
 DEFAULT_ROBOT = {"rigid": "rigid", "urdf": "pinocchio"}
 LIVE_RATE = 15.0        # live updates a second at most (software WebGL drew 30-45 frames/s of baxter-reach)
 LIVE_CHUNK = 64         # steps per node of a live trail
+# voxel faces are wound to face out (content.exposed_faces), so only front faces are drawn: in software WebGL the
+# page's time per frame is mostly the fragments of the large objects (baxter-reach's wall), and a double-sided wall
+# shades its hidden back faces too
+VOXEL_SIDE = "front"
+QUAD_OVERLAP = 0.01     # voxel faces grow by this fraction of a voxel in their plane (see _widen_quads)
 
 
 def free_port(host: str = "127.0.0.1") -> int:
@@ -247,6 +252,15 @@ class RobotDrawing:
             self.body.batched_positions = self.robot.body_points(q[None])[0].astype(np.float32)
 
 
+def _widen_quads(vertices: np.ndarray, margin: float) -> np.ndarray:
+    """Quads (4 consecutive vertices each) grown by ``margin`` in their plane on every side.  Merged strips meet in
+    T-junctions (a strip's corner on the middle of its neighbour's edge), where rasterisation leaves pixel-wide cracks;
+    with front faces only, the background shows through them.  Neighbouring strips overlapping by a fraction of a
+    voxel close them (same plane, same colour: the overlap is invisible)."""
+    v = np.asarray(vertices, dtype=np.float64).reshape(-1, 4, 3)
+    return (v + margin * np.sign(v - v.mean(axis=1, keepdims=True))).reshape(-1, 3)
+
+
 def _pose(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _wxyz(T[:3, :3]), T[:3, 3].copy()
 
@@ -264,7 +278,7 @@ class Viewer:
 
     def __init__(self, host: str = "127.0.0.1", port: int | None = None, robot_meshes: str = "collision",
                  tree_limit: int = 2000, use_cache: bool = True, live_rate: float = LIVE_RATE) -> None:
-        import viser
+        from pliant_viewer import page
 
         self.robot_meshes = robot_meshes
         self.use_cache = use_cache
@@ -272,8 +286,8 @@ class Viewer:
         self.tree_drawn = 0
         self.host = host
         self.port = port or free_port(host)
-        with contextlib.redirect_stdout(io.StringIO()):      # viser's banner; the commands print the address
-            self.server = viser.ViserServer(host=host, port=self.port, verbose=False)
+        # viser's page with our script for software WebGL (no multisampling there; pliant_viewer.page)
+        self.server, self.page_patched = page.start_server(host, self.port)
         # no share button: viser's share links tunnel through an outside server; the page stays on this machine
         self.server.gui.configure_theme(control_width="medium", show_share_button=False)
         # No image-based lighting and no shadows: in software WebGL (headless Chromium, SwiftShader) viser's default
@@ -347,7 +361,8 @@ class Viewer:
             self.server.initial_camera.up = (0.0, 0.0, 1.0)
             self.server.scene.set_up_direction("+z")
             for obj in objects:
-                self._add(f"/scene/objects/{obj.name}", self._voxel_mesh(f"/scene/objects/{obj.name}", obj))
+                self._add(f"/scene/objects/{obj.name}", self._voxel_mesh(f"/scene/objects/{obj.name}", obj,
+                                                                        scene.resolution))
 
     def show(self, view: ViewContent) -> None:
         """Draw ``view`` (its objects unless :meth:`show_objects` drew them)."""
@@ -387,13 +402,14 @@ class Viewer:
                 self._polyline(f"/pareto/{i}", front["points"], tuple(int(c) for c in colours[i]), 3.0)
         self._gui(view)
 
-    def _voxel_mesh(self, name: str, obj: content.VoxelObject):
+    def _voxel_mesh(self, name: str, obj: content.VoxelObject, resolution: float):
         """One mesh of the object's exposed voxel faces in its material's colour; an object of per-voxel materials
         gets one mesh per colour (``name`` is then a frame holding ``name/<k>``)."""
         colours, inverse = np.unique(obj.vertex_colours[::4], axis=0, return_inverse=True)   # one colour a quad
+        vertices = _widen_quads(obj.vertices, QUAD_OVERLAP * resolution)
         if len(colours) <= 1:
             colour = tuple(int(c) for c in (colours[0] if len(colours) else obj.colours[0]))
-            return self._mesh(name, obj.vertices, obj.faces, colour)
+            return self._mesh(name, vertices, obj.faces, colour)
         frame = self.server.scene.add_frame(name, show_axes=False)
         quad = np.asarray(inverse).ravel()
         for k, colour in enumerate(colours):
@@ -401,7 +417,7 @@ class Viewer:
             # exposed_faces lists every quad's first triangle, then every quad's second
             faces = np.concatenate([obj.faces[quads], obj.faces[quads + len(quad)]])
             used, local = np.unique(faces, return_inverse=True)
-            self._mesh(f"{name}/{k}", obj.vertices[used], local.reshape(-1, 3).astype(np.uint32),
+            self._mesh(f"{name}/{k}", vertices[used], local.reshape(-1, 3).astype(np.uint32),
                        tuple(int(c) for c in colour))
         return frame
 
@@ -409,7 +425,7 @@ class Viewer:
         # toon shading: in software WebGL a frame of baxter-reach drew in about half the time of the standard
         # (physically based) material's, and the faces still read by their light
         return self.server.scene.add_mesh_simple(name, np.asarray(vertices, dtype=np.float32), faces, color=colour,
-                                                 material="toon3", side="double", flat_shading=flat,
+                                                 material="toon3", side=VOXEL_SIDE, flat_shading=flat,
                                                  cast_shadow=False, receive_shadow=False)
 
     def _polyline(self, name: str, points: np.ndarray, colour, width: float) -> None:
@@ -667,5 +683,7 @@ class Viewer:
                 serializer.insert_sleep(float(b - a))
         path = FilePath(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(serializer.as_html(), encoding="utf-8")
+        from pliant_viewer import page
+
+        path.write_text(page.patch(serializer.as_html()), encoding="utf-8")
         return path

@@ -71,6 +71,14 @@ def test_page_shows_the_run_and_the_slider_moves_the_robot(chromium, maze_run):
             assert time.perf_counter() - t0 < 30, browser.scene_tree(d)
             time.sleep(0.1)
         assert "walls: 1280 voxels" in d.find_element(By.TAG_NAME, "body").text
+        # the served page carries the viewer's script: Chromium here renders in software (SwiftShader), so the
+        # scene's WebGL context is made without multisampling
+        assert viewer.page_patched
+        assert d.execute_script("return window.__pliantSoftwareWebGL") is True
+        antialias = d.execute_script("return Array.from(document.querySelectorAll('canvas'))"
+                                     ".map(c => c.getContext('webgl2')).filter(g => g)"
+                                     ".map(g => g.getContextAttributes().antialias)")
+        assert antialias and not any(antialias)
         # the browser's WebGL render: not blank, with the walls' material colour on screen
         image = _render(viewer)
         assert image.std() > 5 and len(np.unique(image.reshape(-1, 3), axis=0)) > 50, "blank page"

@@ -91,7 +91,7 @@ def test_objects_of_many_materials_are_one_mesh_per_colour():
                               np.repeat(palette[quad_codes], 4, axis=0))
     viewer = Viewer()
     try:
-        viewer._voxel_mesh("/scene/objects/two", obj)
+        viewer._voxel_mesh("/scene/objects/two", obj, 1.0)
         parts = [h for name, h in viewer.server.scene._handle_from_node_name.items()
                  if name.startswith("/scene/objects/two/")]
         assert len(parts) == 2
