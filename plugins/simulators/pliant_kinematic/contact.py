@@ -35,9 +35,14 @@ FACE_NORMALS = np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1
 
 
 class ContactModel:
-    """Collision queries of points against a :class:`~pliant.geometry.voxelgrid.VoxelGrid`'s occupied voxels."""
+    """Collision queries of points against a :class:`~pliant.geometry.voxelgrid.VoxelGrid`'s occupied voxels.
 
-    def __init__(self, grid: VoxelGrid) -> None:
+    ``planar``: the points move only within the grid's one layer (an SE(2) body in a planar scene), so the grid's
+    z faces are no walls in :attr:`free_clearance`, the broad phase's bound (with them, every voxel of a one-layer
+    grid is half a voxel from a "wall" and the bound is zero everywhere).
+    """
+
+    def __init__(self, grid: VoxelGrid, planar: bool = False) -> None:
         self.grid = grid
         occ = grid.occupied
         self.occupied_flat = np.append(occ.reshape(-1), True)      # last entry: outside the grid
@@ -52,13 +57,20 @@ class ContactModel:
         self.upper = grid.lower + np.array(grid.shape) * grid.resolution
         self.res = grid.resolution
         self._shape = np.asarray(grid.shape, dtype=np.int64)
-        # a lower bound on the distance from any point of a free voxel to any obstacle (the grid's
-        # boundary included): centre-to-centre distance minus a voxel diagonal
+        # free_clearance (m): a lower bound on the distance from any point of a free voxel to any obstacle (the
+        # grid's boundary included): centre-to-centre distance minus a voxel diagonal (in the plane: sqrt(2) h)
         from scipy.ndimage import distance_transform_edt
 
-        solid = np.pad(occ, 1, constant_values=True)
-        centre_distance = distance_transform_edt(~solid, sampling=grid.resolution)[1:-1, 1:-1, 1:-1]
-        self.free_clearance = np.maximum(centre_distance - np.sqrt(3.0) * grid.resolution, 0.0).reshape(-1)
+        self.planar = bool(planar) and occ.shape[2] == 1
+        if self.planar:
+            solid = np.pad(occ, ((1, 1), (1, 1), (0, 0)), constant_values=True)
+            centre_distance = distance_transform_edt(~solid, sampling=grid.resolution)[1:-1, 1:-1, :]
+            diagonal = np.sqrt(2.0) * grid.resolution
+        else:
+            solid = np.pad(occ, 1, constant_values=True)
+            centre_distance = distance_transform_edt(~solid, sampling=grid.resolution)[1:-1, 1:-1, 1:-1]
+            diagonal = np.sqrt(3.0) * grid.resolution
+        self.free_clearance = np.maximum(centre_distance - diagonal, 0.0).reshape(-1)
         # voxels with no exposed face: the SDF's normal and depth at their centre
         self.deep_normal = np.zeros((occ.size, 3))
         self.deep_depth = np.zeros(occ.size)

@@ -64,6 +64,41 @@ ROBOT_FACE_COS = 0.5
 OUTER_ITERATIONS = 12
 
 
+#: voxels: the largest radius of a broad-phase segment of surface points (:func:`point_segments`)
+SEGMENT_RADIUS = 4.0
+#: most points in one broad-phase segment
+SEGMENT_POINTS = 64
+
+
+def point_segments(local: np.ndarray, max_radius: float, max_points: int = SEGMENT_POINTS
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The broad phase's segments of a rigid body's surface points ``local`` ``(k, 3)`` (body frame, m): runs of
+    consecutive points, each as long as its bounding box's half-diagonal stays within ``max_radius`` (m) and it has at
+    most ``max_points`` points.  Returns ``segments`` ``(s + 1,)`` (int64: the first point of each run, then ``k``),
+    ``centres`` ``(s, 3)`` (m: the runs' bounding-box centres) and ``radii`` ``(s,)`` (m: the farthest point of each
+    run from its centre).  The points keep their order, so the contacts a microstep finds come in the same order
+    as without segments (:func:`_accumulate`)."""
+    local = np.asarray(local, dtype=np.float64)
+    starts, centres, radii = [], [], []
+    i, k = 0, len(local)
+    while i < k:
+        lo = local[i].copy()
+        hi = local[i].copy()
+        j = i + 1
+        while j < k and j - i < max_points:
+            lo2, hi2 = np.minimum(lo, local[j]), np.maximum(hi, local[j])
+            if 0.5 * np.linalg.norm(hi2 - lo2) > max_radius:
+                break
+            lo, hi, j = lo2, hi2, j + 1
+        centre = 0.5 * (lo + hi)
+        starts.append(i)
+        centres.append(centre)
+        radii.append(float(np.max(np.linalg.norm(local[i:j] - centre, axis=1))))
+        i = j
+    return (np.array(starts + [k], dtype=np.int64), np.ascontiguousarray(np.array(centres).reshape(-1, 3)),
+            np.array(radii, dtype=np.float64))
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _quadratic_program(a, b, count, minv, tol, lam, active, out, warm):
     """``out = argmin 1/2 dq^T M dq`` s.t. ``a[i] . dq >= b[i]``, ``M = diag(1 / minv)``; returns the active count.
@@ -296,115 +331,144 @@ def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal,
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, occupied_flat, exposed, deep_normal,
-                deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance, distance, reach, rows, pushes):
+                deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance, segments, centres, radii, readings,
+                distance, reach, rows, pushes):
     """Normal equations of one body placed by ``r_`` (3, 3) / ``pos`` (3,); returns the colliding count.
 
     The colliding points' constraint rows ``J_i^T n_i`` and push-outs are written to ``rows`` (k, t)
     and ``pushes`` (k,) too, in the order of the body's points.
 
     ``r0`` / ``pos0`` place the body before the microstep: a colliding point's motion is measured
-    from there (computed only for colliding points).  Points with ``distance[i] > reach`` are skipped:
-    they were that far from every obstacle and have moved less since (``distance`` and ``reach`` are
-    "odometer" readings: a point measured with clearance ``c`` when the body had moved ``m`` in total
-    stores ``c + m``; it is safe while the body's total motion stays below that).
+    from there (computed only for colliding points).
+
+    Broad phase (it only skips points that cannot collide, so the result is the same without it).  The points are
+    cut into *segments*, runs of consecutive points (``segments`` (s + 1,): the first point of each, then ``k``)
+    within ``radii`` (s,) (m) of their ``centres`` (s, 3) in the body frame.  A segment whose centre lies in a free
+    voxel with ``free_clearance`` (m: a lower bound on the distance from any point of that voxel to an obstacle or
+    the grid's boundary) beyond its radius holds no colliding point and is skipped whole.  Then, point by point,
+    points with ``distance[i] > reach`` are skipped: they were that far from every obstacle and have moved less
+    since.  ``distance``, ``readings`` (s,) and ``reach`` are "odometer" readings: a point (segment) measured with
+    clearance ``c`` when the body had moved ``m`` in total stores ``c + m``; it is safe while the body's total
+    motion stays below that.  Zeros check everything.
     """
-    k = local.shape[0]
     nx, ny, nz = shape[0], shape[1], shape[2]
     inv = 1.0 / res
     upper0, upper1, upper2 = lower[0] + nx * res, lower[1] + ny * res, lower[2] + nz * res
     lhs[:] = 0.0
     rhs[:] = 0.0
     hits = 0
-    for i in range(k):
-        if distance[i] > reach:
+    for s in range(segments.shape[0] - 1):
+        if readings[s] > reach:
             continue
         for c in range(3):
-            p[c] = r_[c, 0] * local[i, 0] + r_[c, 1] * local[i, 1] + r_[c, 2] * local[i, 2] + pos[c]
+            p[c] = r_[c, 0] * centres[s, 0] + r_[c, 1] * centres[s, 1] + r_[c, 2] * centres[s, 2] + pos[c]
         ix = int(np.floor((p[0] - lower[0]) * inv))
         iy = int(np.floor((p[1] - lower[1]) * inv))
         iz = int(np.floor((p[2] - lower[2]) * inv))
         if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
             flat = (ix * ny + iy) * nz + iz
             if not occupied_flat[flat]:
-                distance[i] = free_clearance[flat] + reach
+                free = free_clearance[flat] - radii[s]
+                if free > 0.0:
+                    readings[s] = free + reach
+                    continue
+        for i in range(segments[s], segments[s + 1]):
+            if distance[i] > reach:
                 continue
             for c in range(3):
-                motion[c] = p[c] - (r0[c, 0] * local[i, 0] + r0[c, 1] * local[i, 1] + r0[c, 2] * local[i, 2]
-                                    + pos0[c])
-            depth = _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal, deep_depth, faces[i],
-                                  r_, nrm)
-        else:
-            nrm[0] = max(lower[0] - p[0], 0.0) - max(p[0] - upper0, 0.0)
-            nrm[1] = max(lower[1] - p[1], 0.0) - max(p[1] - upper1, 0.0)
-            nrm[2] = max(lower[2] - p[2], 0.0) - max(p[2] - upper2, 0.0)
-            depth = np.sqrt(nrm[0] ** 2 + nrm[1] ** 2 + nrm[2] ** 2)
-            for c in range(3):
-                nrm[c] /= max(depth, 1e-300)
-        distance[i] = reach
-        push = depth + clearance * res
-        dp0, dp1, dp2 = nrm[0] * push, nrm[1] * push, nrm[2] * push
-        rx, ry, rz = p[0] - pos[0], p[1] - pos[1], p[2] - pos[2]
-        pushes[hits] = push
-        if kind == KIND_R3:
-            rows[hits, 0], rows[hits, 1], rows[hits, 2] = nrm[0], nrm[1], nrm[2]
-        elif kind == KIND_SE2:
-            rows[hits, 0], rows[hits, 1], rows[hits, 2] = nrm[0], nrm[1], -ry * nrm[0] + rx * nrm[1]
-        else:
-            rows[hits, 0], rows[hits, 1], rows[hits, 2] = nrm[0], nrm[1], nrm[2]
-            rows[hits, 3] = ry * nrm[2] - rz * nrm[1]
-            rows[hits, 4] = rz * nrm[0] - rx * nrm[2]
-            rows[hits, 5] = rx * nrm[1] - ry * nrm[0]
-        hits += 1
-        if kind == KIND_R3:
-            for c in range(3):
-                lhs[c, c] += 1.0
-            rhs[0] += dp0
-            rhs[1] += dp1
-            rhs[2] += dp2
-        elif kind == KIND_SE2:
-            # columns: e_x, e_y, (-ry, rx, 0)
-            lhs[0, 0] += 1.0
-            lhs[1, 1] += 1.0
-            lhs[0, 2] += -ry
-            lhs[2, 0] += -ry
-            lhs[1, 2] += rx
-            lhs[2, 1] += rx
-            lhs[2, 2] += rx * rx + ry * ry
-            rhs[0] += dp0
-            rhs[1] += dp1
-            rhs[2] += -ry * dp0 + rx * dp1
-        else:
-            # J = [I | -[r]x]; J^T J = [[I, -[r]x], [[r]x, |r|^2 I - r r^T]]; J^T dp = [dp; r x dp]
-            for c in range(3):
-                lhs[c, c] += 1.0
-            lhs[0, 4] += rz
-            lhs[0, 5] += -ry
-            lhs[1, 3] += -rz
-            lhs[1, 5] += rx
-            lhs[2, 3] += ry
-            lhs[2, 4] += -rx
-            lhs[4, 0] += rz
-            lhs[5, 0] += -ry
-            lhs[3, 1] += -rz
-            lhs[5, 1] += rx
-            lhs[3, 2] += ry
-            lhs[4, 2] += -rx
-            rr = rx * rx + ry * ry + rz * rz
-            lhs[3, 3] += rr - rx * rx
-            lhs[4, 4] += rr - ry * ry
-            lhs[5, 5] += rr - rz * rz
-            lhs[3, 4] += -rx * ry
-            lhs[4, 3] += -rx * ry
-            lhs[3, 5] += -rx * rz
-            lhs[5, 3] += -rx * rz
-            lhs[4, 5] += -ry * rz
-            lhs[5, 4] += -ry * rz
-            rhs[0] += dp0
-            rhs[1] += dp1
-            rhs[2] += dp2
-            rhs[3] += ry * dp2 - rz * dp1
-            rhs[4] += rz * dp0 - rx * dp2
-            rhs[5] += rx * dp1 - ry * dp0
+                p[c] = r_[c, 0] * local[i, 0] + r_[c, 1] * local[i, 1] + r_[c, 2] * local[i, 2] + pos[c]
+            ix = int(np.floor((p[0] - lower[0]) * inv))
+            iy = int(np.floor((p[1] - lower[1]) * inv))
+            iz = int(np.floor((p[2] - lower[2]) * inv))
+            if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
+                flat = (ix * ny + iy) * nz + iz
+                if not occupied_flat[flat]:
+                    distance[i] = free_clearance[flat] + reach
+                    continue
+                for c in range(3):
+                    motion[c] = p[c] - (r0[c, 0] * local[i, 0] + r0[c, 1] * local[i, 1] + r0[c, 2] * local[i, 2]
+                                        + pos0[c])
+                depth = _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal, deep_depth,
+                                      faces[i], r_, nrm)
+            else:
+                nrm[0] = max(lower[0] - p[0], 0.0) - max(p[0] - upper0, 0.0)
+                nrm[1] = max(lower[1] - p[1], 0.0) - max(p[1] - upper1, 0.0)
+                nrm[2] = max(lower[2] - p[2], 0.0) - max(p[2] - upper2, 0.0)
+                depth = np.sqrt(nrm[0] ** 2 + nrm[1] ** 2 + nrm[2] ** 2)
+                for c in range(3):
+                    nrm[c] /= max(depth, 1e-300)
+            distance[i] = reach
+            hits = _add_contact(kind, hits, p, pos, nrm, depth + clearance * res, lhs, rhs, rows, pushes)
+    return hits
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _add_contact(kind, hits, p, pos, nrm, push, lhs, rhs, rows, pushes):
+    """Add one colliding point at ``p`` (normal ``nrm``, push-out ``push`` m) to the constraint rows and the normal
+    equations of eq. 8.5; returns the new count."""
+    dp0, dp1, dp2 = nrm[0] * push, nrm[1] * push, nrm[2] * push
+    rx, ry, rz = p[0] - pos[0], p[1] - pos[1], p[2] - pos[2]
+    pushes[hits] = push
+    if kind == KIND_R3:
+        rows[hits, 0], rows[hits, 1], rows[hits, 2] = nrm[0], nrm[1], nrm[2]
+    elif kind == KIND_SE2:
+        rows[hits, 0], rows[hits, 1], rows[hits, 2] = nrm[0], nrm[1], -ry * nrm[0] + rx * nrm[1]
+    else:
+        rows[hits, 0], rows[hits, 1], rows[hits, 2] = nrm[0], nrm[1], nrm[2]
+        rows[hits, 3] = ry * nrm[2] - rz * nrm[1]
+        rows[hits, 4] = rz * nrm[0] - rx * nrm[2]
+        rows[hits, 5] = rx * nrm[1] - ry * nrm[0]
+    hits += 1
+    if kind == KIND_R3:
+        for c in range(3):
+            lhs[c, c] += 1.0
+        rhs[0] += dp0
+        rhs[1] += dp1
+        rhs[2] += dp2
+    elif kind == KIND_SE2:
+        # columns: e_x, e_y, (-ry, rx, 0)
+        lhs[0, 0] += 1.0
+        lhs[1, 1] += 1.0
+        lhs[0, 2] += -ry
+        lhs[2, 0] += -ry
+        lhs[1, 2] += rx
+        lhs[2, 1] += rx
+        lhs[2, 2] += rx * rx + ry * ry
+        rhs[0] += dp0
+        rhs[1] += dp1
+        rhs[2] += -ry * dp0 + rx * dp1
+    else:
+        # J = [I | -[r]x]; J^T J = [[I, -[r]x], [[r]x, |r|^2 I - r r^T]]; J^T dp = [dp; r x dp]
+        for c in range(3):
+            lhs[c, c] += 1.0
+        lhs[0, 4] += rz
+        lhs[0, 5] += -ry
+        lhs[1, 3] += -rz
+        lhs[1, 5] += rx
+        lhs[2, 3] += ry
+        lhs[2, 4] += -rx
+        lhs[4, 0] += rz
+        lhs[5, 0] += -ry
+        lhs[3, 1] += -rz
+        lhs[5, 1] += rx
+        lhs[3, 2] += ry
+        lhs[4, 2] += -rx
+        rr = rx * rx + ry * ry + rz * rz
+        lhs[3, 3] += rr - rx * rx
+        lhs[4, 4] += rr - ry * ry
+        lhs[5, 5] += rr - rz * rz
+        lhs[3, 4] += -rx * ry
+        lhs[4, 3] += -rx * ry
+        lhs[3, 5] += -rx * rz
+        lhs[5, 3] += -rx * rz
+        lhs[4, 5] += -ry * rz
+        lhs[5, 4] += -ry * rz
+        rhs[0] += dp0
+        rhs[1] += dp1
+        rhs[2] += dp2
+        rhs[3] += ry * dp2 - rz * dp1
+        rhs[4] += rz * dp0 - rx * dp2
+        rhs[5] += rx * dp1 - ry * dp0
     return hits
 
 
@@ -474,20 +538,29 @@ def _motion_bound(kind, delta, radius):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def fused_microstep(kind, q, step, local, faces, lower, res, shape, occupied_flat, exposed, deep_normal, deep_depth,
-                    free_clearance, radius, clearance, max_corrections, damping, solver, group, weight, tol,
-                    odometer, distances, out, converged, touched):
-    """One microstep with RESOLVECOLLISIONS for every particle (thesis eq. 8.3-8.5), fully compiled.
+def fused_advance(kind, q, velocity, noise, sub_dt, max_halvings, local, faces, segments, centres, radii, lower, res,
+                  shape, occupied_flat, exposed, deep_normal, deep_depth, free_clearance, radius, clearance,
+                  max_corrections, damping, solver, group, weight, tol, out, touched):
+    """One control step of every particle, microstep by microstep with RESOLVECOLLISIONS (thesis eq. 8.3-8.5), fully
+    compiled.
 
-    ``q`` (n, d) moves by ``step`` (n, t); corrections repeat up to ``max_corrections`` times, each
-    ``dq = (J^T J)^-1 J^T dp`` (``solver`` SOLVE_LEAST_SQUARES, eq. 8.5 with relative ``damping``) or
-    the effort-limited correction :func:`effort_correction` (SOLVE_EFFORT: tangent ``group``/``weight``,
-    tolerance ``tol`` in m); a particle that still collides is put back at ``q`` (``converged``
-    False).  ``touched`` reports whether any correction was needed.  ``odometer`` (n,) and
-    ``distances`` (n, k) carry the broad phase between microsteps: zeros check every point.
+    Particle ``a`` at ``q[a]`` (n, d) is commanded ``velocity[a]`` (n, t; m/s, rad/s) for ``micro`` microsteps of
+    ``sub_dt`` s, with the actuation error ``noise[m, a]`` (micro, n, t; drawn by the caller, microstep by microstep,
+    in the order the per-microstep loop it replaces drew them).  Each microstep moves by ``(velocity + noise) *
+    sub_dt * scale``; corrections repeat up to ``max_corrections`` times, each ``dq = (J^T J)^-1 J^T dp``
+    (``solver`` SOLVE_LEAST_SQUARES, eq. 8.5 with relative ``damping``) or the effort-limited correction
+    :func:`effort_correction` (SOLVE_EFFORT: tangent ``group``/``weight``, tolerance ``tol`` in m).  A microstep
+    that still collides is reverted and the particle's ``scale`` halved (adaptive step scaling), to zero after
+    ``max_halvings``.  Writes the final configurations to ``out`` (n, d) and to ``touched`` (n,) whether any
+    correction was needed.  ``segments`` / ``centres`` / ``radii`` (the broad phase, :func:`_accumulate`) and
+    ``radius`` (m, the farthest point from the reference) only skip points that cannot collide.
+
+    Particles are independent, so they are advanced one after the other through all their microsteps: the broad
+    phase's readings are per particle (length ``k``, not ``n x k``) and stay in cache.
     """
     n, d = q.shape
-    t = step.shape[1]
+    t = velocity.shape[1]
+    micro = noise.shape[0]
     r_ = np.empty((3, 3))
     pos = np.empty(3)
     r0 = np.empty((3, 3))
@@ -497,43 +570,58 @@ def fused_microstep(kind, q, step, local, faces, lower, res, shape, occupied_fla
     p = np.empty(3)
     motion = np.empty(3)
     nrm = np.empty(3)
+    current = np.empty(d)
     trial = np.empty(d)
     moved = np.empty(d)
+    step = np.empty(t)
     rows = np.empty((local.shape[0], t))
     pushes = np.empty(local.shape[0])
+    distance = np.empty(local.shape[0])
+    readings = np.empty(segments.shape[0] - 1)
     dq = np.empty(t)
     for a in range(n):
-        _placement(kind, q[a], r0, pos0)
-        _retract(kind, q[a], step[a], trial)
-        converged[a] = False
+        for c in range(d):
+            current[c] = q[a, c]
+        distance[:] = 0.0
+        readings[:] = 0.0
+        odometer = 0.0
+        scale = 1.0
+        halvings = 0
         touched[a] = False
-        distance = distances[a]
-        start_reading = odometer[a]
-        reach = odometer[a] + _motion_bound(kind, step[a], radius)
-        for _ in range(max_corrections + 1):
-            _placement(kind, trial, r_, pos)
-            hits = _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, occupied_flat, exposed,
-                               deep_normal, deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance,
-                               distance, reach, rows, pushes)
-            if hits == 0:
-                converged[a] = True
-                break
-            touched[a] = True
-            if solver == SOLVE_EFFORT:
-                effort_correction(rows, pushes, hits, group, weight, tol, dq)
+        for m in range(micro):
+            for c in range(t):
+                step[c] = (velocity[a, c] + noise[m, a, c]) * sub_dt * scale
+            _placement(kind, current, r0, pos0)
+            _retract(kind, current, step, trial)
+            converged = False
+            start_reading = odometer
+            reach = odometer + _motion_bound(kind, step, radius)
+            for _ in range(max_corrections + 1):
+                _placement(kind, trial, r_, pos)
+                hits = _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, occupied_flat, exposed,
+                                   deep_normal, deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance,
+                                   segments, centres, radii, readings, distance, reach, rows, pushes)
+                if hits == 0:
+                    converged = True
+                    break
+                touched[a] = True
+                if solver == SOLVE_EFFORT:
+                    effort_correction(rows, pushes, hits, group, weight, tol, dq)
+                else:
+                    trace = 0.0
+                    for c in range(t):
+                        trace += lhs[c, c]
+                    for c in range(t):
+                        lhs[c, c] += damping * max(trace / t, 1e-12)
+                    dq[:] = np.linalg.solve(lhs, rhs)
+                _retract(kind, trial, dq, moved)
+                trial[:] = moved
+                reach += _motion_bound(kind, dq, radius)
+            if converged:
+                current[:] = trial
+                odometer = reach
             else:
-                trace = 0.0
-                for c in range(t):
-                    trace += lhs[c, c]
-                for c in range(t):
-                    lhs[c, c] += damping * max(trace / t, 1e-12)
-                dq[:] = np.linalg.solve(lhs, rhs)
-            _retract(kind, trial, dq, moved)
-            trial[:] = moved
-            reach += _motion_bound(kind, dq, radius)
-        if converged[a]:
-            out[a] = trial
-            odometer[a] = reach
-        else:
-            out[a] = q[a]
-            odometer[a] = reach + (reach - start_reading)   # jumping back is a motion too
+                odometer = reach + (reach - start_reading)   # jumping back is a motion too
+                halvings += 1
+                scale = 0.0 if halvings > max_halvings else scale * 0.5
+        out[a] = current

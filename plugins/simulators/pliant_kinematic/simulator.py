@@ -36,10 +36,12 @@ from pliant_kinematic.rigid_kernel import (
     KIND_R3,
     KIND_SE2,
     KIND_SE3,
+    SEGMENT_RADIUS,
     SOLVE_EFFORT,
     SOLVE_LEAST_SQUARES,
     effort_correction,
-    fused_microstep,
+    fused_advance,
+    point_segments,
 )
 
 
@@ -102,7 +104,8 @@ class KinematicSimulator(Simulator):
         self.robot = self.require("robot")
         self.space = self.robot.space
         self.grid = VoxelGrid.from_scene(scene)
-        self.contact = ContactModel(self.grid)
+        # an SE(2) body in a one-layer grid never leaves the layer: the grid's z faces are no walls to it
+        self.contact = ContactModel(self.grid, planar=self.space.kind == "se2" and self.grid.shape[2] == 1)
         self.surface = self.robot.surface_indices()
         faces = self.robot.surface_faces()
         self.surface_faces = None if faces is None else np.ascontiguousarray(faces, dtype=np.bool_)
@@ -123,12 +126,12 @@ class KinematicSimulator(Simulator):
         self.kernel_kind = kinds.get(self.space.kind) if (placement is not None and o.fused_kernel
                                                           and o.solver != "qp") else None
         self.reach_radius = None
-        self._broad_phase = None
         self.self_collision = o.self_collision and self.robot.self_contacts(
             np.asarray(scene.start, dtype=np.float64)) is not None
         if placement is not None:
             self.surface_local = np.ascontiguousarray(placement[2][self.surface])
             self.reach_radius = float(np.max(np.linalg.norm(self.surface_local, axis=1)))
+            self._segments = point_segments(self.surface_local, SEGMENT_RADIUS * self.grid.resolution)
         self.effort_groups, self.effort_weights = self._effort_metric(placement)
         self.dt = 1.0 / o.frequency
         self.reach = o.reach_tolerance if o.reach_tolerance is not None else (
@@ -248,11 +251,17 @@ class KinematicSimulator(Simulator):
         """Apply ``velocity`` ``(n, t)`` for ``dt`` seconds in microsteps; returns (q, touched, microsteps)."""
         n = len(q)
         micro = self.microsteps(q, velocity, dt)
+        sub_dt = dt / micro
+        if self.kernel_kind is not None:
+            # rigid bodies: the noise of every microstep drawn first (in the same order as below), then one compiled
+            # pass over the particles
+            noise = np.empty((micro, *velocity.shape))
+            for m in range(micro):
+                noise[m] = self.noise.sample(rng, velocity)
+            return (*self._advance_fused(q, velocity, noise, sub_dt), micro)
         scale = np.ones(n)
         halvings = np.zeros(n, dtype=int)
-        self._broad_phase = None          # distances are measured afresh each control step
         touched = np.zeros(n, dtype=bool)
-        sub_dt = dt / micro
         for _ in range(micro):
             noise = self.noise.sample(rng, velocity)
             step = (velocity + noise) * sub_dt * scale[:, None]
@@ -281,9 +290,8 @@ class KinematicSimulator(Simulator):
         return max(1, math.ceil(travel / (self.options.step_fraction * self.grid.resolution)))
 
     def _microstep(self, q, step):
-        """One microstep with RESOLVECOLLISIONS; returns (q, converged, touched) per particle."""
-        if self.kernel_kind is not None:
-            return self._microstep_fused(q, step)
+        """One microstep with RESOLVECOLLISIONS; returns (q, converged, touched) per particle (the generic path:
+        rigid bodies go through :meth:`_advance_fused`)."""
         surface = self.surface
         before = self.robot.body_points(q, surface)
         trial = self.space.retract(q, step)
@@ -354,24 +362,21 @@ class KinematicSimulator(Simulator):
             return c
         return type(c)(**{name: np.asarray(value)[finite] for name, value in vars(c).items()})
 
-    def _microstep_fused(self, q, step):
-        """:meth:`_microstep` for rigid bodies, compiled end to end (same mathematics, see rigid_kernel)."""
+    def _advance_fused(self, q, velocity, noise, sub_dt):
+        """:meth:`_advance` for rigid bodies, compiled end to end (same mathematics, see rigid_kernel): ``noise``
+        ``(micro, n, t)`` holds every microstep's actuation error; returns (q, touched)."""
         n = len(q)
-        if self._broad_phase is None or self._broad_phase[0].shape[0] != n:
-            self._broad_phase = (np.zeros(n), np.zeros((n, len(self.surface_local))))
         out = np.empty_like(q)
-        converged = np.empty(n, dtype=np.bool_)
         touched = np.empty(n, dtype=np.bool_)
         c = self.contact
         solver = SOLVE_EFFORT if self.options.solver == "effort" else SOLVE_LEAST_SQUARES
-        faces = self._face_bits
-        fused_microstep(self.kernel_kind, np.ascontiguousarray(q), np.ascontiguousarray(step), self.surface_local,
-                        faces,
-                        c.lower, c.res, c._shape, c.occupied_flat, c.exposed, c.deep_normal, c.deep_depth,
-                        c.free_clearance, self.reach_radius, self.options.clearance, self.options.max_corrections,
-                        self.options.damping, solver, self.effort_groups, self.effort_weights, self._effort_tol,
-                        *self._broad_phase, out, converged, touched)
-        return out, converged, touched
+        fused_advance(self.kernel_kind, np.ascontiguousarray(q), np.ascontiguousarray(velocity), noise, sub_dt,
+                      self.options.max_halvings, self.surface_local, self._face_bits, *self._segments,
+                      c.lower, c.res, c._shape, c.occupied_flat, c.exposed, c.deep_normal, c.deep_depth,
+                      c.free_clearance, self.reach_radius, self.options.clearance, self.options.max_corrections,
+                      self.options.damping, solver, self.effort_groups, self.effort_weights, self._effort_tol,
+                      out, touched)
+        return out, touched
 
     @property
     def _effort_tol(self) -> float:
