@@ -196,16 +196,59 @@ class Executor(ABC):
 
 #: in a local pool's worker: the pool's ``(progress queue, cancel event)`` (set by :func:`worker_init`)
 _channel = None
+#: the environment variables that size the thread pools of BLAS and OpenMP libraries
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS",
+                    "VECLIB_MAXIMUM_THREADS")
+#: OpenBLAS's thread-count setters, as its builds name them (plain, 64-bit interface, numpy's and scipy's wheels)
+_OPENBLAS_SETTERS = ("openblas_set_num_threads", "openblas_set_num_threads64_", "scipy_openblas_set_num_threads",
+                     "scipy_openblas_set_num_threads64_")
 
 
-def worker_init(parent: int, channel=None) -> None:
+def pin_threads(threads: int = 1) -> int:
+    """Make BLAS and OpenMP use ``threads`` threads in this process (a pool worker: the pool already runs one task
+    per core, so more threads per task only contend for the cores).  Sets :data:`THREAD_VARIABLES` for libraries
+    loaded later and resizes the OpenBLAS libraries already loaded (a forked worker inherits its parent's, sized
+    for the whole machine) through their own setter.  Does nothing when the user set any of the variables: their
+    choice wins.  Returns how many loaded OpenBLAS libraries were resized."""
+    if any(name in os.environ for name in THREAD_VARIABLES):
+        return 0
+    for name in THREAD_VARIABLES:
+        os.environ[name] = str(threads)
+    try:
+        with open("/proc/self/maps") as maps:
+            paths = sorted({line.split()[-1] for line in maps
+                            if "openblas" in line.rsplit("/", 1)[-1].lower() and line.split()[-1].startswith("/")})
+    except OSError:                                    # not Linux: the variables alone
+        return 0
+    import ctypes
+
+    resized = 0
+    for path in paths:
+        try:
+            library = ctypes.CDLL(path)                # the already loaded library, not a second copy
+        except OSError:
+            continue
+        for name in _OPENBLAS_SETTERS:
+            setter = getattr(library, name, None)
+            if setter is not None:
+                setter.argtypes, setter.restype = [ctypes.c_int], None
+                setter(int(threads))
+                resized += 1
+                break
+    return resized
+
+
+def worker_init(parent: int, channel=None, threads: int | None = 1) -> None:
     """Pool workers: leave Ctrl-C to the parent (it cancels the queue and ends the workers), and die with the parent
     (Linux: the kernel sends SIGTERM when it exits, even by kill -9; elsewhere a watcher thread polls).
-    ``channel``: the pool's ``(queue, event)``: tasks put their progress on the queue, the event cancels them."""
+    ``channel``: the pool's ``(queue, event)``: tasks put their progress on the queue, the event cancels them.
+    ``threads``: BLAS and OpenMP threads per worker (:func:`pin_threads`; None leaves them alone)."""
     global _channel
     import signal
 
     _channel = channel
+    if threads is not None:
+        pin_threads(threads)
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
@@ -244,12 +287,18 @@ class LocalExecutor(Executor):
     grace: seconds the running tasks get to stop by themselves when the run is stopped or cancelled (their stop
     conditions terminate), before the workers are ended; Ctrl-C ends them at once.
     interval: seconds between a running task's progress reports (:attr:`Executor.running`).
+    threads: BLAS and OpenMP threads in each worker (:func:`pin_threads`; default 1: the pool already keeps every
+    core busy; None leaves the libraries' own choice, usually one thread per core in every worker).
     """
 
     name = "local"
 
-    def __init__(self, jobs: int | None = None, *, grace: float = 5.0, interval: float = 1.0) -> None:
+    def __init__(self, jobs: int | None = None, *, grace: float = 5.0, interval: float = 1.0,
+                 threads: int | None = 1) -> None:
         super().__init__()
+        if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+            raise ConfigError("must be a positive integer or None", field="threads", value=threads)
+        self.threads = threads
         if jobs is None:
             jobs = os.cpu_count() or 1
         if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
@@ -274,7 +323,7 @@ class LocalExecutor(Executor):
         context = multiprocessing.get_context()
         channel = (context.Queue(), context.Event())
         pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=context, initializer=worker_init,
-                                   initargs=(os.getpid(), channel))
+                                   initargs=(os.getpid(), channel, self.threads))
         try:
             futures = {pool.submit(call_task, work, tuple(task), None, k, self.interval): k
                        for k, task in enumerate(tasks)}

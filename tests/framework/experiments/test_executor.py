@@ -140,3 +140,44 @@ def test_the_local_pool_shows_running_tasks_and_a_cancel_stops_them_by_their_own
     # was interrupted, and nothing returned a result
     ended = [m.read_text() for m in markers if m.exists()]
     assert set(ended) == {"interrupted"} and 2 <= len(ended) <= len(markers)
+
+
+def blas_threads() -> dict:
+    """What a worker's BLAS sees: the thread variables and the thread count of every loaded OpenBLAS."""
+    import ctypes
+    import os
+
+    import numpy  # noqa: F401  (loads numpy's OpenBLAS, as every pliant task does)
+
+    counts = []
+    with open("/proc/self/maps") as maps:
+        paths = sorted({line.split()[-1] for line in maps if "openblas" in line.rsplit("/", 1)[-1].lower()})
+    for path in paths:
+        library = ctypes.CDLL(path)
+        for name in ("openblas_get_num_threads", "openblas_get_num_threads64_", "scipy_openblas_get_num_threads",
+                     "scipy_openblas_get_num_threads64_"):
+            getter = getattr(library, name, None)
+            if getter is not None:
+                getter.restype = ctypes.c_int
+                counts.append(getter())
+                break
+    return {"env": {k: os.environ.get(k) for k in executor_module.THREAD_VARIABLES}, "openblas": counts}
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/maps")
+def test_pool_workers_pin_blas_to_one_thread_unless_the_user_chose(monkeypatch):
+    for name in executor_module.THREAD_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    with LocalExecutor(1) as pool:
+        pinned = next(iter(pool.run(blas_threads, [()]))).record
+    assert set(pinned["env"].values()) == {"1"}
+    assert all(count == 1 for count in pinned["openblas"])
+    with LocalExecutor(1, threads=None) as pool:
+        free = next(iter(pool.run(blas_threads, [()]))).record
+    assert set(free["env"].values()) == {None}
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")              # the user's choice wins
+    with LocalExecutor(1) as pool:
+        chosen = next(iter(pool.run(blas_threads, [()]))).record
+    assert chosen["env"]["OPENBLAS_NUM_THREADS"] == "2" and chosen["env"]["OMP_NUM_THREADS"] is None
+    with pytest.raises(ConfigError, match="threads"):
+        LocalExecutor(1, threads=0)
