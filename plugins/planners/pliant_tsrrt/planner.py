@@ -69,8 +69,10 @@ class TSRRTOptions(PushOptions):
     refine_passes: int = option(2, "improvement: passes (each from the previous one's result)", minimum=1)
     refine_branches: int = option(3, "improvement: nodes of the best path (the best node, the root and evenly "
                                   "between) that connect to the targets", minimum=1)
-    refine_randoms: int = option(0, "improvement: random collision-free arrangements whose free descent adds "
+    refine_randoms: int = option(32, "improvement: random collision-free arrangements whose free descent adds "
                                  "targets (basins no variant of the tree's best arrangement lies in)", minimum=0)
+    refine_sweeps: int = option(1, "improvement: sweeps over the objects when pushing them toward a target (a later "
+                                "sweep moves objects that others blocked)", minimum=1)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
     w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
@@ -197,7 +199,7 @@ def search_settings(o: TSRRTOptions) -> SearchSettings:
                           refine_targets=o.refine_targets, refine_rounds=o.refine_rounds,
                           refine_slack=o.refine_slack, refine_depth=o.refine_depth, refine_width=o.refine_width,
                           refine_passes=o.refine_passes, refine_branches=o.refine_branches,
-                          refine_randoms=o.refine_randoms)
+                          refine_randoms=o.refine_randoms, refine_sweeps=o.refine_sweeps)
 
 
 def replan_settings(o: TSRRTOptions, reason: str) -> SearchSettings:

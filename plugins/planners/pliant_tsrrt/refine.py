@@ -135,18 +135,21 @@ def _pose_error(space, o: int, poses: np.ndarray, target: np.ndarray) -> np.ndar
 
 
 def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 20, width: int = 64,
-                deadline: float | None = None) -> tuple[float, list[int], np.ndarray]:
+                deadline: float | None = None, stop: str = "closest") -> tuple[float, list[int], np.ndarray]:
     """Object ``o`` of arrangement ``s`` pushed toward pose ``target`` ``(3,)``: a beam search over its primitives
     (the ``width`` outcomes closest to the target per depth, duplicates within 0.5 mm / 0.1 degree merged, every step
     valid), up to ``depth`` pushes, stopping early within 1 mm of the target or when four pushes came no closer.
-    Returns the lowest task cost seen, the actions to it and its state (``s``
-    itself when no push lowers the cost)."""
+    Returns the task cost, the actions and the state of where the object stops: ``stop`` ``closest``, the state
+    closest to the target (fewest pushes among equally close ones; :func:`connect` then cuts the whole sequence
+    where the cost is lowest), or ``cost``, the state of lowest task cost seen (``s`` itself when no push lowers
+    it: an object whose way to its target first raises the cost then stays)."""
     acts_o = np.arange(N_PRIMITIVES) + N_PRIMITIVES * o
     means = space.means[o]
     frontier = s[None]
     seqs: list[list[int]] = [[]]
     best = (float(space.cost.cost(s[None])[0]), [], s)
     closest, stale = float(_pose_error(space, o, s[o], target)), 0
+    near = (closest, [], s)
     for _ in range(depth):
         if _late(deadline) or closest < 1e-3 or stale >= 4:      # there, or no closer for four pushes
             break
@@ -171,29 +174,53 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
             closest, stale = float(err[keep[0]]), 0
         else:
             stale += 1
-        c = space.cost.cost(frontier)
-        j = int(np.argmin(c))
-        if c[j] < best[0] - 1e-12:
-            best = (float(c[j]), seqs[j], frontier[j])
-    return best
+        if err[keep[0]] < near[0] - 1e-9:
+            near = (float(err[keep[0]]), seqs[0], frontier[0])
+        if stop == "cost":
+            c = space.cost.cost(frontier)
+            j = int(np.argmin(c))
+            if c[j] < best[0] - 1e-12:
+                best = (float(c[j]), seqs[j], frontier[j])
+    if stop == "cost":
+        return best
+    return float(space.cost.cost(near[2][None])[0]), near[1], near[2]
 
 
 def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, width: int = 64,
-            deadline: float | None = None) -> tuple[float, list[int]]:
-    """The objects pushed toward ``target`` ``(k, 3)`` one after another in ``order`` (:func:`push_toward`); returns
-    the final cost and the actions."""
+            deadline: float | None = None, sweeps: int = 1, cache: dict | None = None,
+            stop: str = "closest") -> tuple[float, list[int]]:
+    """The objects pushed toward ``target`` ``(k, 3)`` one after another in ``order`` (:func:`push_toward`),
+    ``sweeps`` times over (a later sweep moves the objects an earlier one left blocked by objects that have moved
+    since, while one is more than 5 mm off); returns the final cost and the actions, cut after the push of lowest
+    task cost (``stop``: see :func:`push_toward`).  ``cache``: a dict that keeps :func:`push_toward`'s results
+    across calls (orders that begin alike share their first searches)."""
     actions: list[int] = []
+    start = s
     cost = float(space.cost.cost(s[None])[0])
-    for o in order:
-        cost, seq, s = push_toward(space, s, int(o), target[int(o)], depth, width, deadline)
-        actions += seq
+    for sweep in range(sweeps):
+        if sweep and max(float(_pose_error(space, int(o), s[int(o)], target[int(o)])) for o in order) < 5e-3:
+            break
+        for o in order:
+            key = (s.tobytes(), int(o), target.tobytes(), depth, width, stop)
+            hit = cache.get(key) if cache is not None else None
+            if hit is None:
+                hit = push_toward(space, s, int(o), target[int(o)], depth, width, deadline, stop)
+                if cache is not None and not _late(deadline):        # a search cut short is not kept
+                    cache[key] = hit
+            cost, seq, s = hit
+            actions += seq
+    if stop == "closest" and actions:              # the way there may cost more than the start: cut at the cheapest
+        states, _ = space.rollout(start, actions)
+        costs = space.cost.cost(states)
+        cut = int(np.argmin(costs))
+        return float(costs[cut]), actions[:cut]
     return cost, actions
 
 
 def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2, rounds: int = 800,
             slack: float = 0.003, depth: int = 20, width: int = 64, max_orders: int = 6, passes: int = 2,
             branch_points: int = 3, deadline: float | None = None, goals: np.ndarray | None = None,
-            randoms: int = 0) -> tuple[
+            randoms: int = 0, sweeps: int = 1) -> tuple[
                 float, int, list[int], dict]:
     """The improvement phase on the tree's best path ``path`` ``(m + 1, k, 3)`` (its states, start to best node):
     :func:`targets` from the best node (after the given ``goals`` ``(g, k, 3)`` in the first pass: when replanning
@@ -212,6 +239,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     branches = sorted({round(float(x)) for x in np.linspace(len(path) - 1, 0, max(1, branch_points))}, reverse=True)
     best_actions: list[int] = []
     tried, goal_costs = 0, []
+    cache: dict = {}
     for p in range(passes):
         if _late(deadline):
             break
@@ -227,7 +255,8 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
             if _late(deadline):
                 break
             tried += 1
-            cost, actions = connect(space, s if b is None else path[b], goal, order, depth, width, deadline)
+            cost, actions = connect(space, s if b is None else path[b], goal, order, depth, width, deadline, sweeps,
+                                    cache)
             if cost < best_cost - 1e-12:
                 best_cost, found = cost, (b, actions)
         if found is None:

@@ -85,7 +85,8 @@ class SearchSettings:
     refine_width: int = 64
     refine_passes: int = 2
     refine_branches: int = 3
-    refine_randoms: int = 0
+    refine_randoms: int = 32
+    refine_sweeps: int = 1
 
 
 @dataclass
@@ -248,12 +249,12 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
             best = n
         n += 1
     termination = termination or Termination()
-    # a time budget covers the tree (1 - refine_share of it), the improvement phase (until 90 %) and the shortcut
-    # (pair drops until 95 %; the rest is the final descent and a round of single drops)
+    # a time budget covers the tree (1 - refine_share of it), the improvement phase (until 85 %) and the shortcut
+    # (pair drops until 90 %; the rest is the final descent and single drops until none is left)
     budget = getattr(termination, "max_time", None)
     share = settings.refine_share if settings.refine else 0.0
     tree_end = None if budget is None else t0 + (1.0 - share) * budget
-    deadline = None if budget is None else t0 + 0.9 * budget
+    deadline = None if budget is None else t0 + 0.85 * budget
     iteration = 0
     with termination.watch():
         while n < settings.max_nodes and not termination.should_stop(iteration, costs[best], solved=True):
@@ -331,14 +332,14 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
                                        depth=settings.refine_depth, width=settings.refine_width,
                                        passes=settings.refine_passes, branch_points=settings.refine_branches,
                                        deadline=deadline, goals=None if goal is None else goal[None],
-                                       randoms=settings.refine_randoms)
+                                       randoms=settings.refine_randoms, sweeps=settings.refine_sweeps)
         stats.update(more, refine_pushes=len(extra))
         plan = plan[:keep] + extra
     refine_time = time.perf_counter() - t0 - tree_time
     if stats["refine_pushes"]:
         plan, more_polished = descend(space, s0, plan)
         polished += more_polished
-    plan, path_states, final = shortcut(space, s0, plan, deadline=None if budget is None else t0 + 0.95 * budget)
+    plan, path_states, final = shortcut(space, s0, plan, deadline=None if budget is None else t0 + 0.9 * budget)
     stats.update(iterations=iteration, nodes=n, time=time.perf_counter() - t0, tree_time=tree_time,
                  refine_time=refine_time,
                  cost_history=history, tree_best_cost=float(costs[best]), actions_before_shortcut=raw_length,

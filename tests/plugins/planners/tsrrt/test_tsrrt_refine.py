@@ -10,7 +10,7 @@ from pliant.termination import Termination
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import BOX, CIRCLE, CollisionChecker, Footprints
 from pliant_tsrrt.pushing import PushSettings
-from pliant_tsrrt.refine import free_descent, improve, push_toward, targets, variants
+from pliant_tsrrt.refine import connect, free_descent, improve, push_toward, random_free, targets, variants
 from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow, redundant_actions
 
 TABLE = (0.0, 0.0, 1.0, 0.8)
@@ -91,3 +91,32 @@ def test_grow_with_the_improvement_phase_is_no_worse_and_has_no_redundant_action
     assert ok and np.isclose(space.cost.cost(states[-1][None])[0], better.cost)
     assert not space.checker.in_collision(states).any()
     assert redundant_actions(space, s0, better.actions) == 0
+
+
+def _two_cans():
+    fp = Footprints([CIRCLE, CIRCLE], [[0.05, 0.05], [0.05, 0.05]])
+    return _space(fp, [CAN_MODEL, CAN_MODEL], (0.0, 1.0, 0.0, 0.0))         # compactness alone
+
+
+def test_an_object_whose_way_first_raises_the_cost_is_still_brought_to_its_target():
+    space = _two_cans()
+    s = np.array([[0.2, 0.4, 0.0], [0.5, 0.4, 0.0]])
+    target = np.array([[0.6, 0.4, 0.0], [0.5, 0.4, 0.0]])     # the other can's far side: around it, through a wider box
+    _, actions, end = push_toward(space, s, 0, target[0], depth=20, width=32)
+    assert end[0, 0] > 0.55 and np.linalg.norm(end[0, :2] - target[0, :2]) < 0.03     # past the other can
+    cost, actions = connect(space, s, target, (0, 1), depth=20, width=32)
+    states, ok = space.rollout(s, actions)
+    assert ok and np.isclose(space.cost.cost(states[-1][None])[0], cost)
+    assert cost < space.cost.cost(s[None])[0] and np.isclose(cost, space.cost.cost(states).min())   # cut there
+    cache: dict = {}
+    assert connect(space, s, target, (0, 1), depth=20, width=32, cache=cache) == (cost, actions)
+    assert cache and connect(space, s, target, (0, 1), depth=20, width=32, cache=cache) == (cost, actions)
+
+
+def test_random_free_arrangements_keep_the_clearance():
+    space = _three()
+    out = random_free(space, np.random.default_rng(4), 16, margin=0.013)
+    assert out.shape == (16, 3, 3) and not replace(space.checker, margin=0.013).in_collision(out).any()
+    s = np.array([[0.3, 0.3, 0.1], [0.6, 0.5, 0.0], [0.7, 0.2, 0.0]])
+    goals = targets(space, s, np.random.default_rng(1), count=3, rounds=100, randoms=8)
+    assert 1 <= len(goals) <= 3 and not space.checker.in_collision(goals).any()
