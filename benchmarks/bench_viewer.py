@@ -2,21 +2,27 @@
 
 1. Time to first frame, baxter-reach with its policy: ``pliant view RUN`` is started as a command (a new Python
    process) while a headless Chromium (Debian's, through selenium; started before, as a user's browser is open)
-   keeps loading its address; with ``--no-cache`` (the view built from the run's files) and with the run folder's
-   view cache (written by the view before).  First frame = the page holds the viewer's summary (sent after every
-   scene node: voxel objects, path, policy tree) and one animation frame has been drawn after it.  Also: when the
-   robot's meshes are in (the client's scene tree holds ``/robot``).  Figure to reach: <= 2 s after the command.
+   opens its address when the command prints it; with ``--no-cache`` (the view built from the run's files, the
+   robot's meshes converted with yourdfpy) and "after run": the run folder's view cache as ``pliant run`` writes it
+   (the viewer's report hook, called here with the run's robot model) and the converted robot meshes.  First frame =
+   the first animation frame in which WebGL has drawn the voxel objects, the planned path and the policy (a probe
+   of the page's draw calls, :data:`pliant_viewer.browser.DRAW_PROBE`); also when the robot's meshes are drawn.
+   Figure to reach: <= 2 s after the command.
 2. A 10,000-node tree: a synthetic belief tree over Baxter's 7 joints (random extensions from the start, 24
-   particles a node) on baxter-reach; frames per second while the page is left alone and while the mouse orbits
-   the camera, as drawn by default (the first 2,000 nodes and every solution's, with their particles) and after the
-   page's "whole tree" switch (10,000 nodes and edges, 50,000 of the 240,000 particles).
-3. 10 s of a 24-particle execution, live: the Baxter execution of the run (or a synthetic one) streamed through
-   :meth:`Viewer.on_step` at its own rate (25 Hz) with 24 particles (the executed configuration plus noise) drawn
-   and trailed every step; frames per second during the stream and how many steps reached the page.
+   particles a node) on baxter-reach; frames drawn per second while the page is left alone, while the mouse drags
+   the view and while the server swings the camera (+-30 degrees, the scene in view), as drawn by default (the
+   first 2,000 nodes and every solution's, with their particles) and after the page's "whole tree" switch (10,000
+   nodes and edges, 50,000 of the 240,000 particles).
+3. 10 s of a 24-particle execution, live: the Baxter execution of the run streamed through :meth:`Viewer.on_step`
+   at its own rate (25 Hz) with 24 particles (the executed configuration plus noise) drawn and trailed every step;
+   frames drawn per second during the stream.  ``--parts before-after`` streams it alternately into the page as it
+   was before the software-WebGL changes (double-sided voxel faces; multisampling, kept by ``?antialias=1``) and as
+   it is now.
 
-    pliant bench viewer [-- --run out/viewer/baxter-policy --repeats 3]
+    pliant bench viewer [-- --run out/viewer/baxter-policy --repeats 3 --parts first,tree,execution,before-after]
 
-Chromium renders in software here (SwiftShader; no GPU), 1280 x 800, and the machine's other load counts.
+Chromium renders in software here (SwiftShader; no GPU), 1280 x 800, and the machine's other load counts: the load
+average is printed before and after.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -36,8 +43,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import pliant
 from _common import print_table, write_json
 from pliant.execution.loop import ExecutionStep
-from pliant_viewer import browser
+from pliant.interfaces import Context
+from pliant_viewer import browser, cache
 from pliant_viewer.content import read_run
+from pliant_viewer.report import write_view_cache
 from pliant_viewer.viewer import Viewer, build_content, free_port
 
 SHOTS = Path("out/bench/viewer")
@@ -64,7 +73,7 @@ def robot_signatures(view, meshes: str = "collision") -> list[str]:
 
 
 def first_frame(run: Path, b: browser.Browser, expect: dict, robot: list[str], extra: tuple[str, ...] = (),
-                timeout: float = 120.0) -> dict:
+                timeout: float = 120.0, query: str = "") -> dict:
     """Seconds from starting ``pliant view RUN`` to its first frame in the browser (the first animation frame in
     which WebGL has drawn every node of ``expect``: the voxel objects, the planned path and the policy), and to the
     frame that also holds the robot's meshes.  The browser opens the address when the command prints it."""
@@ -81,7 +90,7 @@ def first_frame(run: Path, b: browser.Browser, expect: dict, robot: list[str], e
         if url not in line:
             raise RuntimeError(f"pliant view printed {line!r}")
         t_printed = time.time() - t0
-        d.get(url)
+        d.get(url + query)
         nav = d.execute_script("const n = performance.getEntriesByType('navigation')[0];"
                                "return [performance.timeOrigin, n.responseEnd];")
         t_page = (nav[0] + nav[1]) / 1000.0 - t0
@@ -130,9 +139,9 @@ def synthetic_tree(scene, nodes: int, particles: int, rng: np.random.Generator) 
     return {"nodes": out, "actions": [{"target": q[i].tolist()} for i in range(1, nodes, 10)], "solutions": []}
 
 
-def open_page(viewer: Viewer, b: browser.Browser, text: str) -> None:
+def open_page(viewer: Viewer, b: browser.Browser, text: str, query: str = "") -> None:
     d = b.driver
-    d.get(viewer.url)
+    d.get(viewer.url + query)
     browser.wait_for_text(d, text, 120)
     viewer.robot_drawing.ready.wait(120)
     t0 = time.perf_counter()
@@ -142,15 +151,17 @@ def open_page(viewer: Viewer, b: browser.Browser, text: str) -> None:
     browser.dismiss_notifications(d)
 
 
-def turn_camera(viewer: Viewer, seconds: float, rate: float = 30.0) -> int:
-    """Turn the page's camera about its target from the server, ``rate`` times a second for ``seconds`` (a full
-    turn in 10 s): every step is a new view the page must draw.  Returns the steps sent."""
+def turn_camera(viewer: Viewer, seconds: float, rate: float = 30.0, swing: float = 30.0) -> int:
+    """Swing the page's camera about its target from the server, ``rate`` times a second for ``seconds``, by up to
+    ``swing`` degrees either side of where it looks from (one swing in 4 s): every step is a new view to draw, and the
+    scene stays in view.  (A full turn took the camera behind baxter-reach's wall for half of it, where a frame drew 2
+    of its 15 nodes.)  Returns the steps sent."""
     client = next(iter(viewer.server.get_clients().values()))
     target = np.asarray(client.camera.look_at, dtype=np.float64)
     offset = np.asarray(client.camera.position, dtype=np.float64) - target
     steps, t0 = 0, time.perf_counter()
     while time.perf_counter() - t0 < seconds:
-        a = 2 * np.pi * (time.perf_counter() - t0) / 10.0
+        a = np.radians(swing) * np.sin(2 * np.pi * (time.perf_counter() - t0) / 4.0)
         c, s_ = np.cos(a), np.sin(a)
         client.camera.position = tuple(target + [c * offset[0] - s_ * offset[1], s_ * offset[0] + c * offset[1],
                                                  offset[2]])
@@ -210,14 +221,22 @@ def tree_fps(scene, robot, b: browser.Browser, seconds: float, rng) -> dict:
 
 
 def execution_fps(scene, robot, run, b: browser.Browser, rng, seconds: float = 10.0, rate: float = 25.0,
-                  live_rate: float | None = None) -> dict:
+                  live_rate: float | None = None, before: bool = False) -> dict:
     """Stream ``seconds`` of the execution at ``rate`` steps a second, each with 24 particles, into a page that
-    draws at most ``live_rate`` updates a second (the viewer's default when ``None``)."""
+    draws at most ``live_rate`` updates a second (the viewer's default when ``None``).  ``before``: the page as
+    drawn before the software-WebGL changes (double-sided voxel faces, multisampling kept by ``?antialias=1``)."""
+    from pliant_viewer import viewer as viewer_module
+
     view = build_content(scene, robot)
     viewer = Viewer() if live_rate is None else Viewer(live_rate=live_rate)
     try:
-        viewer.show(view)
-        open_page(viewer, b, f"pliant -- {scene.name}")
+        side = viewer_module.VOXEL_SIDE
+        viewer_module.VOXEL_SIDE = "double" if before else side
+        try:
+            viewer.show(view)
+        finally:
+            viewer_module.VOXEL_SIDE = side
+        open_page(viewer, b, f"pliant -- {scene.name}", query="?antialias=1" if before else "")
         if run is not None and run.trajectory is not None:
             _, executed = run.trajectory
         else:
@@ -244,7 +263,7 @@ def execution_fps(scene, robot, run, b: browser.Browser, rng, seconds: float = 1
         fps = browser.read_frame_counters(b.driver)
         b.driver.save_screenshot(str(SHOTS / "execution-24.png"))
         return {"steps": steps, "particles": 24, "stream_s": wall, "max_lag_s": late, "fps": fps, "fps_idle": idle,
-                "live_rate": viewer.live_rate, "updates": viewer.live_updates}
+                "live_rate": viewer.live_rate, "updates": viewer.live_updates, "before": before}
     finally:
         viewer.stop()
 
@@ -257,7 +276,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3, help="time-to-first-frame repeats (default 3)")
     parser.add_argument("--seconds", type=float, default=5.0, help="fps measuring window (default 5 s)")
     parser.add_argument("--parts", default="first,tree,execution",
-                        help="what to measure, comma-separated: first (time to first frame), tree, execution")
+                        help="what to measure, comma-separated: first (time to first frame), tree, execution, "
+                             "before-after (the live stream with the page as before the software-WebGL changes and "
+                             "as now, alternately, --repeats times each)")
     args = parser.parse_args()
     parts = set(args.parts.split(","))
     reason = browser.missing()
@@ -287,7 +308,13 @@ def main() -> None:
         browser.install_draw_probe(b.driver)
         if "first" in parts:
             cold = [first_frame(run_dir, b, expect, robot_sigs, ("--no-cache",)) for _ in range(args.repeats)]
-            first_frame(run_dir, b, expect, robot_sigs)      # writes the view caches (if they are stale)
+            # the view cache as `pliant run` leaves it: written by the viewer's report hook with the run's robot model
+            (run_dir / cache.NAME).unlink(missing_ok=True)
+            t0 = time.perf_counter()
+            written = write_view_cache(SimpleNamespace(context=Context(scene=scene, robot=robot)), run_dir)
+            results["report_hook_s"] = time.perf_counter() - t0
+            if written is None:
+                raise RuntimeError("the report hook wrote no view cache")
             ttff = [first_frame(run_dir, b, expect, robot_sigs) for _ in range(args.repeats)]
             results["first_frame_cold"] = cold
             results["first_frame"] = ttff
@@ -296,6 +323,10 @@ def main() -> None:
         if "execution" in parts:
             results["execution"] = execution_fps(scene, robot, run, b, rng)
             results["execution_every_step"] = execution_fps(scene, robot, run, b, rng, live_rate=25.0)
+        if "before-after" in parts:
+            # the live stream with the page as before the software-WebGL changes and as now, alternately
+            results["execution_before_after"] = [execution_fps(scene, robot, run, b, rng, before=k % 2 == 0)
+                                                 for k in range(2 * args.repeats)]
     if "first" in parts:
         rows = []
         measures = [("printed", "address printed", ""), ("page", "page loaded", ""),
@@ -303,7 +334,7 @@ def main() -> None:
                     ("policy_drawn", "policy drawn", ""),
                     ("first_frame", "first frame (objects, path, policy)", "<= 2 s"),
                     ("robot", "robot meshes drawn", "")]
-        for label, runs in (("--no-cache", results["first_frame_cold"]), ("cached", results["first_frame"])):
+        for label, runs in (("--no-cache", results["first_frame_cold"]), ("after run", results["first_frame"])):
             for key, text, target in measures:
                 values = [r[key] for r in runs if key in r]
                 if values:
@@ -312,10 +343,12 @@ def main() -> None:
         print_table(f"time to first frame: pliant view {run_dir} (baxter-reach, {results['policy_nodes']}-node "
                     f"policy), median of {args.repeats}, headless Chromium 1280x800 (software WebGL)",
                     ("view", "measure", "seconds", "runs", "target"), rows)
+        print(f"after run: the view cache as `pliant run` writes it (the viewer's report hook, "
+              f"{results['report_hook_s']:.2f} s here) and the converted robot meshes; --no-cache: neither")
     rows = []
 
     def fps(x: dict) -> str:
-        return f"{x['drawn']:.1f} ({x['animation']:.0f})"
+        return f"{x['drawn']:.1f} ({x['animation']:.0f}; {x['calls']:.0f} calls)"
 
     if "tree" in parts:
         t = results["tree"]
@@ -324,14 +357,20 @@ def main() -> None:
             x = t[key]
             rows += [(f"10,000-node tree, {what}", "left alone", fps(x["idle"])),
                      ("", f"mouse dragging the view ({x['strokes']} strokes)", fps(x["orbit"])),
-                     ("", f"camera turned by the server ({x['turns']} steps)", fps(x["turn"]))]
+                     ("", f"camera swung by the server ({x['turns']} steps)", fps(x["turn"]))]
     if "execution" in parts:
         for x in (results["execution"], results["execution_every_step"]):
             rows += [("24-particle execution, live", f"{x['steps']} steps at 25 Hz in {x['stream_s']:.1f} s, "
                       f"{x['updates']} updates (at most {x['live_rate']:.0f}/s)", fps(x["fps"])),
                      ("", "the same page left alone before", fps(x["fps_idle"]))]
+    if "before-after" in parts:
+        for x in results["execution_before_after"]:
+            page = "before (double-sided faces, multisampling)" if x["before"] else "now"
+            rows.append((f"24-particle execution, live, page {page}", f"{x['updates']} updates (at most "
+                         f"{x['live_rate']:.0f}/s)", fps(x["fps"])))
     if rows:
-        print_table("interactivity in headless Chromium: frames drawn per second (animation frames per second)",
+        print_table("interactivity in headless Chromium: frames drawn per second (animation frames per second; "
+                    "WebGL draw calls per drawn frame)",
                     ("case", "while", "fps"), rows)
     if "tree" in parts:
         print(f"\ntree: built in {t['build_s']:.1f} s, in the page after {t['page_s']:.1f} s; screenshots in {SHOTS}/")

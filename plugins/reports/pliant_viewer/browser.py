@@ -107,6 +107,7 @@ def start_frame_counter(driver) -> None:
     is.  Drawn frames need :func:`install_draw_probe` before the page was opened (else they read 0)."""
     driver.execute_script("""
         window.__pliantFrames = 0; window.__pliantDrawn = 0; window.__pliantT0 = performance.now();
+        window.__pliantCalls0 = window.__pliantDrawCalls || 0;
         const token = {}; window.__pliantCounter = token;
         let last = window.__pliantDrawCalls;
         (function tick() {
@@ -118,11 +119,12 @@ def start_frame_counter(driver) -> None:
 
 
 def read_frame_counters(driver) -> dict[str, float]:
-    """``{"drawn": frames drawn a second, "animation": animation frames a second}`` since
-    :func:`start_frame_counter`."""
-    frames, drawn, ms = driver.execute_script(
-        "return [window.__pliantFrames, window.__pliantDrawn, performance.now() - window.__pliantT0];")
-    return {"drawn": drawn / (ms / 1000.0), "animation": frames / (ms / 1000.0)}
+    """``{"drawn": frames drawn a second, "animation": animation frames a second, "calls": WebGL draw calls per
+    drawn frame}`` since :func:`start_frame_counter` (the calls say whether the frames drew the whole scene)."""
+    frames, drawn, ms, calls = driver.execute_script(
+        "return [window.__pliantFrames, window.__pliantDrawn, performance.now() - window.__pliantT0,"
+        " (window.__pliantDrawCalls || 0) - window.__pliantCalls0];")
+    return {"drawn": drawn / (ms / 1000.0), "animation": frames / (ms / 1000.0), "calls": calls / max(drawn, 1)}
 
 
 def read_frame_counter(driver) -> float:

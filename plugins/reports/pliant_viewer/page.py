@@ -33,6 +33,7 @@ SOFTWARE_WEBGL = """<script>
   function isSoftware() {
     if (software !== null) return software;
     software = false;
+    var t0 = performance.now();
     try {
       var gl = getContext.call(document.createElement('canvas'), 'webgl');
       if (gl) {
@@ -44,6 +45,7 @@ SOFTWARE_WEBGL = """<script>
       }
     } catch (e) { software = false; }
     window.__pliantSoftwareWebGL = software;
+    window.__pliantProbeMs = performance.now() - t0;
     return software;
   }
   HTMLCanvasElement.prototype.getContext = function (type, attributes) {
