@@ -57,8 +57,10 @@ class ContactModel:
         self.upper = grid.lower + np.array(grid.shape) * grid.resolution
         self.res = grid.resolution
         self._shape = np.asarray(grid.shape, dtype=np.int64)
-        # free_clearance (m): a lower bound on the distance from any point of a free voxel to any obstacle (the
-        # grid's boundary included): centre-to-centre distance minus a voxel diagonal (in the plane: sqrt(2) h)
+        # free_clearance (m, float32 rounded down, per voxel): for a free voxel a lower bound on the distance from
+        # any point of it to any obstacle (the grid's boundary included): centre-to-centre distance minus a voxel
+        # diagonal (in the plane: sqrt(2) h); -1 for an occupied voxel, so that one lookup answers both questions
+        # (the fused kernel's broad phase, rigid_kernel._accumulate)
         from scipy.ndimage import distance_transform_edt
 
         self.planar = bool(planar) and occ.shape[2] == 1
@@ -70,7 +72,10 @@ class ContactModel:
             solid = np.pad(occ, 1, constant_values=True)
             centre_distance = distance_transform_edt(~solid, sampling=grid.resolution)[1:-1, 1:-1, 1:-1]
             diagonal = np.sqrt(3.0) * grid.resolution
-        self.free_clearance = np.maximum(centre_distance - diagonal, 0.0).reshape(-1)
+        bound = np.maximum(centre_distance - diagonal, 0.0).reshape(-1)
+        single = bound.astype(np.float32)
+        single = np.where(single > bound, np.nextafter(single, np.float32(-np.inf)), single)   # rounded down
+        self.free_clearance = np.where(occ.reshape(-1), np.float32(-1.0), single)
         # voxels with no exposed face: the SDF's normal and depth at their centre
         self.deep_normal = np.zeros((occ.size, 3))
         self.deep_depth = np.zeros(occ.size)

@@ -330,7 +330,7 @@ def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal,
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, occupied_flat, exposed, deep_normal,
+def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, exposed, deep_normal,
                 deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance, segments, centres, radii, readings,
                 distance, reach, rows, pushes):
     """Normal equations of one body placed by ``r_`` (3, 3) / ``pos`` (3,); returns the colliding count.
@@ -343,9 +343,10 @@ def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, occupi
 
     Broad phase (it only skips points that cannot collide, so the result is the same without it).  The points are
     cut into *segments*, runs of consecutive points (``segments`` (s + 1,): the first point of each, then ``k``)
-    within ``radii`` (s,) (m) of their ``centres`` (s, 3) in the body frame.  A segment whose centre lies in a free
-    voxel with ``free_clearance`` (m: a lower bound on the distance from any point of that voxel to an obstacle or
-    the grid's boundary) beyond its radius holds no colliding point and is skipped whole.  Then, point by point,
+    within ``radii`` (s,) (m) of their ``centres`` (s, 3) in the body frame.  ``free_clearance`` (per voxel, m) is a
+    lower bound on the distance from any point of a free voxel to an obstacle or the grid's boundary, and negative
+    for an occupied voxel (:class:`.contact.ContactModel`).  A segment whose centre lies in a voxel whose bound
+    exceeds its radius holds no colliding point and is skipped whole.  Then, point by point,
     points with ``distance[i] > reach`` are skipped: they were that far from every obstacle and have moved less
     since.  ``distance``, ``readings`` (s,) and ``reach`` are "odometer" readings: a point (segment) measured with
     clearance ``c`` when the body had moved ``m`` in total stores ``c + m``; it is safe while the body's total
@@ -366,12 +367,10 @@ def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, occupi
         iy = int(np.floor((p[1] - lower[1]) * inv))
         iz = int(np.floor((p[2] - lower[2]) * inv))
         if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
-            flat = (ix * ny + iy) * nz + iz
-            if not occupied_flat[flat]:
-                free = free_clearance[flat] - radii[s]
-                if free > 0.0:
-                    readings[s] = free + reach
-                    continue
+            free = free_clearance[(ix * ny + iy) * nz + iz] - radii[s]
+            if free > 0.0:
+                readings[s] = free + reach
+                continue
         for i in range(segments[s], segments[s + 1]):
             if distance[i] > reach:
                 continue
@@ -382,8 +381,9 @@ def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, occupi
             iz = int(np.floor((p[2] - lower[2]) * inv))
             if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
                 flat = (ix * ny + iy) * nz + iz
-                if not occupied_flat[flat]:
-                    distance[i] = free_clearance[flat] + reach
+                free = free_clearance[flat]
+                if free >= 0.0:
+                    distance[i] = free + reach
                     continue
                 for c in range(3):
                     motion[c] = p[c] - (r0[c, 0] * local[i, 0] + r0[c, 1] * local[i, 1] + r0[c, 2] * local[i, 2]
@@ -539,7 +539,7 @@ def _motion_bound(kind, delta, radius):
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def fused_advance(kind, q, velocity, noise, sub_dt, max_halvings, local, faces, segments, centres, radii, lower, res,
-                  shape, occupied_flat, exposed, deep_normal, deep_depth, free_clearance, radius, clearance,
+                  shape, exposed, deep_normal, deep_depth, free_clearance, radius, clearance,
                   max_corrections, damping, solver, group, weight, tol, out, touched):
     """One control step of every particle, microstep by microstep with RESOLVECOLLISIONS (thesis eq. 8.3-8.5), fully
     compiled.
@@ -598,7 +598,7 @@ def fused_advance(kind, q, velocity, noise, sub_dt, max_halvings, local, faces, 
             reach = odometer + _motion_bound(kind, step, radius)
             for _ in range(max_corrections + 1):
                 _placement(kind, trial, r_, pos)
-                hits = _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, occupied_flat, exposed,
+                hits = _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, exposed,
                                    deep_normal, deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance,
                                    segments, centres, radii, readings, distance, reach, rows, pushes)
                 if hits == 0:

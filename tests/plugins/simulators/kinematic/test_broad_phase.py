@@ -26,10 +26,11 @@ def _simulator(scene: str):
 
 
 def _without_broad_phase(sim) -> None:
-    """One segment of unbounded radius and zero clearance everywhere: every point is looked up every pass."""
+    """One segment of unbounded radius and zero clearance in every free voxel (occupied ones stay negative): every
+    point is looked up every pass."""
     k = len(sim.surface_local)
     sim._segments = (np.array([0, k], dtype=np.int64), np.zeros((1, 3)), np.array([np.inf]))
-    sim.contact.free_clearance = np.zeros_like(sim.contact.free_clearance)
+    sim.contact.free_clearance = np.minimum(sim.contact.free_clearance, 0)
 
 
 @pytest.mark.parametrize("scene", list(CASES))
@@ -51,7 +52,9 @@ def test_planar_free_clearance_is_a_lower_bound_and_not_zero():
     grid = _simulator("se2-through-passage").grid
     planar = ContactModel(grid, planar=True)
     assert planar.planar and not ContactModel(grid).planar
-    assert not ContactModel(grid).free_clearance.any()         # with the z faces as walls the bound is useless
+    free_voxels = ~grid.occupied.reshape(-1)
+    assert not ContactModel(grid).free_clearance[free_voxels].any()   # with the z faces as walls the bound is zero
+    assert np.all(planar.free_clearance[~free_voxels] < 0)             # occupied voxels are marked negative
     occupied = np.argwhere(grid.occupied[:, :, 0])
     res = grid.resolution
     rng = np.random.default_rng(0)
