@@ -60,15 +60,18 @@ def add_table_command(subparsers):
         description="Learn from all 12 adjacent pairs of the hollow cube, then plan each task --plans times with "
                     "RRT* (puncture check on, the task's funnel) for --max-time s with the recovered sensitivities, "
                     "and compare planned and demonstrated deformation in the true sensitivities.  Resumable.")
-    parser.add_argument("--plans", type=int, default=3, help="RRT* runs per task (default 3; thesis 30 and 15)")
+    parser.add_argument("--plans", type=int, default=None, help="RRT* runs per task (default 3, --quick 1; thesis 30 "
+                        "and 15)")
     budget = parser.add_mutually_exclusive_group()
-    budget.add_argument("--max-time", type=float, default=None, help="seconds per plan (default 60; thesis 30 and "
-                        "60 minutes)")
+    budget.add_argument("--max-time", type=float, default=None, help="seconds of RRT* per plan instead of iterations "
+                        "(thesis 30 and 60 minutes): the plans then depend on the machine's speed")
     budget.add_argument("--max-iterations", type=int, default=None,
-                        help="RRT* iterations per plan instead of seconds: the plans then depend on their seeds only")
+                        help="RRT* iterations per plan (default 10,000, --quick 3,000): the plans depend on their "
+                             "seeds only")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="plans at a time (default: cores)")
-    parser.add_argument("--refine", type=int, default=0, metavar="ROUNDS",
-                        help="rounds of local search in the recovered cost after RRT* and shortcutting (default 0)")
+    parser.add_argument("--refine", type=int, default=None, metavar="ROUNDS",
+                        help="rounds of local search in the recovered cost after RRT* and shortcutting (default 60; "
+                             "0: RRT* alone, the thesis's procedure)")
     parser.add_argument("--quick", action="store_true",
                         help="CI-sized: 3 tasks, 1 plan of 3000 iterations, a coarser expert")
     parser.add_argument("--fresh", action="store_true", help="learn again and forget the plans on file")
@@ -83,16 +86,18 @@ def _table_command(args) -> int:
 
     from pliant.pipeline import parse_override
 
-    from pliant_piirl.experiments import TABLE_QUICK, render_table41, run_table41
+    from pliant_piirl.experiments import TABLE_FULL, TABLE_QUICK, render_table41, run_table41
 
     options = dict(parse_override(item, "--set") for item in args.set)
-    plans = TABLE_QUICK["plans"] if args.quick and args.plans == 3 else args.plans
+    defaults = TABLE_QUICK if args.quick else TABLE_FULL
+    plans = defaults["plans"] if args.plans is None else args.plans
+    refine = defaults["refine"] if args.refine is None else args.refine
     max_time, max_iterations = args.max_time, args.max_iterations
     if max_time is None and max_iterations is None:
-        max_time, max_iterations = (None, TABLE_QUICK["max_iterations"]) if args.quick else (60.0, None)
+        max_iterations = defaults["max_iterations"]
     summary = run_table41(plans=plans, max_time=max_time, max_iterations=max_iterations, jobs=args.jobs,
                           output=Path(args.output), quick=args.quick, fresh=args.fresh, options=options,
-                          refine=args.refine)
+                          refine=refine)
     print(render_table41(summary))
     return 0
 

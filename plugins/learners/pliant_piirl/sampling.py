@@ -151,6 +151,24 @@ class PathSampler:
         finite = np.all(np.isfinite(feats), axis=1)
         return [p for p, f in zip(kept, finite) if f], feats[finite]
 
+    def valid_with_features(self, paths, task) -> tuple[list[np.ndarray], np.ndarray]:
+        """The paths of ``paths`` (``(n, k, d)`` or a list of ``(k_i, d)``) that keep the robot inside ``task``'s
+        collision planes at every measured state and have finite features, with those features ``(m, n_objects)``
+        (robot points): what :meth:`draw_with_features` keeps of its candidates, for candidates made elsewhere."""
+        paths = [np.asarray(p, dtype=np.float64) for p in paths]
+        if not paths:
+            return [], np.zeros((0, len(self.features.names)))
+        states, counts = self.features.path_states(paths)
+        ok = self._paths_allowed(states, counts, task)
+        starts = np.cumsum(counts) - counts
+        keep = np.flatnonzero(ok)
+        if not len(keep):
+            return [], np.zeros((0, len(self.features.names)))
+        rows = np.concatenate([states[starts[i]:starts[i] + counts[i]] for i in keep])
+        feats = self.features.of_states(rows, counts[keep])
+        finite = np.all(np.isfinite(feats), axis=1)
+        return [paths[i] for i, f in zip(keep, finite) if f], feats[finite]
+
     def _paths_allowed(self, states: np.ndarray, counts: np.ndarray, task, exact: bool = True) -> np.ndarray:
         """Bool ``(n,)``: whether every state of each path (``counts[i]`` consecutive rows of ``states``) keeps
         the robot's outline inside the task's collision planes: ``task.allows(outline(states)).all()`` path by

@@ -154,3 +154,58 @@ def test_refining_a_poor_path_lowers_its_cost_keeps_the_task_and_respects_the_ch
     refused = refine(poor, task, features, weights, TIP, np.random.default_rng(6), rounds=2, samples=20,
                      check=lambda path: False)
     assert refused is poor or np.array_equal(refused, poor)
+
+
+def test_pivots_turn_the_tail_rigidly_about_the_target_and_keep_start_and_tip(cube, demonstration):
+    from pliant_piirl.verification import pivot_paths
+    from scipy.spatial.transform import Rotation
+
+    _, _, features = cube
+    _, task, shown = demonstration
+    base = PathSampler(features, TIP, SampleOptions(waypoints=8)).resample(shown.path)
+    turned = pivot_paths(base, task.target, np.random.default_rng(0), 30, 0.1)
+    assert turned.shape == (30, 8, 7)
+    assert np.all(turned[:, 0] == base[0])
+    rot, pos, _ = features.robot.rigid_placement(turned[:, -1])
+    assert np.allclose(np.einsum("nij,j->ni", rot, TIP) + pos, task.target, atol=1e-9)      # the tip stays on it
+    for path in turned:          # every waypoint turned about the target by a growing share of one rotation
+        turns = [Rotation.from_quat(q) * Rotation.from_quat(b).inv() for q, b in zip(path[:, 3:], base[:, 3:])]
+        last = turns[-1].as_rotvec()
+        shares = [t.as_rotvec() @ last / (last @ last) for t in turns]
+        assert np.allclose([t.as_rotvec() for t in turns], np.outer(shares, last), atol=1e-9)
+        assert shares[0] == 0 and np.all(np.diff(shares) >= -1e-9) and shares[-1] == pytest.approx(1.0)
+        for q, b, t in zip(path, base, turns):
+            assert np.allclose(q[:3] - task.target, t.apply(b[:3] - task.target), atol=1e-12)
+    assert not np.allclose(turned[0], turned[1])
+    assert np.array_equal(turned, pivot_paths(base, task.target, np.random.default_rng(0), 30, 0.1))     # seeded
+
+
+def test_candidates_made_elsewhere_are_kept_as_the_sampler_keeps_its_own(cube, demonstration):
+    _, _, features = cube
+    _, task, shown = demonstration
+    sampler = PathSampler(features, TIP, SampleOptions(samples=10))
+    drawn, feats = sampler.draw_with_features(shown, np.random.default_rng(3))
+    outside = drawn[0].copy()
+    outside[1:, :3] += 0.5                                                       # far outside the funnel
+    kept, kept_feats = sampler.valid_with_features(drawn + [outside], task)
+    assert len(kept) == len(drawn) and np.allclose(kept_feats, feats)
+    assert sampler.valid_with_features([outside], task)[0] == []
+
+
+def test_refining_with_pivots_and_step_adaptation_is_seeded_and_keeps_the_task(cube, demonstration):
+    from pliant_piirl.verification import refine
+
+    scene, _, features = cube
+    _, task, shown = demonstration
+    weights = features.sensitivity_vector(true_sensitivities(scene))
+    wide = PathSampler(features, TIP, SampleOptions(samples=20, translation=0.012, rotation=0.2))
+    drawn = wide.draw(shown, np.random.default_rng(5))
+    poor = drawn[int(np.argmax(features.of_paths(drawn) @ weights))]
+    options = {"rounds": 4, "samples": 20, "pivots": 20, "translation": 0.02, "rotation": 0.3, "shrink": 0.8,
+               "grow": 1.2}
+    better = refine(poor, task, features, weights, TIP, np.random.default_rng(6), **options)
+    assert float(features.of_path(better) @ weights) < float(features.of_path(poor) @ weights)
+    assert np.array_equal(better, refine(poor, task, features, weights, TIP, np.random.default_rng(6), **options))
+    rot, pos, _ = features.robot.rigid_placement(better[-1:])
+    assert np.allclose(rot[0] @ TIP + pos[0], task.target, atol=1e-9)
+    assert task.allows(features.robot.body_points(features.states(better))).all()
