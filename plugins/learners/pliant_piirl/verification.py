@@ -5,10 +5,12 @@ up by name through the registry: plugins do not import each other) with the punc
 task-space goal "the tip touches the target" and the task's collision planes as a validity constraint, as in the
 chapter; then the path is shortcut (:mod:`pliant.planning.shortcut`, cost-aware, every shortcut checked for punctures
 and cuts along the whole path), the post-processing step of sampling planners.  The chapter planned for 30 and 60
-minutes per task; the time budget here is an option.  With ``refine_rounds`` the shortcut path is then improved by
-stochastic local search in the recovered cost (:func:`refine`): the sample paths of thesis 4.3.1 drawn around it,
-the cheapest kept when it is cheaper and free of punctures, with the noise shrinking each round -- the local
-optimisation a trajectory optimiser (STOMP, which the chapter's sampling follows) does after a sampling planner.
+minutes per task with RRT* alone; the budget here is an option (iterations or seconds).  With ``refine_rounds`` the
+shortcut path is then improved by local search in the recovered cost (:func:`refine` with :data:`REFINE`): the
+sample paths of thesis 4.3.1 and rigid turns of the path's tail about the target drawn around it, the cheapest kept
+when it is cheaper and free of punctures, with the noise adapting to success -- the local optimisation a
+trajectory optimiser (STOMP, which the chapter's sampling follows) does after a sampling planner.  The ground truth
+is never read while planning or refining.
 The planned path and the demonstration are then both measured in the scene's *true* sensitivities: the deformation
 of each object and the cost ``S . V``.
 """
@@ -35,8 +37,9 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
               *, max_time: float | None, shortcut_iterations: int = 300, planner_options: dict | None = None,
               planner: str = "rrtstar", refine_rounds: int = 0):
     """RRT* (puncture check on) for ``demonstration``'s task in ``scene`` with ``sensitivities``; the planner's
-    result and its path after cost-aware shortcutting and ``refine_rounds`` of :func:`refine` (``None`` without a
-    path or with no shortcut iterations)."""
+    result and its path after cost-aware shortcutting and ``refine_rounds`` of :func:`refine` with :data:`REFINE`
+    in the cost of ``sensitivities`` (``None`` without a path or with no shortcut iterations).  ``max_time``: RRT*'s
+    budget in seconds (None: the iteration budget in ``planner_options``, ``max_iterations``)."""
     import pliant
     from pliant.interfaces import Context, PlanningProblem
 
