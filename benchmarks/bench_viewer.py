@@ -50,6 +50,7 @@ from pliant_viewer.report import write_view_cache
 from pliant_viewer.viewer import Viewer, build_content, free_port
 
 SHOTS = Path("out/bench/viewer")
+CHILD_ENV = None        # the environment of `pliant view` (None: this one); see --pycache
 
 
 def signatures(view) -> dict[str, list[str]]:
@@ -84,7 +85,7 @@ def first_frame(run: Path, b: browser.Browser, expect: dict, robot: list[str], e
     exe = shutil.which("pliant") or str(Path(sys.executable).with_name("pliant"))
     t0 = time.time()
     proc = subprocess.Popen([exe, "view", str(run), "--port", str(port), "--hold", "120", *extra],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=CHILD_ENV)
     try:
         line = proc.stdout.readline()
         if url not in line:
@@ -279,7 +280,14 @@ def main() -> None:
                         help="what to measure, comma-separated: first (time to first frame), tree, execution, "
                              "before-after (the live stream with the page as before the software-WebGL changes and "
                              "as now, alternately, --repeats times each)")
+    parser.add_argument("--pycache", action="store_true",
+                        help="run `pliant view` with Python's bytecode cache (PYTHONDONTWRITEBYTECODE unset, the cache "
+                             "in out/bench/pycache), as on a machine where pliant's modules were imported before")
     args = parser.parse_args()
+    global CHILD_ENV
+    if args.pycache:
+        CHILD_ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        CHILD_ENV["PYTHONPYCACHEPREFIX"] = str(Path("out/bench/pycache").resolve())
     parts = set(args.parts.split(","))
     reason = browser.missing()
     if reason:
@@ -296,7 +304,9 @@ def main() -> None:
     run = read_run(run_dir)
     scene = pliant.load_scene(run.scene_name)
     rng = np.random.default_rng(0)
-    results: dict = {"load_before": os.getloadavg(), "run": str(run_dir), "policy_nodes": len(run.policy["nodes"]),
+    results: dict = {"load_before": os.getloadavg(), "run": str(run_dir), "pycache": args.pycache,
+                     "dont_write_bytecode": os.environ.get("PYTHONDONTWRITEBYTECODE"),
+                     "policy_nodes": len(run.policy["nodes"]),
                      "result_status": (run.result or {}).get("status")}
     from pliant_viewer.viewer import build_content, make_robot
 
@@ -307,6 +317,8 @@ def main() -> None:
     with browser.Browser(1280, 800) as b:
         browser.install_draw_probe(b.driver)
         if "first" in parts:
+            if args.pycache:        # one view, not measured, writes the bytecode of every module a view imports
+                first_frame(run_dir, b, expect, robot_sigs, ("--no-cache",))
             cold = [first_frame(run_dir, b, expect, robot_sigs, ("--no-cache",)) for _ in range(args.repeats)]
             # the view cache as `pliant run` leaves it: written by the viewer's report hook with the run's robot model
             (run_dir / cache.NAME).unlink(missing_ok=True)
@@ -345,6 +357,10 @@ def main() -> None:
                     ("view", "measure", "seconds", "runs", "target"), rows)
         print(f"after run: the view cache as `pliant run` writes it (the viewer's report hook, "
               f"{results['report_hook_s']:.2f} s here) and the converted robot meshes; --no-cache: neither")
+        bytecode = ("Python's bytecode cache (--pycache)" if args.pycache else
+                    "PYTHONDONTWRITEBYTECODE=1: every pliant module compiled at each start" if
+                    os.environ.get("PYTHONDONTWRITEBYTECODE") else "Python's default bytecode cache")
+        print(f"pliant view ran with {bytecode}")
     rows = []
 
     def fps(x: dict) -> str:
