@@ -382,10 +382,12 @@ class Viewer:
                 direction = np.array([-0.3, -0.9, 0.35]) / np.linalg.norm([-0.3, -0.9, 0.35])
                 self.server.initial_camera.position = tuple(focus + direction * 1.9 * reach)
                 self.server.initial_camera.look_at = tuple(focus * 0.75)
+            # toon shading like every other mesh: one shader program fewer for the page to compile before its first
+            # frame (the standard material's)
             self._add("/scene/start", s.add_icosphere("/scene/start", radius=radius, color=(40, 200, 60),
-                                                      position=ends[0]))
+                                                      position=ends[0], material="toon3"))
             self._add("/scene/goal", s.add_icosphere("/scene/goal", radius=radius, color=(220, 40, 200),
-                                                     position=ends[1]))
+                                                     position=ends[1], material="toon3"))
             self.robot_drawing = RobotDrawing(self.server, view.robot, scene.start, scene.resolution,
                                               meshes=self.robot_meshes, description=view.urdf,
                                               use_cache=self.use_cache)
@@ -508,7 +510,7 @@ class Viewer:
             self.slider.on_update(self._on_slider)
             self.play.on_update(self._on_play)
             self._now = self.server.scene.add_icosphere("/path/now", radius=max(view.scene.resolution, 0.008),
-                                                        color=(20, 20, 20),
+                                                        color=(20, 20, 20), material="toon3",
                                                         position=view.timeline_xyz[0])
             self._add("/path/now", self._now)
 
