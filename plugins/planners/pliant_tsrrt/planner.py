@@ -71,7 +71,7 @@ class TSRRTOptions(PushOptions):
                                   "between) that connect to the targets", minimum=1)
     refine_randoms: int = option(32, "improvement: random collision-free arrangements whose free descent adds "
                                  "targets (basins no variant of the tree's best arrangement lies in)", minimum=0)
-    refine_sweeps: int = option(1, "improvement: sweeps over the objects when pushing them toward a target (a later "
+    refine_sweeps: int = option(2, "improvement: sweeps over the objects when pushing them toward a target (a later "
                                 "sweep moves objects that others blocked)", minimum=1)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)

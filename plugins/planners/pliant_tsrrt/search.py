@@ -86,7 +86,7 @@ class SearchSettings:
     refine_passes: int = 2
     refine_branches: int = 3
     refine_randoms: int = 32
-    refine_sweeps: int = 1
+    refine_sweeps: int = 2
 
 
 @dataclass
