@@ -68,27 +68,28 @@ def resolve(target: str, scene_name: str | None):
         name = scene_name or run.scene_name
         if not name:
             raise ConfigError("a run folder needs run.json (or --scene)", source=str(path), field="scene")
-        return _load_scene(pliant, name, path), run, None
+        return _load_scene(pliant, name, path, None if scene_name else run.scene_variant), run, None
     if path.is_file() and path.suffix == ".json":
         data = read_json(path)
         sibling = read_run(path.parent) if (path.parent / "run.json").is_file() else RunData()
         name = scene_name or sibling.scene_name
         if not name:
             raise ConfigError("name the scene of this file with --scene", source=str(path), field="scene")
+        variant = None if scene_name else sibling.scene_variant
         if "nodes" in data:                                    # a policy file
-            return _load_scene(pliant, name, path.parent), sibling, data
+            return _load_scene(pliant, name, path.parent, variant), sibling, data
         if "status" in data:                                   # a result file
             sibling.result = data
-            return _load_scene(pliant, name, path.parent), sibling, None
+            return _load_scene(pliant, name, path.parent, variant), sibling, None
         raise ConfigError("not a policy or result file (no 'nodes' or 'status')", source=str(path), field="target")
     return pliant.load_scene(target), None, None
 
 
-def _load_scene(pliant, name: str, base: Path):
+def _load_scene(pliant, name: str, base: Path, variant: str | None = None):
     candidate = base / name
     if candidate.is_file():
-        return pliant.load_scene(candidate)
-    return pliant.load_scene(name)
+        return pliant.load_scene(candidate, variant=variant)
+    return pliant.load_scene(name, variant=variant)
 
 
 def cmd_view(args) -> int:

@@ -285,7 +285,14 @@ class RunData:
 
     @property
     def scene_name(self) -> str | None:
-        return self.pipeline.get("scene")
+        scene = self.pipeline.get("scene")
+        return scene.get("name") if isinstance(scene, dict) else scene
+
+    @property
+    def scene_variant(self) -> str | None:
+        """The scene's variant when the run named one (``scene = {name, variant}``)."""
+        scene = self.pipeline.get("scene")
+        return scene.get("variant") if isinstance(scene, dict) else None
 
     @property
     def robot_name(self) -> str | None:

@@ -164,6 +164,11 @@ def test_resolve_targets(tmp_path):
     assert run.scene_name == "triple-wall"
     with pytest.raises(pliant.errors.PliantError):
         resolve(str(tmp_path / "policy.json").replace("policy", "nothing"), None)
+    # a run of a scene variant (`--set scene.variant=...`: run.json holds {name, variant})
+    (tmp_path / "run.json").write_text(json.dumps({"pipeline": {"scene": {"name": "se2-maze",
+                                                                          "variant": "blocked"}}}))
+    scene, run, policy = resolve(str(tmp_path), None)
+    assert (scene.name, scene.variant) == ("se2-maze", "blocked") and run.scene_name == "se2-maze"
 
 
 def test_view_command_exports_html(tmp_path):
