@@ -68,6 +68,8 @@ OUTER_ITERATIONS = 12
 SEGMENT_RADIUS = 4.0
 #: most points in one broad-phase segment
 SEGMENT_POINTS = 64
+#: voxels: the broad phase's bounds are reduced by this much, far more than any rounding of a point's position
+BOUND_MARGIN = 1e-6
 
 
 def point_segments(local: np.ndarray, max_radius: float, max_points: int = SEGMENT_POINTS
@@ -158,7 +160,12 @@ def _quadratic_program(a, b, count, minv, tol, lam, active, out, warm):
                 trace += w[u, u]
             for u in range(m):                       # dependent contacts (more than t) stay solvable
                 w[u, u] += 1e-12 * max(trace / m, 1e-300)
-            z = np.linalg.solve(w, z)
+            if m == 1 and np.isfinite(w[0, 0]) and np.isfinite(z[0]):
+                # one active contact (nearly every solve of a sliding body): LAPACK's LU solve of a 1 x 1 system is
+                # this one division (measured bit for bit), without its call and copies
+                z[0] = z[0] / w[0, 0]
+            else:
+                z = np.linalg.solve(w, z)
             if np.all(z > 0.0):
                 for u in range(m):
                     lam[members[u]] = z[u]
@@ -331,8 +338,8 @@ def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal,
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, exposed, deep_normal,
-                deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance, segments, centres, radii, readings,
-                distance, reach, rows, pushes):
+                deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance, planar, segments, centres, radii,
+                readings, distance, reach, rows, pushes):
     """Normal equations of one body placed by ``r_`` (3, 3) / ``pos`` (3,); returns the colliding count.
 
     The colliding points' constraint rows ``J_i^T n_i`` and push-outs are written to ``rows`` (k, t)
@@ -354,18 +361,22 @@ def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, expose
     """
     nx, ny, nz = shape[0], shape[1], shape[2]
     inv = 1.0 / res
-    upper0, upper1, upper2 = lower[0] + nx * res, lower[1] + ny * res, lower[2] + nz * res
+    lo0, lo1, lo2 = lower[0], lower[1], lower[2]
+    upper0, upper1, upper2 = lo0 + nx * res, lo1 + ny * res, lo2 + nz * res
+    # the placement in scalars (the same products and sums, in the same order, as with the arrays)
+    a00, a01, a02, a10, a11, a12, a20, a21, a22 = (r_[0, 0], r_[0, 1], r_[0, 2], r_[1, 0], r_[1, 1], r_[1, 2],
+                                                   r_[2, 0], r_[2, 1], r_[2, 2])
+    b0, b1, b2 = pos[0], pos[1], pos[2]
     lhs[:] = 0.0
     rhs[:] = 0.0
     hits = 0
     for s in range(segments.shape[0] - 1):
         if readings[s] > reach:
             continue
-        for c in range(3):
-            p[c] = r_[c, 0] * centres[s, 0] + r_[c, 1] * centres[s, 1] + r_[c, 2] * centres[s, 2] + pos[c]
-        ix = int(np.floor((p[0] - lower[0]) * inv))
-        iy = int(np.floor((p[1] - lower[1]) * inv))
-        iz = int(np.floor((p[2] - lower[2]) * inv))
+        c0, c1, c2 = centres[s, 0], centres[s, 1], centres[s, 2]
+        ix = int(np.floor((a00 * c0 + a01 * c1 + a02 * c2 + b0 - lo0) * inv))
+        iy = int(np.floor((a10 * c0 + a11 * c1 + a12 * c2 + b1 - lo1) * inv))
+        iz = int(np.floor((a20 * c0 + a21 * c1 + a22 * c2 + b2 - lo2) * inv))
         if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
             free = free_clearance[(ix * ny + iy) * nz + iz] - radii[s]
             if free > 0.0:
@@ -374,26 +385,35 @@ def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, expose
         for i in range(segments[s], segments[s + 1]):
             if distance[i] > reach:
                 continue
-            for c in range(3):
-                p[c] = r_[c, 0] * local[i, 0] + r_[c, 1] * local[i, 1] + r_[c, 2] * local[i, 2] + pos[c]
-            ix = int(np.floor((p[0] - lower[0]) * inv))
-            iy = int(np.floor((p[1] - lower[1]) * inv))
-            iz = int(np.floor((p[2] - lower[2]) * inv))
+            l0, l1, l2 = local[i, 0], local[i, 1], local[i, 2]
+            x = a00 * l0 + a01 * l1 + a02 * l2 + b0
+            y = a10 * l0 + a11 * l1 + a12 * l2 + b1
+            z = a20 * l0 + a21 * l1 + a22 * l2 + b2
+            ix = int(np.floor((x - lo0) * inv))
+            iy = int(np.floor((y - lo1) * inv))
+            iz = int(np.floor((z - lo2) * inv))
             if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
                 flat = (ix * ny + iy) * nz + iz
                 free = free_clearance[flat]
                 if free >= 0.0:
-                    distance[i] = free + reach
+                    # the point must first leave its voxel's box (not across z in the plane), less a margin for rounding
+                    fx, fy = x - (lo0 + ix * res), y - (lo1 + iy * res)
+                    inside = min(fx, res - fx, fy, res - fy)
+                    if not planar:
+                        fz = z - (lo2 + iz * res)
+                        inside = min(inside, fz, res - fz)
+                    distance[i] = free + inside - BOUND_MARGIN * res + reach
                     continue
+                p[0], p[1], p[2] = x, y, z
                 for c in range(3):
-                    motion[c] = p[c] - (r0[c, 0] * local[i, 0] + r0[c, 1] * local[i, 1] + r0[c, 2] * local[i, 2]
-                                        + pos0[c])
+                    motion[c] = p[c] - (r0[c, 0] * l0 + r0[c, 1] * l1 + r0[c, 2] * l2 + pos0[c])
                 depth = _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal, deep_depth,
                                       faces[i], r_, nrm)
             else:
-                nrm[0] = max(lower[0] - p[0], 0.0) - max(p[0] - upper0, 0.0)
-                nrm[1] = max(lower[1] - p[1], 0.0) - max(p[1] - upper1, 0.0)
-                nrm[2] = max(lower[2] - p[2], 0.0) - max(p[2] - upper2, 0.0)
+                p[0], p[1], p[2] = x, y, z
+                nrm[0] = max(lo0 - x, 0.0) - max(x - upper0, 0.0)
+                nrm[1] = max(lo1 - y, 0.0) - max(y - upper1, 0.0)
+                nrm[2] = max(lo2 - z, 0.0) - max(z - upper2, 0.0)
                 depth = np.sqrt(nrm[0] ** 2 + nrm[1] ** 2 + nrm[2] ** 2)
                 for c in range(3):
                     nrm[c] /= max(depth, 1e-300)
@@ -539,7 +559,7 @@ def _motion_bound(kind, delta, radius):
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def fused_advance(kind, q, velocity, noise, sub_dt, max_halvings, local, faces, segments, centres, radii, lower, res,
-                  shape, exposed, deep_normal, deep_depth, free_clearance, radius, clearance,
+                  shape, exposed, deep_normal, deep_depth, free_clearance, planar, radius, clearance,
                   max_corrections, damping, solver, group, weight, tol, out, touched):
     """One control step of every particle, microstep by microstep with RESOLVECOLLISIONS (thesis eq. 8.3-8.5), fully
     compiled.
@@ -600,7 +620,7 @@ def fused_advance(kind, q, velocity, noise, sub_dt, max_halvings, local, faces, 
                 _placement(kind, trial, r_, pos)
                 hits = _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, exposed,
                                    deep_normal, deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance,
-                                   segments, centres, radii, readings, distance, reach, rows, pushes)
+                                   planar, segments, centres, radii, readings, distance, reach, rows, pushes)
                 if hits == 0:
                     converged = True
                     break

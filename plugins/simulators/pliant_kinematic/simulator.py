@@ -373,8 +373,9 @@ class KinematicSimulator(Simulator):
         fused_advance(self.kernel_kind, np.ascontiguousarray(q), np.ascontiguousarray(velocity), noise, sub_dt,
                       self.options.max_halvings, self.surface_local, self._face_bits, *self._segments,
                       c.lower, c.res, c._shape, c.exposed, c.deep_normal, c.deep_depth, c.free_clearance,
-                      self.reach_radius, self.options.clearance, self.options.max_corrections, self.options.damping,
-                      solver, self.effort_groups, self.effort_weights, self._effort_tol, out, touched)
+                      c.planar, self.reach_radius, self.options.clearance, self.options.max_corrections,
+                      self.options.damping, solver, self.effort_groups, self.effort_weights, self._effort_tol,
+                      out, touched)
         return out, touched
 
     @property

@@ -6,7 +6,7 @@ import pytest
 from pliant.errors import ConfigError, DimensionError, PlanningError, PliantError
 from pliant.interfaces import Context, PlanningProblem
 from pliant.results import Path
-from reachability_helpers import metric, noisy_passage
+from reachability_helpers import metric, noisy_passage, passage
 
 METHODS = ("reachable-volume", "sampling-driven", "simulation", "simulation-scaled")
 
@@ -78,3 +78,14 @@ def test_skipping_checks_by_clearance_bounds_changes_nothing():
     slow = m.evaluate(path, problem, np.random.default_rng(3))
     assert fast["p_exec"] == slow["p_exec"] and fast["contacts"] == slow["contacts"]
     assert 0.0 < fast["p_exec"] < 1.0
+
+
+def test_metrics_bound_to_one_scene_share_its_voxel_grid():
+    from pliant_reachability.metrics import scene_grid
+
+    context = passage()
+    a, b = metric(context), metric(context, "simulation")
+    assert a.clearance.grid is b.clearance.grid is scene_grid(context.scene)
+    other = pliant.load_scene("se2-through-passage")                   # another scene object: its own grid
+    fresh = scene_grid(other)
+    assert fresh is not a.clearance.grid and np.array_equal(fresh.occupied, a.clearance.grid.occupied)
