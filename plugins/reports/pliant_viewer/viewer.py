@@ -38,7 +38,7 @@ from pliant_viewer import content
 log = logging.getLogger(__name__)
 
 DEFAULT_ROBOT = {"rigid": "rigid", "urdf": "pinocchio"}
-LIVE_RATE = 15.0        # live updates a second at most (software WebGL drew 30-45 frames/s of baxter-reach)
+LIVE_RATE = 15.0        # live updates a second at most (the page draws continuously while they arrive)
 LIVE_CHUNK = 64         # steps per node of a live trail
 # voxel faces are wound to face out (content.exposed_faces), so only front faces are drawn: in software WebGL the
 # page's time per frame is mostly the fragments of the large objects (baxter-reach's wall), and a double-sided wall
