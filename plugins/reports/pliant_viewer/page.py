@@ -21,9 +21,11 @@ import io
 import logging
 import os
 import tempfile
+import threading
 from pathlib import Path
 
 log = logging.getLogger(__name__)
+_SWAP = threading.Lock()        # one server built at a time while viser's WebsockServer is substituted
 
 SOFTWARE_WEBGL = """<script>
 (function () {
@@ -76,7 +78,8 @@ def client_root() -> Path | None:
     digest = hashlib.sha256(data + SOFTWARE_WEBGL.encode()).hexdigest()[:16]
     from pliant_viewer.robot_mesh import cache_dir
 
-    for base in (cache_dir(), Path(tempfile.gettempdir()) / f"pliant-viewer-{os.getuid()}"):
+    user = getattr(os, "getuid", lambda: "user")()
+    for base in (cache_dir(), Path(tempfile.gettempdir()) / f"pliant-viewer-{user}"):
         root = base / f"client-{digest}"
         page = root / "index.html"
         if page.is_file():
@@ -103,7 +106,6 @@ def start_server(host: str, port: int):
         root = client_root()
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         log.info("serving viser's own page: %s", exc)
-    original = infra.WebsockServer
     used = []
 
     def websock_server(*args, **kwargs):
@@ -112,12 +114,14 @@ def start_server(host: str, port: int):
             used.append(root)
         return original(*args, **kwargs)
 
-    infra.WebsockServer = websock_server
-    try:
-        with contextlib.redirect_stdout(io.StringIO()):      # viser's banner; the commands print the address
-            server = viser.ViserServer(host=host, port=port, verbose=False)
-    finally:
-        infra.WebsockServer = original
+    with _SWAP:
+        original = infra.WebsockServer
+        infra.WebsockServer = websock_server
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):      # viser's banner; the commands print the address
+                server = viser.ViserServer(host=host, port=port, verbose=False)
+        finally:
+            infra.WebsockServer = original
     if root is not None and not used:
         log.info("viser built its server differently; serving its own page")
     return server, bool(used)

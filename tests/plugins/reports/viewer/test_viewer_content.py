@@ -306,3 +306,30 @@ def test_drawn_quads_overlap_their_neighbours_in_their_plane():
     grown = _widen_quads(np.vstack([square, square + [5, 0, 0]]), 0.01)
     np.testing.assert_allclose(grown[:4], [[-0.01, -0.01, 2], [1.01, -0.01, 2], [1.01, 1.01, 2], [-0.01, 1.01, 2]])
     np.testing.assert_allclose(grown[4:], grown[:4] + [5, 0, 0])
+
+
+def test_the_served_page_is_vipers_with_the_software_webgl_script(tmp_path, monkeypatch):
+    """The viewer serves viser's page with its script first in the head (before viser's own script), written once
+    into the user's cache; viser's page itself is unchanged."""
+    import urllib.request
+    from pathlib import Path
+
+    import viser
+    from pliant_viewer import page
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    original = (Path(viser.__file__).parent / "client" / "build" / "index.html").read_text(encoding="utf-8")
+    patched = page.patch(original)
+    head = original.index("<head>") + len("<head>")
+    assert head < original.index("<script") and page.SOFTWARE_WEBGL not in original
+    assert patched.index(page.SOFTWARE_WEBGL) == head                      # before any script of viser's
+    assert patched.replace(page.SOFTWARE_WEBGL, "") == original
+    root = page.client_root()
+    assert root.parent == tmp_path / "pliant" / "viewer" and (root / "index.html").read_text() == patched
+    v = Viewer()
+    try:
+        assert v.page_patched
+        served = urllib.request.urlopen(v.url, timeout=30).read().decode("utf-8")
+        assert served == patched
+    finally:
+        v.stop()
