@@ -58,8 +58,9 @@ def add_table_command(subparsers):
     parser = subparsers.add_parser(
         "learn-table", help="thesis Table 4.1: plan every demonstration task with the recovered sensitivities",
         description="Learn from all 12 adjacent pairs of the hollow cube, then plan each task --plans times with "
-                    "RRT* (puncture check on, the task's funnel) for --max-time s with the recovered sensitivities, "
-                    "and compare planned and demonstrated deformation in the true sensitivities.  Resumable.")
+                    "the recovered sensitivities: RRT* (puncture check on, the task's funnel) for --max-iterations "
+                    "iterations (or --max-time s), a shortcut, then --refine rounds of local search in the recovered "
+                    "cost.  Compares planned and demonstrated deformation in the true sensitivities.  Resumable.")
     parser.add_argument("--plans", type=int, default=None, help="RRT* runs per task (default 3, --quick 1; thesis 30 "
                         "and 15)")
     budget = parser.add_mutually_exclusive_group()
