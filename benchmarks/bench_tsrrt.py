@@ -163,6 +163,8 @@ def main() -> None:
     parser.add_argument("--nodes", type=int, default=1500, help="tree size for the scaling runs")
     parser.add_argument("--holdout", type=int, default=5)
     parser.add_argument("--noise", type=float, default=0.004, help="paddle placement noise (m, std)")
+    parser.add_argument("--action-limit", type=int, default=300, help="most pushes per execution (the pipelines' "
+                        "[execution] action_limit)")
     parser.add_argument("--reach", action="store_true", help="only the reachability check: how close each object "
                         "gets to its pose in the best free-placement arrangement with its own pushes (beam search "
                         "through the models, the other objects ignored), from each seed's start")
@@ -180,7 +182,7 @@ def main() -> None:
     extra = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (s.split("=", 1) for s in args.set)}
     options = TSRRTOptions(placement_noise=args.noise, **extra)
     out: dict = {"budget": args.budget, "iterations": args.iterations, "seeds": seeds, "noise": args.noise,
-                 "options": extra}
+                 "action_limit": args.action_limit, "options": extra}
     load0 = f"{os.getloadavg()[0]:.2f}"
     name = "tsrrt" + ("-quick" if args.quick else "") + ("-plan" if args.plan_only else "") + \
         (f"-it{args.iterations}" if args.iterations else "") + ("-scaling" if args.only_scaling else "")
@@ -236,7 +238,7 @@ def main() -> None:
             for e in range(executions):
                 _, world = world_for("tsrrt-table", noise=True)
                 record = execute_plan(plan, world, scene, np.random.default_rng(50_000 + 100 * seed + e),
-                                      action_limit=200)
+                                      action_limit=args.action_limit)
                 ex.append({"final_cost": record.final_cost, "ratio_reference": record.final_cost / ref_cost,
                            "ratio_plan": record.final_cost / found.cost, "collided": record.collided,
                            "replans": len(record.adaptations), "pushes": len(record.actions),
