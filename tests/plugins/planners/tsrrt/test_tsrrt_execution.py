@@ -100,3 +100,17 @@ def test_a_replanning_that_finds_nothing_cheaper_ends_the_execution(monkeypatch)
     reasons = [r["reason"] for r in record.adaptations]
     assert reasons == ["deviation", "finish"]          # not max_replans finish replannings
     assert len(calls["grow"]) == 2 and record.final_cost > 1.05 * first.cost
+
+
+def test_replanning_from_a_jammed_arrangement_keeps_the_largest_margin_it_allows():
+    from pliant_tsrrt.planner import TOUCH, _room_for
+
+    space = _setup()[-1]
+    s = np.array([[0.3, 0.4, 0.0], [0.5, 0.4, 0.0], [0.8, 0.4, 0.0]])
+    s[1, 0] = 0.3 + 0.12 + 0.05 + 0.005              # the block 5 mm from the book: inside the 10 mm margin
+    assert _room_for(space, s) is not space
+    assert np.isclose(_room_for(space, s).checker.margin, 0.002)      # 2 x 2 mm fits in the 5 mm gap, 2 x 3 does not
+    free = np.array([[0.3, 0.4, 0.0], [0.6, 0.4, 0.0], [0.8, 0.4, 0.0]])
+    assert _room_for(space, free) is space
+    s[1, 0] = 0.3 + 0.12 + 0.05 - 0.004              # overlapping by 4 mm: nothing but touching is left
+    assert _room_for(space, s).checker.margin == TOUCH
