@@ -9,8 +9,10 @@ paddle's pose before each push, from the scene's start to its goal).  Executing 
 (:meth:`PushPlan.execute`, in any simulator that can place objects) performs each push, compares the observed
 arrangement with the one the plan predicted after that push, and replans from the observed arrangement when an
 object is off by more than ``replan_threshold`` (m) or ``replan_angle`` (rad), or when the plan is done and the
-arrangement costs more than ``1 + finish_tolerance`` times the plan's cost ("Robot monitored error and replanned as
-necessary").  A replanning tree starts with the rest of the plan it replaces as one branch.
+arrangement costs more than ``1 + finish_tolerance`` times the *first* plan's cost, until it does not or a
+replanning finds nothing cheaper ("Robot monitored error and replanned as necessary").  A replanning tree starts with
+the rest of the plan it replaces as one branch; the improvement phase of a replanning also connects to the first
+plan's final arrangement.
 """
 
 from __future__ import annotations
@@ -93,8 +95,9 @@ class TSRRTOptions(PushOptions):
                                      "predicted it at this step (m)", minimum=0.0)
     replan_angle: float = option(0.15, "execution: replan when a box is turned this far from the plan's predicted "
                                  "yaw at this step (rad, modulo its symmetry)", minimum=0.0)
-    finish_tolerance: float = option(0.05, "execution: when the plan is done and the arrangement costs more than "
-                                     "(1 + this) x the plan's final cost, replan once more", minimum=0.0)
+    finish_tolerance: float = option(0.05, "execution: when a plan is done and the arrangement costs more than "
+                                     "(1 + this) x the first plan's final cost, replan (toward the first plan's "
+                                     "final arrangement) until it does not or nothing cheaper is found", minimum=0.0)
     replan_time: float = option(5.0, "time budget of each replanning (s)", minimum=0.0)
     max_replans: int = option(20, "most replannings in one execution", minimum=0)
     replan_refine: bool = option(False, "execution: the improvement phase in every replanning; else (default) only "
