@@ -371,17 +371,20 @@ def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, expose
     rhs[:] = 0.0
     hits = 0
     for s in range(segments.shape[0] - 1):
-        if readings[s] > reach:
+        reading = readings[s]
+        if reading > reach:
             continue
-        c0, c1, c2 = centres[s, 0], centres[s, 1], centres[s, 2]
-        ix = int(np.floor((a00 * c0 + a01 * c1 + a02 * c2 + b0 - lo0) * inv))
-        iy = int(np.floor((a10 * c0 + a11 * c1 + a12 * c2 + b1 - lo1) * inv))
-        iz = int(np.floor((a20 * c0 + a21 * c1 + a22 * c2 + b2 - lo2) * inv))
-        if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
-            free = free_clearance[(ix * ny + iy) * nz + iz] - radii[s]
-            if free > 0.0:
-                readings[s] = free + reach
-                continue
+        if reading >= 0.0 or -reading <= reach:
+            c0, c1, c2 = centres[s, 0], centres[s, 1], centres[s, 2]
+            ix = int(np.floor((a00 * c0 + a01 * c1 + a02 * c2 + b0 - lo0) * inv))
+            iy = int(np.floor((a10 * c0 + a11 * c1 + a12 * c2 + b1 - lo1) * inv))
+            iz = int(np.floor((a20 * c0 + a21 * c1 + a22 * c2 + b2 - lo2) * inv))
+            if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
+                free = free_clearance[(ix * ny + iy) * nz + iz] - radii[s]
+                if free > 0.0:
+                    readings[s] = free + reach
+                    continue
+            readings[s] = -(reach + res)           # near an obstacle: its points one by one until it moved a voxel
         for i in range(segments[s], segments[s + 1]):
             if distance[i] > reach:
                 continue

@@ -15,7 +15,10 @@ corrections do not converge, the microstep is reverted and the particle's step i
 step scaling against oscillation); after ``max_halvings`` it stays where it is for the rest of the step.
 
 All particles advance together (batch first); ``simulate`` reports, per particle, the final
-configuration, whether it touched anything, whether it is stuck, and whether it reached the target.
+configuration, whether it touched anything, whether it is stuck, and whether it reached the target.  For rigid
+bodies one compiled call takes every particle through a whole control step (:func:`.rigid_kernel.fused_advance`,
+the microsteps' noise drawn first in the same order); its broad phase only skips points that cannot collide, so the
+particles are the same as the generic path's.
 """
 
 from __future__ import annotations
