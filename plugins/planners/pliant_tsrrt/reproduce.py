@@ -41,6 +41,8 @@ PLACEMENT_NOISE = 0.004
 ACTUATION_NOISE = 0.01
 #: an execution ends "within the cost tolerance" (issue 18, docs/plugins/tsrrt.md) at most 10 % above the plan's cost
 EXECUTION_TOLERANCE = 0.10
+#: pushes an execution may take, replans included (the pipelines' limit)
+ACTION_LIMIT = 300
 
 
 def declarations() -> list:
@@ -105,7 +107,7 @@ def poster(run: ReproductionRun) -> Outcome:
     from pliant_tsrrt.search import grow, redundant_actions
 
     settings = {**SETTINGS[run.mode], "iterations": ITERATIONS, "scene": SCENE, "placement_noise": PLACEMENT_NOISE,
-                "actuation_noise": ACTUATION_NOISE}
+                "actuation_noise": ACTUATION_NOISE, "action_limit": ACTION_LIMIT}
     run.output.mkdir(parents=True, exist_ok=True)
     options = TSRRTOptions(placement_noise=PLACEMENT_NOISE)
 
@@ -139,7 +141,8 @@ def poster(run: ReproductionRun) -> Outcome:
                   "start_centre_offset": centre_offset(s0, space.fp, table), "executions": []}
         for e in range(settings["executions"]):
             _, noisy = _world(noise=True)
-            done = execute_plan(plan, noisy, scene, np.random.default_rng(50_000 + 100 * seed + e), action_limit=200)
+            done = execute_plan(plan, noisy, scene, np.random.default_rng(50_000 + 100 * seed + e),
+                                action_limit=ACTION_LIMIT)
             record["executions"].append({"final_cost": done.final_cost, "collided": bool(done.collided),
                                          "replans": len(done.adaptations), "pushes": len(done.actions),
                                          "outcome": done.outcome})
