@@ -6,9 +6,9 @@
    (:class:`pliant.experiments.executor.LoopbackCluster`).  Overhead = wall time / tasks.  Figure to reach:
    <= 5 ms a task for Ray on loopback.
 2. Throughput scaling: ``--tasks`` real tasks (the path metric's Simulation evaluations of ``pliant metric-table``,
-   se2-through-passage, ``--simulations`` each: about 0.7 s with 800 on an idle core) with the local pool of 1 and 2 workers and
-   Ray on the same cluster; tasks per second and the speed-up over one local worker.  Records are checked equal
-   across executors (but for their wall time).
+   se2-through-passage, ``--simulations`` each: about 0.7 s with 800 on an idle core) with the local pool of 1 and 2
+   workers and Ray on the same cluster; tasks per second and the speed-up over one local worker.  Records are
+   checked equal across executors (but for their wall time).
 3. The estimate for a 100-node cluster on the full Table 5.1 (docs/experiments.md): printed from the measured
    overhead and ``--task-seconds`` (one Table 5.1 task: planning plus 8 pybullet executions).
 
@@ -77,7 +77,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--noop", type=int, default=400, help="no-op tasks for the overhead (default 400)")
     parser.add_argument("--tasks", type=int, default=18, help="real tasks for the scaling (default 18)")
-    parser.add_argument("--simulations", type=int, default=800, help="simulations per real task (default 800: about 0.7 s)")
+    parser.add_argument("--simulations", type=int, default=800,
+                        help="simulations per real task (default 800: about 0.7 s)")
     parser.add_argument("--task-seconds", type=float, default=480.0,
                         help="one full-protocol Table 5.1 task (s) for the estimate (default 480: the thesis's 300 s "
                              "of planning + 40 pybullet executions at the 4.5 s each measured for a WCR 0.75 policy)")
