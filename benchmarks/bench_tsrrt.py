@@ -33,10 +33,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import pliant
 from _common import print_table, write_json
-from pliant import registry
-from pliant.interfaces import Context
 from pliant.termination import Termination
 from pliant_tsrrt.learning import learn_models
 from pliant_tsrrt.planner import (
@@ -50,6 +47,7 @@ from pliant_tsrrt.planner import (
 )
 from pliant_tsrrt.pushing import PRIMITIVES
 from pliant_tsrrt.reference import optimise, random_arrangements
+from pliant_tsrrt.reproduce import world
 from pliant_tsrrt.search import grow, redundant_actions
 
 SETTING_ORDER = ["plate-1", "fork-1", "knife-1", "cup-1", "plate-2", "fork-2", "knife-2", "cup-2"]
@@ -59,13 +57,9 @@ SETTING_RELATIONS = {"plate-1": "table 0.3 0.25", "fork-1": "plate-1 -0.15 0.0",
 
 
 def world_for(scene_name: str, noise: bool):
-    """The pymunk world on a scene (bounded actuation noise of 0.01 m/s with ``noise``)."""
-    scene = pliant.load_scene(scene_name)
-    ctx = Context(scene=scene)
-    ctx.robot = registry.create("robot", "rigid", ctx)
-    extra = {"noise": "bounded", "noise_linear": 0.01, "noise_angular": 0.01} if noise else {}
-    sim = registry.create("simulator", "pymunk", ctx, max_force=50.0, table_friction=0.5, **extra)
-    return scene, sim
+    """The pymunk world on a scene (bounded actuation noise of 0.01 m/s with ``noise``), as the poster
+    reproduction builds it."""
+    return world(scene_name, noise)
 
 
 def relations_for(names: list[str]) -> tuple[str, ...]:

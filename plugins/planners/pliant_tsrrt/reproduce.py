@@ -53,13 +53,14 @@ def declarations() -> list:
                          "pliant_tsrrt.reproduce:poster", MODES, MINUTES)]
 
 
-def _world(noise: bool):
-    """The scene and a pymunk world on it (through the registry: this plugin does not import the simulator's)."""
+def world(scene_name: str = SCENE, noise: bool = True):
+    """The scene ``scene_name`` and a pymunk world on it, with the docs' bounded actuation noise when ``noise``
+    (through the registry: this plugin does not import the simulator's).  The benchmark uses it too."""
     import pliant
     from pliant import registry
     from pliant.interfaces import Context
 
-    scene = pliant.load_scene(SCENE)
+    scene = pliant.load_scene(scene_name)
     ctx = Context(scene=scene)
     ctx.robot = registry.create("robot", "rigid", ctx)
     extra = {"noise": "bounded", "noise_linear": ACTUATION_NOISE, "noise_angular": ACTUATION_NOISE} if noise else {}
@@ -112,9 +113,9 @@ def poster(run: ReproductionRun) -> Outcome:
     options = TSRRTOptions(placement_noise=PLACEMENT_NOISE)
 
     run.echo("LEARN_MODEL on the three classes, with noise")
-    scene, world = _world(noise=True)
+    scene, sim = world()
     t0 = time.perf_counter()
-    models, report = learn_models(arena(world, scene, options), learn_settings(options), np.random.default_rng(0),
+    models, report = learn_models(arena(sim, scene, options), learn_settings(options), np.random.default_rng(0),
                                   holdout=5)
     learn_seconds = time.perf_counter() - t0
     names = [o.name for o in scene.objects if o.movable]
@@ -140,7 +141,7 @@ def poster(run: ReproductionRun) -> Outcome:
                   "centre_offset": centre_offset(found.states[-1], space.fp, table),
                   "start_centre_offset": centre_offset(s0, space.fp, table), "executions": []}
         for e in range(settings["executions"]):
-            _, noisy = _world(noise=True)
+            _, noisy = world()
             done = execute_plan(plan, noisy, scene, np.random.default_rng(50_000 + 100 * seed + e),
                                 action_limit=ACTION_LIMIT)
             record["executions"].append({"final_cost": done.final_cost, "collided": bool(done.collided),

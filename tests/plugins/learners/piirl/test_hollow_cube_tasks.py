@@ -133,24 +133,34 @@ def test_the_outline_meets_every_half_space_exactly_when_all_body_points_do(scen
         assert np.allclose((outline @ n).max(axis=1), (points @ n).max(axis=1))    # the same support function
 
 
-def test_refining_a_poor_path_lowers_its_cost_keeps_the_task_and_respects_the_check(cube, demonstration):
-    from pliant_piirl.verification import refine
-
+def _costliest_sample(cube, demonstration, samples: int):
+    """The demonstration's task and the costliest (true sensitivities) of ``samples`` wide samples around it:
+    ``features, task, shown, weights, poor``."""
     scene, _, features = cube
     _, task, shown = demonstration
     weights = features.sensitivity_vector(true_sensitivities(scene))
-    wide = PathSampler(features, TIP, SampleOptions(samples=40, translation=0.012, rotation=0.2))
+    wide = PathSampler(features, TIP, SampleOptions(samples=samples, translation=0.012, rotation=0.2))
     drawn = wide.draw(shown, np.random.default_rng(5))
-    costs = features.of_paths(drawn) @ weights
-    poor = drawn[int(np.argmax(costs))]
-    poor_cost = float(costs.max())
+    return features, task, shown, weights, drawn[int(np.argmax(features.of_paths(drawn) @ weights))]
+
+
+def _assert_keeps_the_task(path, task, features) -> None:
+    """The path's tip ends on the task's target and no configuration breaks the task's collision planes."""
+    rot, pos, _ = features.robot.rigid_placement(path[-1:])
+    assert np.allclose(rot[0] @ TIP + pos[0], task.target, atol=1e-9)
+    assert task.allows(features.robot.body_points(features.states(path))).all()
+
+
+def test_refining_a_poor_path_lowers_its_cost_keeps_the_task_and_respects_the_check(cube, demonstration):
+    from pliant_piirl.verification import refine
+
+    features, task, shown, weights, poor = _costliest_sample(cube, demonstration, 40)
+    poor_cost = float(features.of_path(poor) @ weights)
     assert poor_cost > float(features.of_path(shown.path) @ weights)
     better = refine(poor, task, features, weights, TIP, np.random.default_rng(6), rounds=4, samples=40)
     assert float(features.of_path(better) @ weights) < poor_cost
     assert np.array_equal(better[0], poor[0])
-    rot, pos, _ = features.robot.rigid_placement(better[-1:])
-    assert np.allclose(rot[0] @ TIP + pos[0], task.target, atol=1e-9)
-    assert task.allows(features.robot.body_points(features.states(better))).all()
+    _assert_keeps_the_task(better, task, features)
     refused = refine(poor, task, features, weights, TIP, np.random.default_rng(6), rounds=2, samples=20,
                      check=lambda path: False)
     assert refused is poor or np.array_equal(refused, poor)
@@ -195,17 +205,10 @@ def test_candidates_made_elsewhere_are_kept_as_the_sampler_keeps_its_own(cube, d
 def test_refining_with_pivots_and_step_adaptation_is_seeded_and_keeps_the_task(cube, demonstration):
     from pliant_piirl.verification import refine
 
-    scene, _, features = cube
-    _, task, shown = demonstration
-    weights = features.sensitivity_vector(true_sensitivities(scene))
-    wide = PathSampler(features, TIP, SampleOptions(samples=20, translation=0.012, rotation=0.2))
-    drawn = wide.draw(shown, np.random.default_rng(5))
-    poor = drawn[int(np.argmax(features.of_paths(drawn) @ weights))]
+    features, task, _, weights, poor = _costliest_sample(cube, demonstration, 20)
     options = {"rounds": 4, "samples": 20, "pivots": 20, "translation": 0.02, "rotation": 0.3, "shrink": 0.8,
                "grow": 1.2}
     better = refine(poor, task, features, weights, TIP, np.random.default_rng(6), **options)
     assert float(features.of_path(better) @ weights) < float(features.of_path(poor) @ weights)
     assert np.array_equal(better, refine(poor, task, features, weights, TIP, np.random.default_rng(6), **options))
-    rot, pos, _ = features.robot.rigid_placement(better[-1:])
-    assert np.allclose(rot[0] @ TIP + pos[0], task.target, atol=1e-9)
-    assert task.allows(features.robot.body_points(features.states(better))).all()
+    _assert_keeps_the_task(better, task, features)
