@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pliant_tsrrt import kernels
 from pliant_tsrrt.geometry import BOX, Footprints, extents
 
 TERMS = ("orthogonality", "area", "edge", "setting")
@@ -50,6 +51,10 @@ class TaskCost:
         self.area_ref = (x1 - x0) * (y1 - y0)
         self.d_ref = 0.5 * min(x1 - x0, y1 - y0)
         self.boxes = self.fp.kind == BOX
+        rel = self.relations
+        self._kernel_args = (self.fp.kind, self.fp.half, np.asarray(self.table, dtype=np.float64),
+                             np.asarray(self.weights, dtype=np.float64), rel[:, 0].astype(np.int64),
+                             rel[:, 1].astype(np.int64), rel[:, 2].copy(), rel[:, 3].copy(), float(self.setting_scale))
 
     def terms(self, states: np.ndarray) -> np.ndarray:
         """``(n, 4)``: the unweighted terms (:data:`TERMS`) of arrangements ``(n, k, 3)``."""
@@ -74,7 +79,15 @@ class TaskCost:
         return np.stack([orth, area, edge, setting], axis=-1)
 
     def cost(self, states: np.ndarray) -> np.ndarray:
-        """``(n,)``: the weighted total of arrangements ``(n, k, 3)``."""
+        """``(n,)``: the weighted total of arrangements ``(n, k, 3)``; compiled (:func:`pliant_tsrrt.kernels.task_cost`,
+        the same formulas as :meth:`terms`)."""
+        states = np.ascontiguousarray(states, dtype=np.float64)
+        if states.ndim == 2:
+            states = states[None]
+        return kernels.task_cost(states, *self._kernel_args)
+
+    def cost_numpy(self, states: np.ndarray) -> np.ndarray:
+        """:meth:`cost` from :meth:`terms` (batched numpy)."""
         return self.terms(states) @ np.asarray(self.weights, dtype=np.float64)
 
     def gradient(self, states: np.ndarray, h: float = 1e-5) -> np.ndarray:

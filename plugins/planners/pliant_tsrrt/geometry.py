@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pliant_tsrrt import kernels
+
 BOX, CIRCLE = 0, 1
 
 
@@ -138,7 +140,8 @@ class CollisionChecker:
 
     def __post_init__(self) -> None:
         k = len(self.objects)
-        self.obstacle_poses = np.asarray(self.obstacle_poses, dtype=np.float64).reshape(-1, 3)
+        self.obstacle_poses = np.ascontiguousarray(self.obstacle_poses, dtype=np.float64).reshape(-1, 3)
+        self._table = np.asarray(self.table, dtype=np.float64)
         iu = np.triu_indices(k, 1)
         self._pairs = (iu[0], iu[1])
         self._pair_fp = (self.objects.subset(iu[0]), self.objects.subset(iu[1]))
@@ -170,7 +173,16 @@ class CollisionChecker:
         return pair_overlap(states[:, oi], self._obs_fp[0], obs, self._obs_fp[1], self.margin)
 
     def in_collision(self, states: np.ndarray) -> np.ndarray:
-        """Bool ``(n,)`` for arrangements ``(n, k, 3)`` (or one ``(k, 3)``: then ``(1,)``)."""
+        """Bool ``(n,)`` for arrangements ``(n, k, 3)`` (or one ``(k, 3)``: then ``(1,)``); compiled
+        (:func:`pliant_tsrrt.kernels.in_collision`, the same tests as :meth:`in_collision_numpy`)."""
+        states = np.ascontiguousarray(states, dtype=np.float64)
+        if states.ndim == 2:
+            states = states[None]
+        return kernels.in_collision(states, self.objects.kind, self.objects.half, self.obstacles.kind,
+                                    self.obstacles.half, self.obstacle_poses, self._table, float(self.margin))
+
+    def in_collision_numpy(self, states: np.ndarray) -> np.ndarray:
+        """:meth:`in_collision` in batched numpy (pair by pair over the batch)."""
         states = np.asarray(states, dtype=np.float64)
         if states.ndim == 2:
             states = states[None]

@@ -52,6 +52,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pliant.termination import Condition, Termination
 
+from pliant_tsrrt import kernels
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corners
 from pliant_tsrrt.models import compose
@@ -105,13 +106,20 @@ class ObjectSpace:
     period: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
-        self.means = np.asarray(self.means, dtype=np.float64)
+        self.means = np.ascontiguousarray(self.means, dtype=np.float64)
         self.k = len(self.fp)
         self.scale = np.where(self.fp.kind == CIRCLE, 0.0, self.fp.radius)
         square = np.abs(self.fp.half[:, 0] - self.fp.half[:, 1]) < 1e-9
         self.period = np.where(square, np.pi / 2, np.pi)
         self.step_length = float(np.mean(np.linalg.norm(self.means[..., :2], axis=-1)))
         self.frames = contact_frames(self.fp, self.push.turn_offset)
+        # the paddle's swept box per (object, primitive) in the object's frame (paddle_sweep_rows): its centre, its
+        # heading and its half extents, for the compiled validity check
+        objs, prims = np.divmod(np.arange(self.k * N_PRIMITIVES), N_PRIMITIVES)
+        pose, half = paddle_sweep_rows(np.zeros((len(objs), 3)), objs, prims, self.fp, self.push, self.frames)
+        self._sweep = (np.ascontiguousarray(pose[:, :2].reshape(self.k, N_PRIMITIVES, 2)),
+                       np.ascontiguousarray(pose[:, 2].reshape(self.k, N_PRIMITIVES)),
+                       np.ascontiguousarray(half.reshape(self.k, N_PRIMITIVES, 2)))
 
     # --- MODEL, rho, IN_COLLISION ------------------------------------------------------------------------------
 
@@ -154,13 +162,24 @@ class ObjectSpace:
         return self.valid_steps(np.repeat(s[None], len(actions), axis=0), outcomes, np.asarray(actions))
 
     def valid_steps(self, before: np.ndarray, after: np.ndarray, actions: np.ndarray) -> np.ndarray:
-        """Bool ``(m,)``: whether each step ``before[j] -a_j-> after[j]`` (``(m, k, 3)`` each) is valid, batched."""
+        """Bool ``(m,)``: whether each step ``before[j] -a_j-> after[j]`` (``(m, k, 3)`` each) is valid, batched;
+        compiled (:func:`pliant_tsrrt.kernels.valid_steps`, the same tests as :meth:`valid_steps_numpy`)."""
+        actions = np.asarray(actions, dtype=np.int64)
+        c = self.checker
+        return kernels.valid_steps(np.ascontiguousarray(before, dtype=np.float64),
+                                   np.ascontiguousarray(after, dtype=np.float64), actions // N_PRIMITIVES,
+                                   actions % N_PRIMITIVES, self.means, c.objects.kind, c.objects.half,
+                                   c.obstacles.kind, c.obstacles.half, c.obstacle_poses, c._table, float(c.margin),
+                                   *self._sweep, np.asarray(self.bounds, dtype=np.float64))
+
+    def valid_steps_numpy(self, before: np.ndarray, after: np.ndarray, actions: np.ndarray) -> np.ndarray:
+        """:meth:`valid_steps` in batched numpy."""
         m = len(actions)
         rows = np.arange(m)
         objs, prims = actions // N_PRIMITIVES, actions % N_PRIMITIVES
         half = after.copy()
         half[rows, objs] = compose(before[rows, objs], 0.5 * self.means[objs, prims])
-        hit = self.checker.in_collision(np.concatenate([after, half]))
+        hit = self.checker.in_collision_numpy(np.concatenate([after, half]))
         ok = ~hit[:m] & ~hit[m:]
         boxes, sh = paddle_sweep_rows(before[rows, objs], objs, prims, self.fp, self.push, self.frames)
         ok &= ~self.checker.boxes_hit(before, boxes, sh, objs)

@@ -1,0 +1,50 @@
+"""The compiled kernels of TS-RRT (IN_COLLISION, the validity of single-object steps, the task cost) answer exactly
+what the batched numpy code answers, on random batches crowded enough that many arrangements are near a collision."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pliant_tsrrt.cost import TaskCost
+from pliant_tsrrt.geometry import BOX, CIRCLE, CollisionChecker, Footprints
+from pliant_tsrrt.pushing import PushSettings
+from pliant_tsrrt.search import ObjectSpace
+
+TABLE = (0.0, 0.0, 1.0, 0.8)
+BOUNDS = (-0.2, -0.2, 1.2, 1.0)
+MODEL = [[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], [0.001, 0.002, 0.2], [0.001, -0.002, -0.2]]
+OBJECTS = Footprints([BOX, BOX, CIRCLE, BOX], [[0.12, 0.08], [0.05, 0.05], [0.05, 0.05], [0.09, 0.015]])
+OBSTACLES = (Footprints([BOX, CIRCLE], [[0.1, 0.02], [0.04, 0.04]]), np.array([[0.5, 0.4, 0.3], [0.2, 0.6, 0.0]]))
+
+
+def _space(k, obstacles, margin):
+    fp = OBJECTS.subset(np.arange(k))
+    checker = CollisionChecker(fp, obstacles[0], obstacles[1], TABLE, margin)
+    relations = np.array([[1, 0, 0.2, 0.0], [0, -1, 0.3, 0.25]]) if k > 1 else np.zeros((0, 4))
+    cost = TaskCost(fp, TABLE, (1.0, 0.7, 1.3, 0.5), relations[: max(0, k - 1)], 0.1)
+    return ObjectSpace(fp, np.array([MODEL] * k, dtype=float), checker, cost, PushSettings(), BOUNDS)
+
+
+def _crowded(space, rng, n):
+    states = np.stack([space.random_config(rng) for _ in range(n)])
+    states[: n // 2, :, :2] = np.array([0.5, 0.4]) + rng.normal(0.0, 0.15, (n // 2, space.k, 2))
+    return states
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 4])
+@pytest.mark.parametrize("with_obstacles", [False, True])
+@pytest.mark.parametrize("margin", [0.0, 0.01, -0.001])
+def test_kernels_agree_with_numpy(k, with_obstacles, margin):
+    none = (Footprints(np.zeros(0, dtype=int), np.zeros((0, 2))), np.zeros((0, 3)))
+    space = _space(k, OBSTACLES if with_obstacles else none, margin)
+    rng = np.random.default_rng(k * 10 + with_obstacles)
+    states = _crowded(space, rng, 4000)
+    hit = space.checker.in_collision(states)
+    assert np.array_equal(hit, space.checker.in_collision_numpy(states))
+    assert 0 < hit.sum() < len(hit)
+    assert np.allclose(space.cost.cost(states), space.cost.cost_numpy(states), rtol=0, atol=1e-12)
+    actions = rng.integers(0, 6 * k, len(states))
+    after = np.stack([space.step(s, a) for s, a in zip(states, actions)])
+    ok = space.valid_steps(states, after, actions)
+    assert np.array_equal(ok, space.valid_steps_numpy(states, after, actions))
+    assert 0 < ok.sum() < len(ok)
