@@ -60,7 +60,7 @@ def signatures(view) -> dict[str, list[str]]:
     if view.path_xyz is not None and len(view.path_xyz) > 1:
         sig["path"] = [browser.segments_signature(len(view.path_xyz) - 1)]
     if view.tree is not None:
-        sig["policy"] = [browser.segments_signature(len(view.tree.edges)),
+        sig["policy"] = [browser.lines_signature(len(view.tree.edges)),
                          browser.points_signature(len(view.tree.nodes)),
                          browser.points_signature(len(view.tree.particles))]
     return sig

@@ -150,11 +150,12 @@ def orbit(driver, seconds: float) -> int:
     return strokes
 
 
-# Every WebGL draw call of the page, by signature "mode:count:instances" (mode 4 triangles, 0 points; count the
-# indices or vertices drawn; instances 1 unless instanced), with the time (Date.now(), ms) it was first drawn.  A
+# Every WebGL draw call of the page, by signature "mode:count:instances" (mode 4 triangles, 1 lines, 0 points; count
+# the indices or vertices drawn; instances 1 unless instanced), with the time (Date.now(), ms) it was first drawn.  A
 # drawn node has its own signature: a mesh of F triangles "4:3F:1", a cloud of N points "0:N:1", S line segments
-# "4:18:S" (viser draws them as instanced quads).  viser renders every animation frame, so a node drawn once is drawn
-# in every frame after it (while in view): the first frame holding a set of nodes is the latest of their first draws.
+# "4:18:S" (viser draws them as instanced quads), S segments as WebGL lines (the tree's edges) "1:2S:1".  viser
+# renders every animation frame, so a node drawn once is drawn in every frame after it (while in view): the first
+# frame holding a set of nodes is the latest of their first draws.
 DRAW_PROBE = """
 window.__pliantDraws = {};
 window.__pliantDrawCalls = 0;
@@ -198,3 +199,8 @@ def points_signature(n: int) -> str:
 
 def segments_signature(n: int) -> str:
     return f"4:18:{int(n)}"
+
+
+def lines_signature(n: int) -> str:
+    """``n`` segments drawn as WebGL lines (``gl.LINES``, mode 1: 2n vertices in one call; pliant_viewer.glb)."""
+    return f"1:{2 * int(n)}:1"

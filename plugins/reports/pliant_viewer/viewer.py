@@ -33,7 +33,7 @@ import numpy as np
 from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import Context
 
-from pliant_viewer import content
+from pliant_viewer import content, glb
 
 log = logging.getLogger(__name__)
 
@@ -449,12 +449,12 @@ class Viewer:
         self.tree_drawn = int(keep.sum())
         edges = tree.edges[keep[tree.edges[:, 0]] & keep[tree.edges[:, 1]]] if len(tree.edges) else tree.edges
         if len(edges):
-            # line segments: in headless Chromium (software WebGL) 10,000 of them drew at 35 frames/s where the same
-            # edges as a mesh of crossed ribbons drew at 2
+            # WebGL lines (a GLB of one LINES primitive, one draw call), not viser's line segments: those are
+            # instanced quads, and software WebGL (SwiftShader) pays 20-35 us per instance -- 2,000 edges were half
+            # of a drawn frame of baxter-reach's page and 10,000 most of one (pliant_viewer.glb)
             segments = np.stack([tree.nodes[edges[:, 0]], tree.nodes[edges[:, 1]]], axis=1)
-            self._add("/policy/edges", s.add_line_segments("/policy/edges", segments.astype(np.float32),
-                                                           colors=content.TREE_COLOUR, thickness=1.0,
-                                                           thickness_units="screen"))
+            self._add("/policy/edges", s.add_glb("/policy/edges", glb.lines(segments, content.TREE_COLOUR),
+                                                 cast_shadow=False, receive_shadow=False))
         node_colours = content.probability_colours(tree.probability)
         self._add("/policy/nodes", s.add_point_cloud("/policy/nodes", tree.nodes[keep].astype(np.float32),
                                                      colors=node_colours[keep], point_size=radius * 0.8,

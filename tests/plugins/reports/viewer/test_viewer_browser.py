@@ -62,6 +62,7 @@ def test_page_shows_the_run_and_the_slider_moves_the_robot(chromium, maze_run):
         assert viewer.url.startswith("http://127.0.0.1:")
         viewer.show(view)
         d = chromium.driver
+        browser.install_draw_probe(d)
         d.get(viewer.url)
         browser.wait_for_text(d, f"pliant -- {scene.name}")
         browser.dismiss_notifications(d)
@@ -79,6 +80,12 @@ def test_page_shows_the_run_and_the_slider_moves_the_robot(chromium, maze_run):
                                      ".map(c => c.getContext('webgl2')).filter(g => g)"
                                      ".map(g => g.getContextAttributes().antialias)")
         assert antialias and not any(antialias)
+        # the policy's edges are drawn as WebGL lines (one non-instanced call of len(path) - 1 segments), not as
+        # instanced quads (pliant_viewer.glb)
+        t0 = time.perf_counter()
+        while browser.lines_signature(len(path) - 1) not in browser.first_draws(d):
+            assert time.perf_counter() - t0 < 30, browser.first_draws(d)
+            time.sleep(0.1)
         # the browser's WebGL render: not blank, with the walls' material colour on screen
         image = _render(viewer)
         assert image.std() > 5 and len(np.unique(image.reshape(-1, 3), axis=0)) > 50, "blank page"

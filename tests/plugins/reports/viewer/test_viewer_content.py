@@ -10,7 +10,7 @@ import pliant
 import pytest
 from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.scene import Scene
-from pliant_viewer import content
+from pliant_viewer import content, glb
 from pliant_viewer.commands import resolve
 from pliant_viewer.viewer import Viewer, build_content
 
@@ -243,9 +243,12 @@ def test_large_trees_drawn_from_their_first_nodes_and_solutions():
         viewer.show(build_content(scene, policy=policy))
         assert viewer.tree_drawn == 6                                        # nodes 0-3, and 8 and 9
         np.testing.assert_allclose(np.asarray(viewer.nodes["/policy/nodes"].points)[:, 0], [0, 1, 2, 3, 8, 9])
-        assert len(viewer.nodes["/policy/edges"].points) == 4                 # 0-1, 1-2, 2-3, 8-9
+        edges, colour = glb.read_lines(viewer.nodes["/policy/edges"].glb_data)   # WebGL lines (a GLB)
+        np.testing.assert_allclose(edges[:, :, 0], [[0, 1], [1, 2], [2, 3], [8, 9]], atol=1e-6)
+        np.testing.assert_allclose(colour, content.TREE_COLOUR, atol=1e-6)
         viewer._whole_tree(type("Event", (), {"target": type("Box", (), {"value": True})()})())
-        assert viewer.tree_drawn == 10 and len(viewer.nodes["/policy/edges"].points) == 9
+        edges, _ = glb.read_lines(viewer.nodes["/policy/edges"].glb_data)
+        assert viewer.tree_drawn == 10 and len(edges) == 9
         assert "6 nodes drawn" in viewer.summary.content
     finally:
         viewer.stop()
@@ -333,3 +336,31 @@ def test_the_served_page_is_vipers_with_the_software_webgl_script(tmp_path, monk
         assert served == patched
     finally:
         v.stop()
+
+
+def test_lines_glb_is_a_valid_gltf_of_one_lines_primitive():
+    """The tree's edges go to the page as a GLB (glTF 2.0, binary) of one LINES primitive: header and chunks as the
+    glTF spec lays them out (4-byte aligned, lengths adding up), positions and the colour read back."""
+    import struct
+
+    rng = np.random.default_rng(3)
+    segments = rng.uniform(-1, 1, (7, 2, 3))
+    data = glb.lines(segments, (150, 150, 150))
+    magic, version, length = struct.unpack_from("<III", data, 0)
+    assert (magic, version, length) == (0x46546C67, 2, len(data)) and len(data) % 4 == 0
+    json_length, json_kind = struct.unpack_from("<II", data, 12)
+    assert json_kind == 0x4E4F534A and json_length % 4 == 0
+    doc = json.loads(data[20:20 + json_length])
+    (primitive,) = doc["meshes"][0]["primitives"]
+    assert primitive["mode"] == 1 and "indices" not in primitive                 # gl.LINES, one drawArrays
+    accessor = doc["accessors"][primitive["attributes"]["POSITION"]]
+    assert accessor["count"] == 14 and accessor["type"] == "VEC3" and accessor["componentType"] == 5126
+    np.testing.assert_allclose(accessor["min"], segments.reshape(-1, 3).min(axis=0), atol=1e-6)
+    np.testing.assert_allclose(accessor["max"], segments.reshape(-1, 3).max(axis=0), atol=1e-6)
+    bin_length, bin_kind = struct.unpack_from("<II", data, 20 + json_length)
+    assert bin_kind == 0x004E4942 and bin_length == 14 * 12
+    back, colour = glb.read_lines(data)
+    np.testing.assert_allclose(back, segments, atol=1e-6)
+    np.testing.assert_allclose(colour, (150, 150, 150), atol=1e-6)
+    # glTF colours are linear: 150 in sRGB is 0.305 linear
+    assert doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"][0] == pytest.approx(0.3050, abs=1e-4)
