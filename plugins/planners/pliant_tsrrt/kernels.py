@@ -110,11 +110,12 @@ def in_collision(states, kind, half, obs_kind, obs_half, obs_poses, table, margi
 
 @numba.njit(cache=True, nogil=True)
 def valid_steps(before, after, objs, prims, means, kind, half, obs_kind, obs_half, obs_poses, table, margin,
-                sweep_local, sweep_phi, sweep_half, bounds):
+                sweep_local, sweep_phi, sweep_half, bounds, moved_only):
     """Bool ``(m,)``: :meth:`ObjectSpace.valid_steps` -- the arrangement after each step and the one with the moved
     object halfway are free of collisions (margin), and the paddle's swept box (``sweep_local`` ``(k, 6, 2)``: its
     centre in the pushed object's frame, ``sweep_phi`` its heading there, ``sweep_half`` its half extents) touches
-    no other object nor obstacle (no margin) and stays inside ``bounds``."""
+    no other object nor obstacle (no margin) and stays inside ``bounds``.  ``moved_only``: the arrangements before
+    the steps are known to be free of collisions, so only the moved object's pairs are checked after the step."""
     m, k = before.shape[0], before.shape[1]
     out = np.zeros(m, dtype=np.bool_)
     mid = np.empty((k, 3))
@@ -122,10 +123,13 @@ def valid_steps(before, after, objs, prims, means, kind, half, obs_kind, obs_hal
         a = after[i]
         o, p = objs[i], prims[i]
         bad = False
-        for q in range(k):
-            if _object_bad(a, q, kind, half, obs_kind, obs_half, obs_poses, table, margin):
-                bad = True
-                break
+        if moved_only:
+            bad = _object_bad(a, -o - 1, kind, half, obs_kind, obs_half, obs_poses, table, margin)
+        else:
+            for q in range(k):
+                if _object_bad(a, q, kind, half, obs_kind, obs_half, obs_poses, table, margin):
+                    bad = True
+                    break
         if bad:
             continue
         b = before[i]
@@ -205,4 +209,23 @@ def task_cost(states, kind, half, table, weights, rel_a, rel_b, rel_dx, rel_dy, 
             setting += ex * ex + ey * ey
         setting /= setting_scale ** 2
         out[i] = weights[0] * orth + weights[1] * area + weights[2] * edge + weights[3] * setting
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def rollout(s0, objs, prims, means):
+    """The states ``(m + 1, k, 3)`` of the actions ``(objs[j], prims[j])`` from ``s0`` ``(k, 3)``: MODEL applied in
+    turn (:meth:`ObjectSpace.rollout`; angles wrapped to ``[-pi, pi)``)."""
+    m, k = objs.shape[0], s0.shape[0]
+    out = np.empty((m + 1, k, 3))
+    out[0] = s0
+    for j in range(m):
+        out[j + 1] = out[j]
+        o, p = objs[j], prims[j]
+        x, y, t = out[j, o, 0], out[j, o, 1], out[j, o, 2]
+        dx, dy, dt = means[o, p, 0], means[o, p, 1], means[o, p, 2]
+        c, s = math.cos(t), math.sin(t)
+        out[j + 1, o, 0] = x + c * dx - s * dy
+        out[j + 1, o, 1] = y + s * dx + c * dy
+        out[j + 1, o, 2] = (t + dt + math.pi) % (2 * math.pi) - math.pi
     return out

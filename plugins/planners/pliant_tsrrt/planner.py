@@ -75,6 +75,9 @@ class TSRRTOptions(PushOptions):
                                  "targets (basins no variant of the tree's best arrangement lies in)", minimum=0)
     refine_sweeps: int = option(2, "improvement: sweeps over the objects when pushing them toward a target (a later "
                                 "sweep moves objects that others blocked)", minimum=1)
+    polish_depth: int = option(4, "improvement: most pushes of the final beam search over every object's "
+                               "primitives, ordered by the task cost (0: none)", minimum=0)
+    polish_width: int = option(128, "improvement: beam width of that final search", minimum=1)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
     w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
@@ -202,7 +205,8 @@ def search_settings(o: TSRRTOptions) -> SearchSettings:
                           refine_targets=o.refine_targets, refine_rounds=o.refine_rounds,
                           refine_slack=o.refine_slack, refine_depth=o.refine_depth, refine_width=o.refine_width,
                           refine_passes=o.refine_passes, refine_branches=o.refine_branches,
-                          refine_randoms=o.refine_randoms, refine_sweeps=o.refine_sweeps)
+                          refine_randoms=o.refine_randoms, refine_sweeps=o.refine_sweeps,
+                          polish_depth=o.polish_depth, polish_width=o.polish_width)
 
 
 def replan_settings(o: TSRRTOptions, reason: str) -> SearchSettings:

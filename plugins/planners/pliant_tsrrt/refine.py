@@ -143,44 +143,64 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
     closest to the target (fewest pushes among equally close ones; :func:`connect` then cuts the whole sequence
     where the cost is lowest), or ``cost``, the state of lowest task cost seen (``s`` itself when no push lowers
     it: an object whose way to its target first raises the cost then stays)."""
-    acts_o = np.arange(N_PRIMITIVES) + N_PRIMITIVES * o
     means = space.means[o]
-    frontier = s[None]
-    seqs: list[list[int]] = [[]]
+    prims6 = np.arange(N_PRIMITIVES)
+    clean = not space.checker.in_collision(s)[0]          # then only the moved object's pairs need checking
+    poses = s[o][None]                                     # the beam: object o's poses (the others stay)
+    back: list[tuple[np.ndarray, np.ndarray]] = []         # per depth: the kept outcomes' parents and actions
+
+    def sequence(d: int, j: int) -> list[int]:
+        out = []
+        while d >= 0:
+            parent, acts = back[d]
+            out.append(int(acts[j]))
+            j, d = int(parent[j]), d - 1
+        return out[::-1]
+
+    def state(pose: np.ndarray) -> np.ndarray:
+        out = s.copy()
+        out[o] = pose
+        return out
+
     best = (float(space.cost.cost(s[None])[0]), [], s)
     closest, stale = float(_pose_error(space, o, s[o], target)), 0
     near = (closest, [], s)
-    for _ in range(depth):
+    for d in range(depth):
         if _late(deadline) or closest < 1e-3 or stale >= 4:      # there, or no closer for four pushes
             break
-        b = len(frontier)
-        before = np.repeat(frontier, N_PRIMITIVES, axis=0)
-        acts = np.tile(acts_o, b)
-        after = before.copy()
-        after[:, o] = compose(before[:, o], means[acts % N_PRIMITIVES])
-        err = _pose_error(space, o, after[:, o], target)
-        ix = np.round(after[:, o, 0] / 5e-4).astype(np.int64)
-        iy = np.round(after[:, o, 1] / 5e-4).astype(np.int64)
-        it = np.round(((after[:, o, 2] + np.pi) % (2 * np.pi)) / 2e-3).astype(np.int64)
+        b = len(poses)
+        from_pose = np.repeat(poses, N_PRIMITIVES, axis=0)
+        prim = np.tile(prims6, b)
+        to_pose = compose(from_pose, means[prim])
+        err = _pose_error(space, o, to_pose, target)
+        ix = np.round(to_pose[:, 0] / 5e-4).astype(np.int64)
+        iy = np.round(to_pose[:, 1] / 5e-4).astype(np.int64)
+        it = np.round(((to_pose[:, 2] + np.pi) % (2 * np.pi)) / 2e-3).astype(np.int64)
         _, first = np.unique((ix * 1_000_003 + iy) * 4099 + it, return_index=True)
         keep = first[np.argsort(err[first], kind="stable")][: 2 * width]
-        ok = space.valid_steps(before[keep], after[keep], acts[keep])
+        before = np.repeat(s[None], len(keep), axis=0)
+        before[:, o] = from_pose[keep]
+        after = before.copy()
+        after[:, o] = to_pose[keep]
+        ok = space.valid_steps(before, after, prim[keep] + N_PRIMITIVES * o, valid_before=clean)
         keep = keep[ok][:width]
         if not len(keep):
             break
-        seqs = [seqs[i // N_PRIMITIVES] + [int(acts[i])] for i in keep]
-        frontier = after[keep]
+        back.append((keep // N_PRIMITIVES, prim[keep] + N_PRIMITIVES * o))
+        poses = to_pose[keep]
         if err[keep[0]] < closest - 1e-4:
             closest, stale = float(err[keep[0]]), 0
         else:
             stale += 1
         if err[keep[0]] < near[0] - 1e-9:
-            near = (float(err[keep[0]]), seqs[0], frontier[0])
+            near = (float(err[keep[0]]), sequence(d, 0), state(poses[0]))
         if stop == "cost":
+            frontier = np.repeat(s[None], len(poses), axis=0)
+            frontier[:, o] = poses
             c = space.cost.cost(frontier)
             j = int(np.argmin(c))
             if c[j] < best[0] - 1e-12:
-                best = (float(c[j]), seqs[j], frontier[j])
+                best = (float(c[j]), sequence(d, j), frontier[j])
     if stop == "cost":
         return best
     return float(space.cost.cost(near[2][None])[0]), near[1], near[2]
@@ -271,3 +291,42 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     stats = {"refine_targets": goal_costs, "refine_connects": tried, "refine_gain": base - best_cost,
              "refine_branch": keep}
     return best_cost, keep, best_actions, stats
+
+
+def polish(space, s: np.ndarray, depth: int = 4, width: int = 128, deadline: float | None = None) -> tuple[
+        float, list[int]]:
+    """A beam search over every object's primitives from arrangement ``s``, ordered by the task cost: per depth the
+    ``width`` cheapest valid outcomes (duplicates within 0.5 mm / 0.1 degree merged), up to ``depth`` pushes.  Returns
+    the lowest cost seen and the actions to it (none when no sequence lowers the cost).  Unlike the greedy descent
+    (:func:`pliant_tsrrt.search.descend`) it goes through pushes that first raise the cost -- one object moved out
+    of the way, or a turn that needs a push after it -- and moves any objects together."""
+    n_actions = space.k * N_PRIMITIVES
+    acts_all = np.arange(n_actions)
+    objs, prims = acts_all // N_PRIMITIVES, acts_all % N_PRIMITIVES
+    best = (float(space.cost.cost(s[None])[0]), [])
+    frontier = s[None]
+    seqs: list[list[int]] = [[]]
+    for _ in range(depth):
+        if _late(deadline):
+            break
+        b = len(frontier)
+        before = np.repeat(frontier, n_actions, axis=0)
+        acts = np.tile(acts_all, b)
+        after = before.copy()
+        rows = np.arange(len(acts))
+        o = np.tile(objs, b)
+        after[rows, o] = compose(before[rows, o], space.means[o, np.tile(prims, b)])
+        c = space.cost.cost(after)
+        key = np.round(after[:, :, :2] / 5e-4).astype(np.int64).reshape(len(after), -1)
+        key = np.concatenate([key, np.round(((after[:, :, 2] + np.pi) % (2 * np.pi)) / 2e-3).astype(np.int64)], 1)
+        _, first = np.unique(key, axis=0, return_index=True)
+        keep = first[np.argsort(c[first], kind="stable")][: 2 * width]
+        ok = space.valid_steps(before[keep], after[keep], acts[keep])
+        keep = keep[ok][:width]
+        if not len(keep):
+            break
+        seqs = [seqs[i // n_actions] + [int(acts[i])] for i in keep]
+        frontier = after[keep]
+        if c[keep[0]] < best[0] - 1e-12:
+            best = (float(c[keep[0]]), seqs[0])
+    return best

@@ -45,7 +45,6 @@ primitive); MODEL moves that object by its class's mean displacement for the pri
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -57,7 +56,7 @@ from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corners
 from pliant_tsrrt.models import compose
 from pliant_tsrrt.pushing import PushSettings, contact_frames, paddle_sweep_rows
-from pliant_tsrrt.refine import improve
+from pliant_tsrrt.refine import improve, polish
 
 N_PRIMITIVES = 6
 
@@ -88,6 +87,8 @@ class SearchSettings:
     refine_branches: int = 3
     refine_randoms: int = 32
     refine_sweeps: int = 2
+    polish_depth: int = 4
+    polish_width: int = 128
 
 
 @dataclass
@@ -161,16 +162,19 @@ class ObjectSpace:
             actions = np.arange(self.k * N_PRIMITIVES)
         return self.valid_steps(np.repeat(s[None], len(actions), axis=0), outcomes, np.asarray(actions))
 
-    def valid_steps(self, before: np.ndarray, after: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    def valid_steps(self, before: np.ndarray, after: np.ndarray, actions: np.ndarray,
+                    valid_before: bool = False) -> np.ndarray:
         """Bool ``(m,)``: whether each step ``before[j] -a_j-> after[j]`` (``(m, k, 3)`` each) is valid, batched;
-        compiled (:func:`pliant_tsrrt.kernels.valid_steps`, the same tests as :meth:`valid_steps_numpy`)."""
+        compiled (:func:`pliant_tsrrt.kernels.valid_steps`, the same tests as :meth:`valid_steps_numpy`).
+        ``valid_before``: the arrangements before are known to be free of collisions (states of the tree or of a
+        beam), so only the moved object's pairs need checking after the step (the same answer, cheaper)."""
         actions = np.asarray(actions, dtype=np.int64)
         c = self.checker
         return kernels.valid_steps(np.ascontiguousarray(before, dtype=np.float64),
                                    np.ascontiguousarray(after, dtype=np.float64), actions // N_PRIMITIVES,
                                    actions % N_PRIMITIVES, self.means, c.objects.kind, c.objects.half,
                                    c.obstacles.kind, c.obstacles.half, c.obstacle_poses, c._table, float(c.margin),
-                                   *self._sweep, np.asarray(self.bounds, dtype=np.float64))
+                                   *self._sweep, np.asarray(self.bounds, dtype=np.float64), bool(valid_before))
 
     def valid_steps_numpy(self, before: np.ndarray, after: np.ndarray, actions: np.ndarray) -> np.ndarray:
         """:meth:`valid_steps` in batched numpy."""
@@ -196,21 +200,14 @@ class ObjectSpace:
         return np.concatenate([xy, rng.uniform(-np.pi, np.pi, (self.k, 1))], axis=1)
 
     def rollout(self, s0: np.ndarray, actions: list[int]) -> tuple[np.ndarray, bool]:
-        """The predicted states ``(m + 1, k, 3)`` of an action sequence and whether every action was valid."""
-        poses = [list(map(float, p)) for p in s0]
-        means = self.means.tolist()
-        states = [s0]
-        for a in actions:
-            o, p = divmod(int(a), N_PRIMITIVES)
-            x, y, t = poses[o]
-            dx, dy, dt = means[o][p]
-            c, s = math.cos(t), math.sin(t)
-            poses[o] = [x + c * dx - s * dy, y + s * dx + c * dy, (t + dt + math.pi) % (2 * math.pi) - math.pi]
-            states.append([q[:] for q in poses])
-        states = np.array(states, dtype=np.float64)
-        if not len(actions):
+        """The predicted states ``(m + 1, k, 3)`` of an action sequence and whether every action was valid
+        (compiled: :func:`pliant_tsrrt.kernels.rollout`)."""
+        acts = np.asarray(actions, dtype=np.int64).reshape(-1)
+        states = kernels.rollout(np.ascontiguousarray(s0, dtype=np.float64), acts // N_PRIMITIVES,
+                                 acts % N_PRIMITIVES, self.means)
+        if not len(acts):
             return states, True
-        return states, bool(np.all(self.valid_steps(states[:-1], states[1:], np.asarray(actions, dtype=np.int64))))
+        return states, bool(np.all(self.valid_steps(states[:-1], states[1:], acts)))
 
 
 @dataclass
@@ -342,7 +339,8 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     plan.reverse()
     tree_time = time.perf_counter() - t0
     raw_length = len(plan)
-    stats.update(refine_targets=[], refine_connects=0, refine_gain=0.0, refine_pushes=0, refine_branch=len(plan))
+    stats.update(refine_targets=[], refine_connects=0, refine_gain=0.0, refine_pushes=0, refine_branch=len(plan),
+                 beam_pushes=0)
     plan, polished = descend(space, s0, plan)
     if settings.refine and not interrupted:
         path, _ = space.rollout(s0, plan)
@@ -354,6 +352,13 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
                                        randoms=settings.refine_randoms, sweeps=settings.refine_sweeps)
         stats.update(more, refine_pushes=len(extra))
         plan = plan[:keep] + extra
+    if settings.refine and settings.polish_depth > 0 and not interrupted:
+        end = space.rollout(s0, plan)[0][-1]
+        _, extra = polish(space, end, depth=settings.polish_depth, width=settings.polish_width,
+                          deadline=deadline)
+        plan += extra
+        stats["refine_pushes"] += len(extra)
+        stats["beam_pushes"] = len(extra)
     refine_time = time.perf_counter() - t0 - tree_time
     if stats["refine_pushes"]:
         plan, more_polished = descend(space, s0, plan)

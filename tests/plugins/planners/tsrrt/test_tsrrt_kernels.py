@@ -48,3 +48,16 @@ def test_kernels_agree_with_numpy(k, with_obstacles, margin):
     ok = space.valid_steps(states, after, actions)
     assert np.array_equal(ok, space.valid_steps_numpy(states, after, actions))
     assert 0 < ok.sum() < len(ok)
+
+
+def test_rollout_kernel_composes_the_models_in_turn():
+    space = _space(3, (Footprints(np.zeros(0, dtype=int), np.zeros((0, 2))), np.zeros((0, 3))), 0.0)
+    rng = np.random.default_rng(3)
+    s0 = space.random_config(rng)
+    actions = [int(a) for a in rng.integers(0, 18, 40)]
+    states, _ = space.rollout(s0, actions)
+    expected = [s0]
+    for a in actions:
+        expected.append(space.step(expected[-1], a))
+    assert np.allclose(states, np.array(expected), rtol=0, atol=1e-12)
+    assert np.all((states[..., 2] >= -np.pi) & (states[..., 2] < np.pi))
