@@ -60,21 +60,23 @@ class TSRRTOptions(PushOptions):
                              "(a stochastic descent)", minimum=0.0)
     refine: bool = option(True, "after the tree: the improvement phase (free descent of the task cost to a local "
                           "minimum, each object pushed toward it by a beam search through the models)")
-    refine_share: float = option(0.6, "share of a time budget (max_time, replan_time) for the improvement phase; "
+    refine_share: float = option(0.75, "share of a time budget (max_time, replan_time) for the improvement phase; "
                                  "the tree gets the rest", minimum=0.0, maximum=1.0)
-    refine_targets: int = option(2, "improvement: local minima to connect to, per pass", minimum=1)
+    refine_targets: int = option(4, "improvement: local minima to connect to, per pass", minimum=1)
     refine_rounds: int = option(800, "improvement: rounds of the free descent", minimum=1)
     refine_slack: float = option(0.003, "improvement: clearance added to the margin in the free descent (m): room "
                                  "for the pushes' quantisation", minimum=0.0)
-    refine_depth: int = option(20, "improvement: most pushes per object toward its target", minimum=1)
+    refine_depth: int = option(40, "improvement: most pushes per object toward its target", minimum=1)
     refine_width: int = option(64, "improvement: beam width of the search toward a target", minimum=1)
     refine_passes: int = option(2, "improvement: passes (each from the previous one's result)", minimum=1)
     refine_branches: int = option(3, "improvement: nodes of the best path (the best node, the root and evenly "
                                   "between) that connect to the targets", minimum=1)
-    refine_randoms: int = option(32, "improvement: random collision-free arrangements whose free descent adds "
+    refine_randoms: int = option(128, "improvement: random collision-free arrangements whose free descent adds "
                                  "targets (basins no variant of the tree's best arrangement lies in)", minimum=0)
     refine_sweeps: int = option(2, "improvement: sweeps over the objects when pushing them toward a target (a later "
                                 "sweep moves objects that others blocked)", minimum=1)
+    refine_yaw_quota: int = option(4, "improvement: at most this many poses per yaw (0.25 degree bins) in a box's "
+                                   "beam, so that it keeps different numbers of turns (0: no limit)", minimum=0)
     polish_depth: int = option(4, "improvement: most pushes of the final beam search over every object's "
                                "primitives, ordered by the task cost (0: none)", minimum=0)
     polish_width: int = option(128, "improvement: beam width of that final search", minimum=1)
@@ -206,7 +208,9 @@ def search_settings(o: TSRRTOptions) -> SearchSettings:
                           refine_slack=o.refine_slack, refine_depth=o.refine_depth, refine_width=o.refine_width,
                           refine_passes=o.refine_passes, refine_branches=o.refine_branches,
                           refine_randoms=o.refine_randoms, refine_sweeps=o.refine_sweeps,
-                          polish_depth=o.polish_depth, polish_width=o.polish_width)
+                          refine_yaw_quota=o.refine_yaw_quota,
+                          polish_depth=o.polish_depth,
+                          polish_width=o.polish_width)
 
 
 def replan_settings(o: TSRRTOptions, reason: str) -> SearchSettings:

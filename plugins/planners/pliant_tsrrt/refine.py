@@ -135,7 +135,8 @@ def _pose_error(space, o: int, poses: np.ndarray, target: np.ndarray) -> np.ndar
 
 
 def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 20, width: int = 64,
-                deadline: float | None = None, stop: str = "closest") -> tuple[float, list[int], np.ndarray]:
+                deadline: float | None = None, stop: str = "closest", yaw_quota: int = 0) -> tuple[
+                    float, list[int], np.ndarray]:
     """Object ``o`` of arrangement ``s`` pushed toward pose ``target`` ``(3,)``: a beam search over its primitives
     (the ``width`` outcomes closest to the target per depth, duplicates within 0.5 mm / 0.1 degree merged, every step
     valid), up to ``depth`` pushes, stopping early within 1 mm of the target or when four pushes came no closer.
@@ -177,6 +178,16 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
         iy = np.round(to_pose[:, 1] / 5e-4).astype(np.int64)
         it = np.round(((to_pose[:, 2] + np.pi) % (2 * np.pi)) / 2e-3).astype(np.int64)
         _, first = np.unique((ix * 1_000_003 + iy) * 4099 + it, return_index=True)
+        if yaw_quota and space.scale[o] > 0:
+            # at most yaw_quota outcomes per yaw (0.25 degree bins, modulo the footprint's symmetry), so that the
+            # beam keeps the different numbers of turns: a box's yaw is set by how many turns of each sense it had,
+            # and a combination that ends within a degree of the target's yaw may pass through poses farther off
+            bins = np.round((to_pose[first, 2] % space.period[o]) / np.radians(0.25)).astype(np.int64)
+            order = np.lexsort((err[first], bins))
+            sb = bins[order]
+            starts = np.r_[0, np.nonzero(np.diff(sb))[0] + 1]
+            rank = np.arange(len(sb)) - np.repeat(starts, np.diff(np.r_[starts, len(sb)]))
+            first = first[order[rank < yaw_quota]]
         keep = first[np.argsort(err[first], kind="stable")][: 2 * width]
         before = np.repeat(s[None], len(keep), axis=0)
         before[:, o] = from_pose[keep]
@@ -208,7 +219,7 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
 
 def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, width: int = 64,
             deadline: float | None = None, sweeps: int = 1, cache: dict | None = None,
-            stop: str = "closest") -> tuple[float, list[int]]:
+            stop: str = "closest", yaw_quota: int = 0) -> tuple[float, list[int]]:
     """The objects pushed toward ``target`` ``(k, 3)`` one after another in ``order`` (:func:`push_toward`),
     ``sweeps`` times over (a later sweep moves the objects an earlier one left blocked by objects that have moved
     since, while one is more than 5 mm off); returns the final cost and the actions, cut after the push of lowest
@@ -221,10 +232,10 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
         if sweep and max(float(_pose_error(space, int(o), s[int(o)], target[int(o)])) for o in order) < 5e-3:
             break
         for o in order:
-            key = (s.tobytes(), int(o), target.tobytes(), depth, width, stop)
+            key = (s.tobytes(), int(o), target.tobytes(), depth, width, stop, yaw_quota)
             hit = cache.get(key) if cache is not None else None
             if hit is None:
-                hit = push_toward(space, s, int(o), target[int(o)], depth, width, deadline, stop)
+                hit = push_toward(space, s, int(o), target[int(o)], depth, width, deadline, stop, yaw_quota)
                 if cache is not None and not _late(deadline):        # a search cut short is not kept
                     cache[key] = hit
             cost, seq, s = hit
@@ -240,8 +251,7 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
 def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2, rounds: int = 800,
             slack: float = 0.003, depth: int = 20, width: int = 64, max_orders: int = 6, passes: int = 2,
             branch_points: int = 3, deadline: float | None = None, goals: np.ndarray | None = None,
-            randoms: int = 0, sweeps: int = 1) -> tuple[
-                float, int, list[int], dict]:
+            randoms: int = 0, sweeps: int = 1, yaw_quota: int = 0) -> tuple[float, int, list[int], dict]:
     """The improvement phase on the tree's best path ``path`` ``(m + 1, k, 3)`` (its states, start to best node):
     :func:`targets` from the best node (after the given ``goals`` ``(g, k, 3)`` in the first pass: when replanning
     during execution, the arrangement the first plan ends in), then :func:`connect` to each target from the best
@@ -249,6 +259,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     have more room there), for up to ``max_orders`` orders of the objects (all of them for three objects; else the
     identity and its rotations), the orders outermost.  ``randoms``: random arrangements whose free descent adds
     targets (first pass).  Later passes (up to ``passes``, while one gains) start from the previous pass's result.
+    ``yaw_quota``: see :func:`push_toward`.
     Returns the cheapest cost reached, how many of the path's actions to keep, the actions to append, and statistics."""
     s = path[-1]
     base = best_cost = float(space.cost.cost(s[None])[0])
@@ -276,7 +287,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
                 break
             tried += 1
             cost, actions = connect(space, s if b is None else path[b], goal, order, depth, width, deadline, sweeps,
-                                    cache)
+                                    cache, yaw_quota=yaw_quota)
             if cost < best_cost - 1e-12:
                 best_cost, found = cost, (b, actions)
         if found is None:

@@ -77,16 +77,17 @@ class SearchSettings:
     gd_noise: float = 0.7
     duplicate: float = 1e-3
     refine: bool = True
-    refine_share: float = 0.6
-    refine_targets: int = 2
+    refine_share: float = 0.75
+    refine_targets: int = 4
     refine_rounds: int = 800
     refine_slack: float = 0.003
-    refine_depth: int = 20
+    refine_depth: int = 40
     refine_width: int = 64
     refine_passes: int = 2
     refine_branches: int = 3
-    refine_randoms: int = 32
+    refine_randoms: int = 128
     refine_sweeps: int = 2
+    refine_yaw_quota: int = 4
     polish_depth: int = 4
     polish_width: int = 128
 
@@ -349,7 +350,8 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
                                        depth=settings.refine_depth, width=settings.refine_width,
                                        passes=settings.refine_passes, branch_points=settings.refine_branches,
                                        deadline=deadline, goals=None if goal is None else goal[None],
-                                       randoms=settings.refine_randoms, sweeps=settings.refine_sweeps)
+                                       randoms=settings.refine_randoms, sweeps=settings.refine_sweeps,
+                                       yaw_quota=settings.refine_yaw_quota)
         stats.update(more, refine_pushes=len(extra))
         plan = plan[:keep] + extra
     if settings.refine and settings.polish_depth > 0 and not interrupted:

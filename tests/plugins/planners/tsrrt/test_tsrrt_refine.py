@@ -10,7 +10,7 @@ from pliant.termination import Termination
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import BOX, CIRCLE, CollisionChecker, Footprints
 from pliant_tsrrt.pushing import PushSettings
-from pliant_tsrrt.refine import connect, free_descent, improve, push_toward, random_free, targets, variants
+from pliant_tsrrt.refine import connect, free_descent, improve, polish, push_toward, random_free, targets, variants
 from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow, redundant_actions
 
 TABLE = (0.0, 0.0, 1.0, 0.8)
@@ -120,3 +120,26 @@ def test_random_free_arrangements_keep_the_clearance():
     s = np.array([[0.3, 0.3, 0.1], [0.6, 0.5, 0.0], [0.7, 0.2, 0.0]])
     goals = targets(space, s, np.random.default_rng(1), count=3, rounds=100, randoms=8)
     assert 1 <= len(goals) <= 3 and not space.checker.in_collision(goals).any()
+
+
+def test_a_beam_with_a_yaw_quota_still_aligns_a_box_that_needs_pairs_of_turns():
+    # turns of +0.19 and -0.20 rad: a yaw 0.05 rad off is closed by five pairs of turns (ten pushes), each pair
+    # first 0.19 rad farther off; at most two poses per yaw bin, eight in the beam
+    fp = Footprints([BOX], [[0.12, 0.08]])
+    space = _space(fp, [BOOK_MODEL], (1.0, 0.0, 0.0, 0.0))
+    s = np.array([[0.5, 0.4, 0.05]])
+    _, actions, end = push_toward(space, s, 0, np.array([0.5, 0.4, 0.0]), depth=16, width=8, yaw_quota=2)
+    assert space.rollout(s, actions)[1]
+    assert abs(end[0, 2]) < 1e-6 and sorted(set(actions)) == [4, 5]
+
+
+def test_polish_lowers_the_cost_through_valid_pushes_or_returns_nothing():
+    space = _three()
+    rng = np.random.default_rng(5)
+    for s in random_free(space, rng, 6, 0.01):
+        start = float(space.cost.cost(s[None])[0])
+        cost, actions = polish(space, s, depth=3, width=32)
+        assert cost <= start
+        states, ok = space.rollout(s, actions)
+        assert ok and np.isclose(float(space.cost.cost(states[-1][None])[0]), cost)
+        assert (cost < start) == bool(actions)
