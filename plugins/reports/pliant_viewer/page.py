@@ -29,8 +29,11 @@ _SWAP = threading.Lock()        # one server built at a time while viser's Webso
 
 SOFTWARE_WEBGL = """<script>
 (function () {
-  // pliant viewer: no multisampling on a software WebGL renderer (see pliant_viewer/page.py)
-  if (/[?&]antialias=1/.test(location.search)) return;
+  // pliant viewer (see pliant_viewer/page.py): on a software WebGL renderer, no multisampling, and a lighter frame
+  // while the camera moves (half the pixel ratio, at most MOTION_POINTS points of the clouds named in LOD_NODES);
+  // everything at full resolution again once the camera has rested REST_MS
+  var MOTION_SCALE = 0.5, MOTION_POINTS = 10000, MOTION_TICKS = 3, REST_MS = 400, LOD_NODES = ['/policy/particles'];
+  var search = location.search;
   var getContext = HTMLCanvasElement.prototype.getContext, software = null;
   function isSoftware() {
     if (software !== null) return software;
@@ -50,12 +53,74 @@ SOFTWARE_WEBGL = """<script>
     window.__pliantProbeMs = performance.now() - t0;
     return software;
   }
-  HTMLCanvasElement.prototype.getContext = function (type, attributes) {
-    if ((type === 'webgl2' || type === 'webgl') && isSoftware()) {
-      attributes = Object.assign({}, attributes || {}, {antialias: false});
+  if (!/[?&]antialias=1/.test(search)) {
+    HTMLCanvasElement.prototype.getContext = function (type, attributes) {
+      if ((type === 'webgl2' || type === 'webgl') && isSoftware()) {
+        attributes = Object.assign({}, attributes || {}, {antialias: false});
+      }
+      return getContext.call(this, type, attributes);
+    };
+  }
+  // viser's client exposes its scene (window.__viserMutable) and its settings store (window.__viserTestpoints);
+  // without them nothing here happens
+  var lod = {moving: false, engaged: 0, since: -1e9, saved: null, run: 0, changed: false};
+  window.__pliantLod = lod;
+  function reduce(on) {
+    var m = window.__viserMutable, t = window.__viserTestpoints, dirty = on !== lod.moving;
+    if (!m) return;
+    LOD_NODES.forEach(function (name) {
+      var root = m.nodeRefFromName && m.nodeRefFromName[name];
+      if (!root) return;
+      root.traverse(function (o) {
+        var g = o.isPoints && o.geometry, n = g && g.attributes.position ? g.attributes.position.count : 0;
+        var count = on && n > MOTION_POINTS ? MOTION_POINTS : Infinity;
+        if (g && g.drawRange.count !== count) { g.setDrawRange(0, count); dirty = true; }
+      });
+    });
+    if (on !== lod.moving && t && t.devSettings) {
+      if (on) {
+        lod.saved = t.devSettings.get().fixedDpr;
+        t.devSettings.set({fixedDpr: MOTION_SCALE * (lod.saved || window.devicePixelRatio || 1)});
+      } else {
+        t.devSettings.set({fixedDpr: lod.saved});
+      }
     }
-    return getContext.call(this, type, attributes);
-  };
+    if (on && !lod.moving) lod.engaged++;
+    lod.moving = on;
+    if (dirty && m.requestRender) m.requestRender();
+  }
+  var last = [];
+  function tick(now) {
+    requestAnimationFrame(tick);
+    var m = window.__viserMutable, camera = m && m.camera;
+    if (!camera || !isSoftware()) return;
+    var pose = camera.position.toArray().concat(camera.quaternion.toArray(), [camera.fov, camera.zoom]);
+    var changed = last.length > 0 && pose.some(function (v, i) { return v !== last[i]; });
+    var lastChanged = lod.changed;
+    lod.changed = changed;
+    last = pose;
+    if (changed) {
+      // a move, not a jump: the camera changed in MOTION_TICKS animation frames in a row, or less than 120 ms
+      // apart (a camera set once, as the initial camera is when the page loads, changes nothing)
+      lod.run = lastChanged || now - lod.since < 120 ? lod.run + 1 : 1;
+      lod.since = now;
+      if (lod.moving || lod.run >= MOTION_TICKS) reduce(true);
+    } else if (lod.moving && now - lod.since > REST_MS) {
+      reduce(false);
+    }
+  }
+  function drag(e) {
+    // a drag or a wheel turn on the 3-D canvas moves the camera: lighten the frame from its first event on
+    if ((e.type === 'wheel' || e.buttons) && e.target && e.target.tagName === 'CANVAS' && isSoftware()) {
+      lod.since = performance.now();
+      reduce(true);
+    }
+  }
+  if (!/[?&]lod=0/.test(search)) {
+    requestAnimationFrame(tick);
+    window.addEventListener('pointermove', drag, true);
+    window.addEventListener('wheel', drag, true);
+  }
 })();
 </script>"""
 

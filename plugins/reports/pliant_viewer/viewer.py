@@ -461,9 +461,13 @@ class Viewer:
                                                      point_shape="circle"))
         parts = keep[tree.particle_node] if len(tree.particles) else np.zeros(0, dtype=bool)
         if parts.any():
+            # in a fixed shuffled order, so that every prefix is an even sample of them: while the camera moves, a
+            # software-WebGL page draws only the first MOTION_POINTS of this cloud, and all of it at rest (page.py)
+            order = np.nonzero(parts)[0]
+            order = order[np.random.default_rng(0).permutation(len(order))]
             self._add("/policy/particles", s.add_point_cloud(
-                "/policy/particles", tree.particles[parts].astype(np.float32),
-                colors=node_colours[tree.particle_node[parts]], point_size=radius * 0.35, point_shape="square"))
+                "/policy/particles", tree.particles[order].astype(np.float32),
+                colors=node_colours[tree.particle_node[order]], point_size=radius * 0.35, point_shape="square"))
         if len(tree.action_targets):
             self._add("/policy/actions", s.add_point_cloud("/policy/actions", tree.action_targets.astype(np.float32),
                                                            colors=(30, 30, 30), point_size=radius * 0.5,

@@ -138,3 +138,58 @@ def test_static_export_plays_in_the_browser(chromium, maze_run, tmp_path):
     assert shot.std() > 0.02 and len(np.unique((shot * 255).astype(np.uint8).reshape(-1, 3), axis=0)) > 50
     SHOTS.mkdir(parents=True, exist_ok=True)
     d.save_screenshot(str(SHOTS / "maze-export.png"))
+
+
+def test_a_moving_camera_lightens_the_frame_and_rest_restores_it(chromium):
+    """On a software WebGL renderer the page's script (pliant_viewer.page) draws at half the pixel ratio and at most
+    MOTION_POINTS of a large particle cloud while the camera moves -- the prefix of the cloud, which the viewer sends
+    in a shuffled order -- and everything at full resolution once the camera rests; a single camera jump (as when the
+    page loads) does not count as a move."""
+    rng = np.random.default_rng(0)
+    centres = rng.uniform(0.2, 0.8, (600, 3))
+    policy = {"nodes": [{"particles": (q + rng.normal(0, 0.01, (24, 3))).tolist(), "parent": i - 1 if i else None,
+                         "expected": q.tolist(), "path_probability": 0.5} for i, q in enumerate(centres)],
+              "actions": [], "solutions": []}
+    from test_viewer_content import small_scene
+
+    scene = small_scene()
+    viewer = Viewer(host="127.0.0.1")
+    script = """
+        const m = window.__viserMutable, root = m && m.nodeRefFromName['/policy/particles'];
+        let count = null;
+        if (root) root.traverse(o => { if (o.isPoints) count = o.geometry.drawRange.count; });
+        if (count === Infinity) count = -1;             // all of it (JSON has no Infinity)
+        const gl = Array.from(document.querySelectorAll('canvas')).filter(c => c.getContext('webgl2'))[0];
+        return [window.__pliantLod.moving, window.__pliantLod.engaged, count, gl.width];"""
+    try:
+        viewer.show(build_content(scene, policy=policy))
+        d = chromium.driver
+        d.get(viewer.url)
+        browser.wait_for_text(d, "policy: 600 nodes")
+        t0 = time.perf_counter()
+        while d.execute_script(script)[2] is None:
+            assert time.perf_counter() - t0 < 30, "no particle cloud in the page"
+            time.sleep(0.1)
+        time.sleep(1.0)
+        moving, engaged, count, width = d.execute_script(script)
+        assert (moving, engaged, count) == (False, 0, -1)               # the page loaded: no move, every point
+        client = next(iter(viewer.server.get_clients().values()))
+        target = np.asarray(client.camera.look_at, dtype=np.float64)
+        offset = np.asarray(client.camera.position, dtype=np.float64) - target
+        seen = []
+        for k in range(45):                         # 1.5 s of a camera swung by the server, 30 steps a second
+            a = 0.3 * np.sin(k / 10.0)
+            client.camera.position = tuple(target + [np.cos(a) * offset[0] - np.sin(a) * offset[1],
+                                                     np.sin(a) * offset[0] + np.cos(a) * offset[1], offset[2]])
+            time.sleep(1 / 30)
+            if k >= 30:
+                seen.append(d.execute_script(script))
+        assert any(s[0] for s in seen), seen
+        moving_state = [s for s in seen if s[0]][-1]
+        assert moving_state[2] == 10_000, moving_state                  # the cloud's first 10,000 of 14,400 points
+        assert moving_state[3] * 2 == pytest.approx(width, abs=2), (moving_state, width)   # half the pixel ratio
+        time.sleep(1.5)
+        moving, engaged, count, rest_width = d.execute_script(script)
+        assert (moving, count, rest_width) == (False, -1, width) and engaged >= 1
+    finally:
+        viewer.stop()

@@ -178,7 +178,7 @@ def test_view_command_exports_html(tmp_path):
     assert main(["view", "triple-wall", "--export", str(out)]) == 0
     text = out.read_text()
     assert "__VISER_EMBED_DATA__" in text and "http://" not in text.replace("http://www.w3.org", "")
-    assert "pliant viewer: no multisampling on a software WebGL renderer" in text       # pliant_viewer.page
+    assert "pliant viewer (see pliant_viewer/page.py): on a software WebGL renderer" in text     # pliant_viewer.page
 
 
 def test_run_with_view_streams_the_execution(tmp_path, capsys):
@@ -364,3 +364,25 @@ def test_lines_glb_is_a_valid_gltf_of_one_lines_primitive():
     np.testing.assert_allclose(colour, (150, 150, 150), atol=1e-6)
     # glTF colours are linear: 150 in sRGB is 0.305 linear
     assert doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"][0] == pytest.approx(0.3050, abs=1e-4)
+
+
+def test_particles_are_sent_in_an_order_whose_prefixes_sample_the_tree():
+    """The page may draw only the first points of the particle cloud while the camera moves (pliant_viewer.page):
+    the cloud holds every particle of the drawn nodes, shuffled, so its first tenth already spans most nodes."""
+    rng = np.random.default_rng(1)
+    nodes = [{"particles": (rng.uniform(0, 1, 3) + rng.normal(0, 0.01, (10, 3))).tolist(),
+              "parent": i - 1 if i else None, "path_probability": 0.5} for i in range(200)]
+    scene = small_scene()
+    view = build_content(scene, policy={"nodes": nodes, "actions": [], "solutions": []})
+    viewer = Viewer()
+    try:
+        viewer.show(view)
+        cloud = np.asarray(viewer.nodes["/policy/particles"].points)          # viser keeps them as float16
+        tree = view.tree
+        sent = tree.particles.astype(np.float32).astype(cloud.dtype)
+        assert sorted(p.tobytes() for p in cloud) == sorted(p.tobytes() for p in sent)   # the same points
+        owner = {p.tobytes(): n for p, n in zip(sent, tree.particle_node)}
+        first = [owner[p.tobytes()] for p in cloud[: len(cloud) // 10]]
+        assert len(set(first)) > 100                        # 200 particles from more than half of the 200 nodes
+    finally:
+        viewer.stop()
