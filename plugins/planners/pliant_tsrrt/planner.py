@@ -68,7 +68,8 @@ class TSRRTOptions(PushOptions):
                                  "for the pushes' quantisation", minimum=0.0)
     refine_depth: int = option(40, "improvement: most pushes per object toward its target", minimum=1)
     refine_width: int = option(64, "improvement: beam width of the search toward a target", minimum=1)
-    refine_passes: int = option(2, "improvement: passes (each from the previous one's result)", minimum=1)
+    refine_passes: int = option(5, "improvement: most passes (each from the previous one's result; after one "
+                                "without gain the next with a beam twice as wide, up to 4 x refine_width)", minimum=1)
     refine_branches: int = option(3, "improvement: nodes of the best path (the best node, the root and evenly "
                                   "between) that connect to the targets", minimum=1)
     refine_randoms: int = option(128, "improvement: random collision-free arrangements whose free descent adds "

@@ -258,7 +258,8 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     node and from ``branch_points - 1`` earlier nodes of the path (evenly spaced, the root included; the objects
     have more room there), for up to ``max_orders`` orders of the objects (all of them for three objects; else the
     identity and its rotations), the orders outermost.  ``randoms``: random arrangements whose free descent adds
-    targets (first pass).  Later passes (up to ``passes``, while one gains) start from the previous pass's result.
+    targets (first pass).  Later passes (up to ``passes``) start from the previous pass's result; after a pass
+    without gain the next one connects with a beam twice as wide, up to four times ``width``, then the phase ends.
     ``yaw_quota``: see :func:`push_toward`.
     Returns the cheapest cost reached, how many of the path's actions to keep, the actions to append, and statistics."""
     s = path[-1]
@@ -271,6 +272,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     best_actions: list[int] = []
     tried, goal_costs = 0, []
     cache: dict = {}
+    w = width
     for p in range(passes):
         if _late(deadline):
             break
@@ -286,12 +288,15 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
             if _late(deadline):
                 break
             tried += 1
-            cost, actions = connect(space, s if b is None else path[b], goal, order, depth, width, deadline, sweeps,
+            cost, actions = connect(space, s if b is None else path[b], goal, order, depth, w, deadline, sweeps,
                                     cache, yaw_quota=yaw_quota)
             if cost < best_cost - 1e-12:
                 best_cost, found = cost, (b, actions)
         if found is None:
-            break
+            if p == 0 or w >= 4 * width:
+                break
+            w *= 2                  # no gain: the next pass (new targets) with a beam twice as wide
+            continue
         b, actions = found
         if b is not None:
             keep, best_actions = b, actions

@@ -83,7 +83,7 @@ class SearchSettings:
     refine_slack: float = 0.003
     refine_depth: int = 40
     refine_width: int = 64
-    refine_passes: int = 2
+    refine_passes: int = 5
     refine_branches: int = 3
     refine_randoms: int = 128
     refine_sweeps: int = 2
