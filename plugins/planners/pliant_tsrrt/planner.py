@@ -78,9 +78,9 @@ class TSRRTOptions(PushOptions):
                                 "sweep moves objects that others blocked)", minimum=1)
     refine_yaw_quota: int = option(4, "improvement: at most this many poses per yaw (0.25 degree bins) in a box's "
                                    "beam, so that it keeps different numbers of turns (0: no limit)", minimum=0)
-    polish_depth: int = option(4, "improvement: most pushes of the final beam search over every object's "
-                               "primitives, ordered by the task cost (0: none)", minimum=0)
-    polish_width: int = option(128, "improvement: beam width of that final search", minimum=1)
+    beam_depth: int = option(4, "improvement: most pushes of the final beam search over every object's "
+                             "primitives, ordered by the task cost (0: none)", minimum=0)
+    beam_width: int = option(128, "improvement: beam width of that final search", minimum=1)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
     w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
@@ -123,7 +123,8 @@ class TSRRTPlanner(Planner):
     shortcut), ``refine_time``, ``refine_branch``, ``refine_pushes``, ``refine_targets``, ``refine_connects``,
     ``refine_gain`` (the improvement phase, :mod:`pliant_tsrrt.refine`),
     ``tree_time``, ``total_time`` (s, with learning), ``learn_time`` (s, when the models were learned here),
-    ``actions``, ``actions_before_shortcut``, ``polish_pushes`` (appended by the final descent), ``start_cost``,
+    ``actions``, ``actions_before_shortcut``, ``polish_pushes`` (appended by the final descent), ``beam_pushes``
+    (appended by the final beam), ``start_cost``,
     ``tree_best_cost``, ``gd_samples``, ``random_samples``, ``invalid``, ``duplicates``, ``rewired``, ``exhausted``,
     ``cost_history`` (``[[t, best cost], ...]``), ``interrupted`` (Ctrl-C: the best plan so far is returned).
     """
@@ -210,8 +211,8 @@ def search_settings(o: TSRRTOptions) -> SearchSettings:
                           refine_passes=o.refine_passes, refine_branches=o.refine_branches,
                           refine_randoms=o.refine_randoms, refine_sweeps=o.refine_sweeps,
                           refine_yaw_quota=o.refine_yaw_quota,
-                          polish_depth=o.polish_depth,
-                          polish_width=o.polish_width)
+                          beam_depth=o.beam_depth,
+                          beam_width=o.beam_width)
 
 
 def replan_settings(o: TSRRTOptions, reason: str) -> SearchSettings:

@@ -13,11 +13,13 @@ terms reward packing the objects to within the clearance margin.  This phase, ru
    seconds).  The cheapest ``targets`` distinct minima are kept.
 2. **connect** (:func:`connect`): for each target and each order of the objects, each object in turn is pushed
    toward its target pose by a beam search over its six primitives through MODEL (every step checked by
-   IN_COLLISION and the paddle's sweep, the other objects where they are then); the state with the lowest task cost
-   seen along any beam is where that object stops.  Only the learned models' mean displacements are used, as in the
+   IN_COLLISION and the paddle's sweep, the other objects where they are then; at most ``yaw_quota`` poses per yaw
+   bin of a box); the state closest to the target is where that object stops, and the whole sequence is cut after
+   its push of lowest task cost.  Only the learned models' mean displacements are used, as in the
    tree.
-3. The cheapest of the connected plans (if cheaper than the tree's) is the result, before the final descent and the
-   shortcut of :mod:`pliant_tsrrt.search`.
+3. The cheapest of the connected plans (if cheaper than the tree's) is the result; further passes start from it,
+   and :func:`final_beam` (a beam search over every object's pushes ordered by the task cost) finishes it, before
+   the final descent and the shortcut of :mod:`pliant_tsrrt.search`.
 
 Everything is bounded by a deadline (``time.perf_counter()`` value; None: no limit) and returns the best so far.
 """
@@ -309,7 +311,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     return best_cost, keep, best_actions, stats
 
 
-def polish(space, s: np.ndarray, depth: int = 4, width: int = 128, deadline: float | None = None) -> tuple[
+def final_beam(space, s: np.ndarray, depth: int = 4, width: int = 128, deadline: float | None = None) -> tuple[
         float, list[int]]:
     """A beam search over every object's primitives from arrangement ``s``, ordered by the task cost: per depth the
     ``width`` cheapest valid outcomes (duplicates within 0.5 mm / 0.1 degree merged), up to ``depth`` pushes.  Returns

@@ -38,7 +38,8 @@ primitive); MODEL moves that object by its class's mean displacement for the pri
   "returns a plan from the starting state to the most optimal reachable state"), extended by :func:`descend` (the
   steepest single pushes while they lower the cost, the discrete end of DIRECTGD's descent), improved by
   :func:`pliant_tsrrt.refine.improve` (not in the poster: free descent to local minima of the cost, each object
-  pushed toward them through the models; ``refine``), then :func:`shortcut`:
+  pushed toward them through the models; ``refine``) and :func:`pliant_tsrrt.refine.final_beam` (a beam over every
+  object's pushes by the task cost), then :func:`shortcut`:
   drop any action -- or any pair of opposite actions on one object -- whose removal keeps the plan valid and does
   not raise the final cost, until none can be dropped ("all paths free of collisions and redundant actions").
 """
@@ -56,7 +57,7 @@ from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corners
 from pliant_tsrrt.models import compose
 from pliant_tsrrt.pushing import PushSettings, contact_frames, paddle_sweep_rows
-from pliant_tsrrt.refine import improve, polish
+from pliant_tsrrt.refine import final_beam, improve
 
 N_PRIMITIVES = 6
 
@@ -88,8 +89,8 @@ class SearchSettings:
     refine_randoms: int = 128
     refine_sweeps: int = 2
     refine_yaw_quota: int = 4
-    polish_depth: int = 4
-    polish_width: int = 128
+    beam_depth: int = 4
+    beam_width: int = 128
 
 
 @dataclass
@@ -354,10 +355,9 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
                                        yaw_quota=settings.refine_yaw_quota)
         stats.update(more, refine_pushes=len(extra))
         plan = plan[:keep] + extra
-    if settings.refine and settings.polish_depth > 0 and not interrupted:
+    if settings.refine and settings.beam_depth > 0 and not interrupted:
         end = space.rollout(s0, plan)[0][-1]
-        _, extra = polish(space, end, depth=settings.polish_depth, width=settings.polish_width,
-                          deadline=deadline)
+        _, extra = final_beam(space, end, depth=settings.beam_depth, width=settings.beam_width, deadline=deadline)
         plan += extra
         stats["refine_pushes"] += len(extra)
         stats["beam_pushes"] = len(extra)

@@ -10,7 +10,7 @@ from pliant.termination import Termination
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import BOX, CIRCLE, CollisionChecker, Footprints
 from pliant_tsrrt.pushing import PushSettings
-from pliant_tsrrt.refine import connect, free_descent, improve, polish, push_toward, random_free, targets, variants
+from pliant_tsrrt.refine import connect, final_beam, free_descent, improve, push_toward, random_free, targets, variants
 from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow, redundant_actions
 
 TABLE = (0.0, 0.0, 1.0, 0.8)
@@ -133,12 +133,12 @@ def test_a_beam_with_a_yaw_quota_still_aligns_a_box_that_needs_pairs_of_turns():
     assert abs(end[0, 2]) < 1e-6 and sorted(set(actions)) == [4, 5]
 
 
-def test_polish_lowers_the_cost_through_valid_pushes_or_returns_nothing():
+def test_the_final_beam_lowers_the_cost_through_valid_pushes_or_returns_nothing():
     space = _three()
     rng = np.random.default_rng(5)
     for s in random_free(space, rng, 6, 0.01):
         start = float(space.cost.cost(s[None])[0])
-        cost, actions = polish(space, s, depth=3, width=32)
+        cost, actions = final_beam(space, s, depth=3, width=32)
         assert cost <= start
         states, ok = space.rollout(s, actions)
         assert ok and np.isclose(float(space.cost.cost(states[-1][None])[0]), cost)
