@@ -1,7 +1,8 @@
 """The learner components ``piirl`` and ``active-piirl`` (thesis ch. 4).
 
 ``piirl``: ``fit(demonstrations)`` improves each demonstration with the local optimiser, draws sample paths
-around it, reads every path's per-object deformation and solves eq. 4.1 for the sensitivities.
+around it, reads every path's per-object deformation and recovers the sensitivities (:mod:`pliant_piirl.piirl`:
+by default a ranking of each demonstration against its samples; eq. 4.1 and the PIIRL likelihood are options).
 
 ``active-piirl``: ``fit(None)`` runs the whole loop unattended: Algorithm 2 chooses the object pairs, Algorithm 3
 generates a task for each, the simulated expert (who alone reads the scene's sensitivities, as the ground truth)
@@ -53,7 +54,7 @@ _TIP = [("tip", tuple[float, float, float],
         ("demonstrations", str | None,
          option(None, "a demonstrations file to learn from when fit() is given no data (pipelines)"))]
 
-PiirlOptions = _merged("PiirlOptions", "Options of the ``piirl`` learner: samples (sampling), eq. 4.1 (recovery).",
+PiirlOptions = _merged("PiirlOptions", "Options of the ``piirl`` learner: samples (sampling), the recovery.",
                        SampleOptions, RecoveryOptions, extra=_TIP)
 ActivePiirlOptions = _merged(
     "ActivePiirlOptions", "Options of the ``active-piirl`` learner: those of ``piirl``, task generation and the "
@@ -64,7 +65,7 @@ ActivePiirlOptions = _merged(
 
 
 class PiirlLearner(Learner):
-    """PIIRL sensitivity recovery (thesis 4.3.1 and 4.3.3, eq. 4.1) from demonstrations in the bound scene.
+    """PIIRL sensitivity recovery (thesis 4.3.1 and 4.3.3) from demonstrations in the bound scene.
 
     ``fit(data, rng)``: ``data`` is a list of :class:`Demonstration` or a demonstrations file.  Returns
     ``sensitivities`` ``{object: S}`` (dimensionless, within [lower, upper]: only ratios are meaningful),
@@ -72,7 +73,7 @@ class PiirlLearner(Learner):
     replacements per demonstration), ``demonstrations`` (the improved ones, as dicts of the file format) and
     ``features`` (their per-object deformation).  Wall times of the last fit are in :attr:`timing` (s): ``seconds``
 (all of it), ``samples_seconds`` (local optimiser, sample paths and their features) and ``recovery_seconds``
-(eq. 4.1's solve).
+(the recovery's solve).
     """
 
     Options = PiirlOptions

@@ -1,46 +1,63 @@
-"""PIIRL parameter recovery (thesis 4.3.3): eq. 4.1 as printed, and the likelihood of Kalakrishnan et al. it modifies.
+"""PIIRL parameter recovery (thesis 4.3.3): a ranking of each demonstration against its samples (the default),
+eq. 4.1 as printed, and the likelihood of Kalakrishnan et al. it modifies.
+
+``objective = "ranking"`` (the default): every sample should cost more than its demonstration.  Each
+(demonstration, sample) pair is one comparison, scored by the logistic loss of the sample's relative margin::
+
+    S_hat = argmin_S  (K / sum_k L_k)  sum_k sum_l log(1 + exp(-h m_kl)),    lower <= S_i <= upper
+    m_kl = (c_kl - c_k0) / c_k0
+
+``h`` is ``temperature`` (10 for this objective).  A sample ``1 / h`` costlier than its demonstration adds
+``log(1 + 1/e)``, one as costly adds ``log 2``, and a cheaper one about ``h |m|``.  Measuring the margin relative to
+the demonstration's own cost makes the objective invariant to the scale of ``S`` without the likelihood's
+normalisation by the costliest sample, which compresses the recovered ratios (docs/plugins/piirl.md gives the
+measurements: L : M : H about 1 : 1.3 : 2.4 with the likelihood on Table 4.1's demonstrations, 1 : 1.5 : 3.5 with
+the ranking, truth 1 : 2 : 4).
 
 ``objective = "ratio"`` is thesis eq. 4.1, the chapter's "modified form" of Kalakrishnan et al.'s objective::
 
     S_hat = argmin_S  sum_k  (S . V_k) / (sum_l S . V_kl),     lower <= S_i <= upper
 
-``objective = "likelihood"`` (the default) is the form eq. 4.1 modifies, the PIIRL likelihood of the demonstration
-among its samples (the chapter's [8]), with PI^2's per-demonstration cost normalisation::
+``objective = "likelihood"`` is the form eq. 4.1 modifies, the PIIRL likelihood of the demonstration among its
+samples (the chapter's [8]), with PI^2's per-demonstration cost normalisation::
 
     S_hat = argmin_S  sum_k  [ h u_k0 + log sum_j exp(-h u_kj) ],    lower <= S_i <= upper
     u_kj = (c_kj - min_j c_kj) / (max_j c_kj - min_j c_kj)
 
 where ``c_k0 = S . V_k`` is the demonstration's cost, ``c_kl = S . V_kl`` (``l >= 1``) its samples' and ``j`` runs
-over the demonstration and its samples; ``h`` is ``temperature``.  ``exp(-h u_k0) / sum_j exp(-h u_kj)`` is the
+over the demonstration and its samples; ``h`` is ``temperature`` (30 for this objective).  ``exp(-h u_k0) / sum_j
+exp(-h u_kj)`` is the
 probability of the demonstration among its samples; without the normalisation it grows without bound along
 any direction in which the demonstration is cheaper than every sample, and the optimum sits at the bounds (the scale
 problem of maximum-likelihood IRL); with it, only ratios matter, and a demonstration that is optimal among its
 samples has an interior optimum.  ``h`` sets how much the samples nearest the demonstration's cost weigh: as
 ``h`` grows the objective tends to the smallest normalised margin between the demonstration and its samples (the
-chapter's "maximize the margin").  PI^2 uses 10; the default is 30, chosen after h = 10 recovered one active-learning
+chapter's "maximize the margin").  PI^2 uses 10; 30 was chosen after h = 10 recovered one active-learning
 trial out of order (docs/plugins/piirl.md gives the measurements).
 
-Both objectives are homogeneous of degree 0 in ``S``: only ratios are recovered.  ``V_k`` are the features of
+All three objectives are homogeneous of degree 0 in ``S``: only ratios are recovered.  ``V_k`` are the features of
 demonstration ``k`` and ``V_kl`` those of its ``l``-th sample path, all divided by the largest feature value (the
 chapter's normalisation).  A demonstration with no deformation at all, or whose samples deform nothing, carries no
 information and is left out (the chapter: "can be removed from the optimization").
 
-Why the default is not eq. 4.1 (docs/plugins/piirl.md, "PIIRL"): eq. 4.1 compares the demonstration with the *sum*
+Why eq. 4.1 is not the default (docs/plugins/piirl.md, "PIIRL"): eq. 4.1 compares the demonstration with the *sum*
 (the mean) of its samples.  Each term is a linear-fractional function of ``S``, smallest at a vertex of the box:
 it puts all the weight on the feature the demonstration deforms least relative to its samples' mean.  The chapter
 states that its minimisation "maximize[s] the margin between the cost of the demonstrations and the costs of their
 samples" and that "all samples around a demonstration will be sub-optimal"; on our expert's demonstrations eq. 4.1's
-optimum makes 23 to 50 of each demonstration's 100 samples cheaper than it.  The likelihood scores the
-demonstration against every sample.
+optimum makes 23 to 50 of each demonstration's 100 samples cheaper than it.  The likelihood and the ranking score
+the demonstration against every sample.
 
 Solver: scipy's L-BFGS-B (bounded quasi-Newton) with the analytic gradient, stopping when the relative change of
 the objective falls below ``tolerance`` or the projected gradient below ``tolerance`` times the objective.  Eq. 4.1
 is solved in ``S`` (gradient ``V_k / b - a W_k / b^2`` with ``a = S . V_k``, ``W_k = sum_l V_kl``, ``b = S .
-W_k``); the likelihood in ``log S`` (its gradient is orthogonal to the ray ``S``, so a step never only rescales).
-The chapter used MATLAB's function minimisation.  Neither objective is convex, and L-BFGS-B from the chapter's start
-alone can stop in a local minimum (a property test found one for eq. 4.1); so the objective is also evaluated at
+W_k``); the likelihood and the ranking in ``log S`` (their gradients are orthogonal to the ray ``S``, so a step
+never only rescales).  The chapter used MATLAB's function minimisation.  None of the objectives is convex, and
+L-BFGS-B from the chapter's start alone can stop in a local minimum (a property test found one for eq. 4.1); so the
+objective is also evaluated at
 ``screen`` points spread log-uniformly over the box (a fixed seed: the answer is deterministic), L-BFGS-B runs again
-from the ``restarts`` best of them, and the best solution is returned.  The likelihood's solution is a ray; it is
+from the ``restarts`` best of them, and the best solution is returned.  The likelihood's and the ranking's solution
+is a ray; it is
 returned scaled so that the smallest sensitivity of an object some used demonstration or sample deforms is
 ``lower`` (as eq. 4.1's least sensitive objects end at the lower bound); objects no used path deforms keep their
 start value.
@@ -55,17 +72,21 @@ from pliant.errors import ConfigError
 from pliant.options import option
 from scipy.optimize import minimize
 
-OBJECTIVES = ("likelihood", "ratio")
+OBJECTIVES = ("likelihood", "ratio", "ranking")
+#: each objective's temperature when ``temperature`` is None (ratio has none)
+TEMPERATURES = {"likelihood": 30.0, "ranking": 10.0}
 
 
 @dataclass(frozen=True)
 class RecoveryOptions:
     """Options of the recovery's minimisation."""
 
-    objective: str = option("likelihood", "likelihood: PIIRL's likelihood with PI^2's cost normalisation (the form "
-                            "eq. 4.1 modifies); ratio: eq. 4.1 as printed", choices=OBJECTIVES)
-    temperature: float = option(30.0, "h of the likelihood (PI^2 uses 10; see the module doc; unused by ratio)",
-                                minimum=1e-9)
+    objective: str = option("ranking", "ranking: every sample should cost more than its demonstration (logistic "
+                            "loss of the relative margin); likelihood: PIIRL's likelihood with PI^2's cost "
+                            "normalisation (the form eq. 4.1 modifies); ratio: eq. 4.1 as printed",
+                            choices=OBJECTIVES)
+    temperature: float | None = option(None, "h of the likelihood or the ranking (None: 30 for likelihood, 10 for "
+                                       "ranking; PI^2 uses 10 with its normalisation; unused by ratio)", minimum=1e-9)
     lower: float = option(0.1, "lower bound of every sensitivity (thesis 0.1)", minimum=1e-12)
     upper: float = option(1000.0, "upper bound of every sensitivity (thesis 1000)", minimum=1e-12)
     initial: float = option(500.0, "initial value of every sensitivity (thesis 500)", minimum=1e-12)
@@ -100,11 +121,14 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
         return {"sensitivities": np.full(n, o.initial), "objective": float("nan"), "used": [], "iterations": 0,
                 "message": "no informative demonstration"}
     scale = max(demos[used].max(), max(samples[k].max() for k in used))
+    h = TEMPERATURES.get(o.objective) if o.temperature is None else o.temperature
     if o.objective == "ratio":
         objective, batch, log_space = _ratio(demos[used] / scale, sums[used] / scale)
+    elif o.objective == "ranking":
+        objective, batch, log_space = _ranking([demos[k] / scale for k in used], [samples[k] / scale for k in used], h)
     else:
         objective, batch, log_space = _likelihood([demos[k] / scale for k in used], [samples[k] / scale for k in used],
-                                                  o.temperature)
+                                                  h)
     starts = [np.full(n, o.initial)]
     if o.screen and o.restarts:
         rng = np.random.default_rng(0)
@@ -185,5 +209,42 @@ def _likelihood(demos: list[np.ndarray], samples: list[np.ndarray], h: float):
         u, _, _, _, varies = normalised(np.einsum("kmn,pn->pkm", F, points))
         terms = h * u[..., 0] + np.log((weight * np.exp(-h * u)).sum(axis=-1))
         return np.where(varies, terms, 0.0).sum(axis=-1)
+
+    return objective, batch, True
+
+
+def _ranking(demos: list[np.ndarray], samples: list[np.ndarray], h: float):
+    """The ranking objective: every sample should cost more than its demonstration.  Each (demonstration, sample)
+    pair is one comparison and adds the logistic loss ``log(1 + exp(-h m))`` of the relative margin ``m = (c_l -
+    c_0) / c_0``; the sum is divided by the mean number of samples per demonstration (with equal counts, each
+    demonstration weighs one; a demonstration with fewer valid samples offers fewer comparisons and weighs less).
+    ``F0[k]`` is demonstration ``k``, ``F[k]`` its samples, padded with weight 0.  Demonstrations that deform nothing
+    are left out before this is called, so ``c_0 > 0`` for ``S > 0``."""
+    from scipy.special import expit
+
+    K, n = len(demos), len(demos[0])
+    L = max(len(s) for s in samples)
+    F0 = np.array(demos)
+    F = np.zeros((K, L, n))
+    weight = np.zeros((K, L))
+    each = K / sum(len(s) for s in samples)
+    for k, s in enumerate(samples):
+        F[k, :len(s)] = s
+        weight[k, :len(s)] = each
+
+    def objective(s):
+        c0 = F0 @ s                                         # (K,)
+        c = F @ s                                           # (K, L)
+        m = c / c0[:, None] - 1.0
+        f = float(np.sum(weight * np.logaddexp(0.0, -h * m)))
+        dm = -h * weight * expit(h * -m)                    # d loss / d m
+        grad = np.einsum("kl,kln->n", dm / c0[:, None], F) - ((dm * c).sum(axis=1) / c0**2) @ F0
+        return f, grad
+
+    def batch(points):
+        c0 = points @ F0.T                                  # (P, K)
+        c = np.einsum("kln,pn->pkl", F, points)
+        m = c / c0[..., None] - 1.0
+        return np.sum(weight * np.logaddexp(0.0, -h * m), axis=(1, 2))
 
     return objective, batch, True

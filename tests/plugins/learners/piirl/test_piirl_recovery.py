@@ -1,15 +1,16 @@
-"""Eq. 4.1 (objective "ratio") and the normalised PIIRL likelihood (the default): known answers on small cases,
-gradients against finite differences, invariances, bad input."""
+"""Eq. 4.1 (objective "ratio"), the normalised PIIRL likelihood and the ranking objective (the default): known
+answers on small cases, gradients against finite differences, invariances, bad input."""
 
 import numpy as np
 import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from pliant.errors import ConfigError
-from pliant_piirl.piirl import RecoveryOptions, _likelihood, recover
-from scipy.special import logsumexp
+from pliant_piirl.piirl import RecoveryOptions, _likelihood, _ranking, recover
+from scipy.special import expit, logsumexp
 
 RATIO = RecoveryOptions(objective="ratio")
+LIKELIHOOD = RecoveryOptions(objective="likelihood")
 
 
 def test_an_object_the_demonstration_avoids_gets_the_upper_bound_and_the_deformed_one_the_lower():
@@ -20,7 +21,7 @@ def test_an_object_the_demonstration_avoids_gets_the_upper_bound_and_the_deforme
     assert s[0] == pytest.approx(0.1) and s[1] == pytest.approx(1000.0)
 
 
-@pytest.mark.parametrize("objective", ["likelihood", "ratio"])
+@pytest.mark.parametrize("objective", ["likelihood", "ratio", "ranking"])
 def test_a_chain_of_preferences_is_ordered(objective):
     # demo 1 prefers a over b, demo 2 prefers b over c: a < b < c
     demos = np.array([[2.0, 0.5, 0.0], [0.0, 2.0, 0.5]])
@@ -36,13 +37,81 @@ def test_the_likelihood_has_the_interior_optimum_where_eq_4_1_goes_to_a_vertex()
     # (h = 10 here: with a larger h the objective near this optimum, about 2 exp(-h), falls below L-BFGS-B's ftol
     # before r is exact.)
     demos, samples = np.array([[1.0, 1.0]]), [np.array([[4.0, 0.0], [0.0, 2.0]])]
-    s = recover(demos, samples, RecoveryOptions(temperature=10.0))["sensitivities"]
+    s = recover(demos, samples, RecoveryOptions(objective="likelihood", temperature=10.0))["sensitivities"]
     assert s == pytest.approx([0.1, 0.2], rel=1e-4)
-    assert recover(demos, samples)["sensitivities"] == pytest.approx([0.1, 0.2], rel=1e-2)
+    assert recover(demos, samples, LIKELIHOOD)["sensitivities"] == pytest.approx([0.1, 0.2], rel=1e-2)
     # eq. 4.1, (1 + r) / (4 + 2r), falls as r falls: it ends at the vertex S1 = upper, S2 = lower, where the sample
     # (0, 2) costs 0.2 and the demonstration 1000.1
     s = recover(demos, samples, RATIO)["sensitivities"]
     assert s == pytest.approx([1000.0, 0.1])
+
+
+def test_the_ranking_balances_the_samples_relative_margins():
+    # the same case: with r = S2 / S1 the samples' relative margins over the demonstration are u1 = (3 - r) / (1 + r)
+    # and u2 = (r - 1) / (1 + r).  The ranking's optimum is where 2 sigmoid(-h u1) = sigmoid(-h u2): between the
+    # ratios at which the demonstration is the cheapest (1 < r < 3), tending to the equal-margin point r = 2 as h grows
+    demos, samples = np.array([[1.0, 1.0]]), [np.array([[4.0, 0.0], [0.0, 2.0]])]
+    for h in (3.0, 10.0, 30.0):
+        s = recover(demos, samples, RecoveryOptions(objective="ranking", temperature=h))["sensitivities"]
+        r = s[1] / s[0]
+        assert s[0] == pytest.approx(0.1) and 1.0 < r < 3.0
+        u1, u2 = (3 - r) / (1 + r), (r - 1) / (1 + r)
+        assert 2 * expit(-h * u1) == pytest.approx(expit(-h * u2), rel=1e-4)
+    s = recover(demos, samples, RecoveryOptions(objective="ranking", temperature=100.0))["sensitivities"]
+    assert s[1] / s[0] == pytest.approx(2.0, rel=1e-2)
+    # symmetric samples (3, 0) and (0, 3): equal sensitivities, whatever h
+    assert recover(demos, [np.array([[3.0, 0.0], [0.0, 3.0]])], RecoveryOptions(objective="ranking"))[
+        "sensitivities"] == pytest.approx([0.1, 0.1], rel=1e-6)
+
+
+def test_each_objective_has_its_own_default_temperature():
+    rng = np.random.default_rng(3)
+    demos, samples = rng.uniform(0, 1, (3, 3)), [rng.uniform(0, 2, (6, 3)) for _ in range(3)]
+    for objective, h in (("likelihood", 30.0), ("ranking", 10.0)):
+        a = recover(demos, samples, RecoveryOptions(objective=objective))
+        b = recover(demos, samples, RecoveryOptions(objective=objective, temperature=h))
+        assert a["sensitivities"] == pytest.approx(b["sensitivities"]) and a["objective"] == b["objective"]
+
+
+def ranking(s, demos, samples, h=10.0):
+    """The ranking objective at ``s`` (one point ``(n,)`` or many ``(P, n)``): the logistic loss of every
+    (demonstration, sample) pair, summed and divided by the mean number of samples per demonstration."""
+    s = np.atleast_2d(s)
+    total = np.zeros(len(s))
+    for v, w in zip(demos, samples):
+        m = (s @ w.T) / (s @ v)[:, None] - 1.0
+        total += np.logaddexp(0.0, -h * m).sum(axis=1)
+    total *= len(demos) / sum(len(w) for w in samples)
+    return total if len(total) > 1 else float(total[0])
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000))
+def test_the_ranking_is_no_worse_than_any_point_of_a_random_search_and_invariant_to_scale(seed):
+    rng = np.random.default_rng(seed)
+    demos = rng.uniform(0, 1, (3, 4))
+    samples = [rng.uniform(0, 2, (5, 4)) for _ in range(3)]
+    result = recover(demos, samples)                    # the default
+    s = result["sensitivities"]
+    assert result["objective"] == pytest.approx(ranking(s, demos, samples), rel=1e-9)
+    assert ranking(s * 123.0, demos, samples) == pytest.approx(result["objective"], rel=1e-9)
+    best = ranking(rng.uniform(0.1, 1000, (2000, 4)), demos, samples).min()
+    assert result["objective"] <= best + 1e-9
+    assert s.min() == pytest.approx(0.1) and s.max() <= 1000 + 1e-9
+
+
+def test_the_ranking_gradient_matches_finite_differences_with_unequal_sample_counts():
+    from scipy.optimize import check_grad
+
+    rng = np.random.default_rng(1)
+    demos = [rng.uniform(0, 1, 3) for _ in range(4)]
+    samples = [rng.uniform(0, 2, (6, 3)) for _ in range(3)] + [rng.uniform(0, 2, (2, 3))]
+    objective, batch, _ = _ranking(demos, samples, 10.0)
+    for s in rng.uniform(0.1, 10, (5, 3)):
+        f, g = (lambda x: objective(x)[0]), (lambda x: objective(x)[1])
+        assert f(s) == pytest.approx(ranking(s, demos, samples), rel=1e-12)   # padding changes nothing
+        assert batch(s[None])[0] == pytest.approx(f(s), rel=1e-12)
+        assert check_grad(f, g, s, epsilon=1e-7) < 1e-5 * np.linalg.norm(g(s)) + 1e-9
 
 
 def likelihood(s, demos, samples, h=30.0):
@@ -63,7 +132,7 @@ def test_the_likelihood_is_no_worse_than_any_point_of_a_random_search_and_invari
     rng = np.random.default_rng(seed)
     demos = rng.uniform(0, 1, (3, 4))
     samples = [rng.uniform(0, 2, (5, 4)) for _ in range(3)]
-    result = recover(demos, samples)
+    result = recover(demos, samples, LIKELIHOOD)
     s = result["sensitivities"]
     assert result["objective"] == pytest.approx(likelihood(s, demos, samples), rel=1e-9)
     assert likelihood(s * 123.0, demos, samples) == pytest.approx(result["objective"], rel=1e-9)
@@ -125,7 +194,7 @@ def test_the_gradient_matches_finite_differences():
         assert check_grad(f, g, s, epsilon=1e-6 * s.mean()) < 1e-6 * np.linalg.norm(g(s)) + 1e-12
 
 
-@pytest.mark.parametrize("objective", ["likelihood", "ratio"])
+@pytest.mark.parametrize("objective", ["likelihood", "ratio", "ranking"])
 def test_scaling_the_features_changes_nothing_and_empty_demonstrations_are_left_out(objective):
     demos = np.array([[1.0, 0.2], [0.0, 0.0]])
     samples = [np.array([[1.0, 1.0], [0.5, 2.0]]), np.array([[1.0, 1.0]])]
