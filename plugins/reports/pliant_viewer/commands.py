@@ -124,8 +124,9 @@ def cmd_view(args) -> int:
         if view is None:
             # the page can draw the scene's objects while the robot model and the rest are built
             grid = VoxelGrid.from_scene(scene)
-            viewer.show_objects(scene, voxel_objects(grid))
-            view = build_content(scene, run=run, policy=policy, grid=grid)
+            objects = voxel_objects(grid)
+            viewer.show_objects(scene, objects)
+            view = build_content(scene, run=run, policy=policy, grid=grid, objects=objects)
             viewer.show(view)
             if folder is not None and view.articulated and not args.no_cache:
                 cache.save(view, folder)        # the next view of this run needs no robot model

@@ -119,13 +119,17 @@ def make_tracer(scene, robot) -> content.Tracer:
 
 
 def build_content(scene, robot=None, *, run: content.RunData | None = None, policy: dict | None = None,
-                  grid: VoxelGrid | None = None, max_particles: int = 50_000) -> ViewContent:
-    """Translate a scene (and a run's path / policy / execution, or a policy file's JSON) into what is drawn."""
+                  grid: VoxelGrid | None = None, max_particles: int = 50_000,
+                  objects: list[content.VoxelObject] | None = None) -> ViewContent:
+    """Translate a scene (and a run's path / policy / execution, or a policy file's JSON) into what is drawn.
+    ``objects``: the voxel objects when they are made elsewhere (``[]``: none; the scene is then not voxelised)."""
     if robot is None:
         robot = make_robot(scene, run.robot_name if run else None, run.robot_options if run else None)
-    grid = grid if grid is not None else VoxelGrid.from_scene(scene)
+    if grid is None and objects is None:
+        grid = VoxelGrid.from_scene(scene)
     tracer = make_tracer(scene, robot)
-    view = ViewContent(scene, robot, tracer, content.voxel_objects(grid), title=scene.name)
+    view = ViewContent(scene, robot, tracer, content.voxel_objects(grid) if objects is None else objects,
+                       title=scene.name)
     if run is not None:
         view.path = run.path
         if run.trajectory is not None:
@@ -134,7 +138,9 @@ def build_content(scene, robot=None, *, run: content.RunData | None = None, poli
         policy = policy if policy is not None else run.policy
         stats = (run.result or {}).get("statistics") or {}
         if stats.get("pareto"):
-            view.pareto = content.pareto_paths(stats, grid.lower, grid.resolution)
+            lower, resolution = (grid.lower, grid.resolution) if grid is not None else (
+                np.asarray(scene.lower, dtype=np.float64), scene.resolution)       # a grid starts at the scene's lower
+            view.pareto = content.pareto_paths(stats, lower, resolution)
         if run.result:
             view.notes.append(f"result: {run.result.get('status')} (planner {run.result.get('planner')})")
         if run.execution:
