@@ -47,6 +47,7 @@ from _common import print_table, write_json
 from pliant.execution.loop import ExecutionStep
 from pliant.interfaces import Context
 from pliant_viewer import browser, cache
+from pliant_viewer import viewer as viewer_module
 from pliant_viewer.content import read_run
 from pliant_viewer.report import write_view_cache
 from pliant_viewer.viewer import Viewer, build_content, free_port
@@ -62,7 +63,8 @@ def signatures(view) -> dict[str, list[str]]:
     if view.path_xyz is not None and len(view.path_xyz) > 1:
         sig["path"] = [browser.segments_signature(len(view.path_xyz) - 1)]
     if view.tree is not None:
-        sig["policy"] = [browser.lines_signature(len(view.tree.edges)),
+        n = len(view.tree.edges)
+        sig["policy"] = [browser.lines_signature(n) if n > viewer_module.GLB_EDGES else browser.segments_signature(n),
                          browser.points_signature(len(view.tree.nodes)),
                          browser.points_signature(len(view.tree.particles))]
     return sig

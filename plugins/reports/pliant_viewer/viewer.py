@@ -45,6 +45,7 @@ LIVE_CHUNK = 64         # steps per node of a live trail
 # shades its hidden back faces too
 VOXEL_SIDE = "front"
 QUAD_OVERLAP = 0.01     # voxel faces grow by this fraction of a voxel in their plane (see _widen_quads)
+GLB_EDGES = 256         # a tree of more edges draws them as WebGL lines (a GLB), a smaller one as line segments
 
 
 def free_port(host: str = "127.0.0.1") -> int:
@@ -454,13 +455,20 @@ class Viewer:
             keep[tree.solution_nodes[tree.solution_nodes < n]] = True
         self.tree_drawn = int(keep.sum())
         edges = tree.edges[keep[tree.edges[:, 0]] & keep[tree.edges[:, 1]]] if len(tree.edges) else tree.edges
-        if len(edges):
+        if len(edges) > GLB_EDGES:
             # WebGL lines (a GLB of one LINES primitive, one draw call), not viser's line segments: those are
             # instanced quads, and software WebGL (SwiftShader) pays 20-35 us per instance -- 2,000 edges were half
             # of a drawn frame of baxter-reach's page and 10,000 most of one (pliant_viewer.glb)
             segments = np.stack([tree.nodes[edges[:, 0]], tree.nodes[edges[:, 1]]], axis=1)
             self._add("/policy/edges", s.add_glb("/policy/edges", glb.lines(segments, content.TREE_COLOUR),
                                                  cast_shadow=False, receive_shadow=False))
+        elif len(edges):
+            # a small tree: line segments, drawn in the same frame as the rest of the view (a GLB is loaded
+            # asynchronously and was drawn 0.4-0.5 s after it, which delayed a run's first frame by as much)
+            segments = np.stack([tree.nodes[edges[:, 0]], tree.nodes[edges[:, 1]]], axis=1)
+            self._add("/policy/edges", s.add_line_segments("/policy/edges", segments.astype(np.float32),
+                                                           colors=content.TREE_COLOUR, thickness=1.0,
+                                                           thickness_units="screen"))
         node_colours = content.probability_colours(tree.probability)
         self._add("/policy/nodes", s.add_point_cloud("/policy/nodes", tree.nodes[keep].astype(np.float32),
                                                      colors=node_colours[keep], point_size=radius * 0.8,

@@ -80,10 +80,9 @@ def test_page_shows_the_run_and_the_slider_moves_the_robot(chromium, maze_run):
                                      ".map(c => c.getContext('webgl2')).filter(g => g)"
                                      ".map(g => g.getContextAttributes().antialias)")
         assert antialias and not any(antialias)
-        # the policy's edges are drawn as WebGL lines (one non-instanced call of len(path) - 1 segments), not as
-        # instanced quads (pliant_viewer.glb)
+        # the policy's few edges are line segments (instanced quads), drawn with the rest
         t0 = time.perf_counter()
-        while browser.lines_signature(len(path) - 1) not in browser.first_draws(d):
+        while browser.segments_signature(len(path) - 1) not in browser.first_draws(d):
             assert time.perf_counter() - t0 < 30, browser.first_draws(d)
             time.sleep(0.1)
         # the browser's WebGL render: not blank, with the walls' material colour on screen
@@ -165,8 +164,14 @@ def test_a_moving_camera_lightens_the_frame_and_rest_restores_it(chromium):
     try:
         viewer.show(build_content(scene, policy=policy))
         d = chromium.driver
+        browser.install_draw_probe(d)
         d.get(viewer.url)
         browser.wait_for_text(d, "policy: 600 nodes")
+        # 599 edges: drawn as WebGL lines (one non-instanced call, pliant_viewer.glb), not as instanced quads
+        t0 = time.perf_counter()
+        while browser.lines_signature(599) not in browser.first_draws(d):
+            assert time.perf_counter() - t0 < 30, browser.first_draws(d)
+            time.sleep(0.1)
         t0 = time.perf_counter()
         while d.execute_script(script)[2] is None:
             assert time.perf_counter() - t0 < 30, "no particle cloud in the page"

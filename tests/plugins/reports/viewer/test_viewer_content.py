@@ -232,8 +232,18 @@ def test_cache_round_trip_for_an_arm(tmp_path, viewer):
     assert cache.load(tmp_path, scene) is None
 
 
-def test_large_trees_drawn_from_their_first_nodes_and_solutions():
-    """Beyond ``tree_limit`` nodes: the first ones and every solution's; the "whole tree" switch draws all."""
+def _edges(handle) -> np.ndarray:
+    """The segments ``(n, 2, 3)`` of a tree's edges as sent: WebGL lines in a GLB, or viser's line segments."""
+    if hasattr(handle, "glb_data"):
+        return glb.read_lines(handle.glb_data)[0]
+    return np.asarray(handle.points, dtype=np.float64)
+
+
+def test_large_trees_drawn_from_their_first_nodes_and_solutions(monkeypatch):
+    """Beyond ``tree_limit`` nodes: the first ones and every solution's; the "whole tree" switch draws all.  Edges
+    of a tree beyond ``GLB_EDGES`` go as WebGL lines (a GLB), of a smaller one as line segments."""
+    from pliant_viewer import viewer as viewer_module
+
     chain = [{"particles": [[i, 0, 0]], "parent": i - 1 if i else None, "expected": [i, 0, 0],
               "path_probability": 0.5} for i in range(10)]
     policy = {"nodes": chain, "actions": [], "solutions": [[0, 1, 2, 8, 9]]}
@@ -243,12 +253,15 @@ def test_large_trees_drawn_from_their_first_nodes_and_solutions():
         viewer.show(build_content(scene, policy=policy))
         assert viewer.tree_drawn == 6                                        # nodes 0-3, and 8 and 9
         np.testing.assert_allclose(np.asarray(viewer.nodes["/policy/nodes"].points)[:, 0], [0, 1, 2, 3, 8, 9])
-        edges, colour = glb.read_lines(viewer.nodes["/policy/edges"].glb_data)   # WebGL lines (a GLB)
-        np.testing.assert_allclose(edges[:, :, 0], [[0, 1], [1, 2], [2, 3], [8, 9]], atol=1e-6)
-        np.testing.assert_allclose(colour, content.TREE_COLOUR, atol=1e-6)
+        assert not hasattr(viewer.nodes["/policy/edges"], "glb_data")      # 4 edges: line segments
+        np.testing.assert_allclose(_edges(viewer.nodes["/policy/edges"])[:, :, 0], [[0, 1], [1, 2], [2, 3], [8, 9]],
+                                   atol=1e-6)
+        monkeypatch.setattr(viewer_module, "GLB_EDGES", 5)
         viewer._whole_tree(type("Event", (), {"target": type("Box", (), {"value": True})()})())
-        edges, _ = glb.read_lines(viewer.nodes["/policy/edges"].glb_data)
+        edges, colour = glb.read_lines(viewer.nodes["/policy/edges"].glb_data)    # 9 edges: WebGL lines (a GLB)
         assert viewer.tree_drawn == 10 and len(edges) == 9
+        np.testing.assert_allclose(edges[:, :, 0], np.stack([np.arange(9), np.arange(1, 10)], axis=1), atol=1e-6)
+        np.testing.assert_allclose(colour, content.TREE_COLOUR, atol=1e-6)
         assert "6 nodes drawn" in viewer.summary.content
     finally:
         viewer.stop()
