@@ -120,7 +120,7 @@ def first_frame(run: Path, b: browser.Browser, expect: dict, robot: list[str], e
         browser.dismiss_notifications(d)
         d.save_screenshot(str(SHOTS / "robot-in.png"))
         return {"printed": t_printed, "page": t_page, **{f"{k}_drawn": v for k, v in parts.items()},
-                "first_frame": t_first, "robot": t_robot}
+                "first_frame": t_first, "robot": t_robot, "lod_engaged": lod_engaged(d)}
     finally:
         proc.terminate()
         proc.wait(10)
@@ -376,6 +376,9 @@ def main() -> None:
                     "PYTHONDONTWRITEBYTECODE=1: every pliant module compiled at each start" if
                     os.environ.get("PYTHONDONTWRITEBYTECODE") else "Python's default bytecode cache")
         print(f"pliant view ran with {bytecode}")
+        loads = results["first_frame_cold"] + results["first_frame"]
+        print(f"the page lightened its frames for a moving camera (pliant_viewer.page) while loading in "
+              f"{sum(1 for r in loads if r.get('lod_engaged'))} of {len(loads)} loads")
     rows = []
 
     def fps(x: dict) -> str:
