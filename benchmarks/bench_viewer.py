@@ -215,6 +215,7 @@ def tree_fps(scene, robot, b: browser.Browser, seconds: float, rng) -> dict:
         open_page(viewer, b, "policy: 10000 nodes")
         loaded = time.perf_counter() - t0
         default = view_fps(viewer, b, seconds)
+        time.sleep(1.0)                 # at rest: the page draws at full resolution and every particle again
         b.driver.save_screenshot(str(SHOTS / "tree-10000.png"))
         drawn = viewer.tree_drawn
         # the page's "whole tree" switch: every node, edge and (up to 50,000) particles
@@ -228,6 +229,7 @@ def tree_fps(scene, robot, b: browser.Browser, seconds: float, rng) -> dict:
             raise RuntimeError(f"the page's 'whole tree' switch did not reach the server ({len(labels)} labels)")
         time.sleep(3.0)
         whole = view_fps(viewer, b, seconds)
+        time.sleep(1.0)
         b.driver.save_screenshot(str(SHOTS / "tree-10000-whole.png"))
         return {"nodes": len(view.tree.nodes), "nodes_drawn": drawn, "particles_drawn": len(view.tree.particles),
                 "build_s": build, "page_s": loaded, "default": default, "whole_nodes_drawn": viewer.tree_drawn,
