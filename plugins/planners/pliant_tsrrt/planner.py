@@ -146,6 +146,7 @@ class TSRRTPlanner(Planner):
         names = domain.movable_names(scene, o.objects)
         models, learn_time = self._models(problem, scene, names, rng)
         space = build_space(scene, o, models, names)
+        space.warm_up()
         if o.start == "random":
             s0 = random_arrangements(space, rng, 1, clearance=o.start_clearance)[0]
         else:
@@ -365,6 +366,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
         raise PlanningError("executing a TS-RRT plan needs a world that can place objects (a simulator such as "
                             "pymunk)", field="execution.world", value=type(world).__name__)
     space = build_space(scene, o, plan.models, plan.names)
+    space.warm_up()
     push = o.push_settings(scene)
     all_names = domain.movable_names(scene, ())
     fp_all = footprints_from_scene(scene, all_names)

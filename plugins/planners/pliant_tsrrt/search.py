@@ -124,6 +124,17 @@ class ObjectSpace:
                        np.ascontiguousarray(pose[:, 2].reshape(self.k, N_PRIMITIVES)),
                        np.ascontiguousarray(half.reshape(self.k, N_PRIMITIVES, 2)))
 
+    def warm_up(self) -> None:
+        """Call every compiled kernel once (:mod:`pliant_tsrrt.kernels`), so that their compilation -- some 10 s on
+        the first run after installation, a fraction of a second when numba's cache has them -- is not charged to a
+        planning budget."""
+        s = self.random_config(np.random.default_rng(0))
+        self.checker.in_collision(s)
+        self.cost.cost(s[None])
+        self.valid_actions(s, self.outcomes(s))
+        self.valid_steps(s[None], s[None], np.zeros(1, dtype=np.int64), valid_before=True)
+        self.rollout(s, [0])
+
     # --- MODEL, rho, IN_COLLISION ------------------------------------------------------------------------------
 
     def outcomes(self, s: np.ndarray) -> np.ndarray:
