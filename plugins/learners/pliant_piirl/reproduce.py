@@ -58,23 +58,24 @@ def table_41(run: ReproductionRun) -> Outcome:
     rows_ = summary["rows"]
     tasks = max(len(rows_), 1)
     thesis_ratios = sorted(sum(p[0] for p in planned) / sum(shown) for shown, planned in THESIS_TABLE_41)
-    # measured with these budgets and seeds (docs/plugins/piirl.md): full 6 of 12 tasks no costlier, 10 of 12 the
-    # same classes, median ratio 0.99; quick 3 of 3, 2 of 3, 0.93.  The plans are functions of their seeds; the
-    # ranges leave one task of room for another machine's rounding
-    bound = {"cheaper": 5 / 12, "same": 9 / 12, "median": 1.1} if not quick else \
-        {"cheaper": 2 / 3, "same": 2 / 3, "median": 1.05}
+    # measured with these budgets and seeds and the default recovery, the ranking (docs/plugins/piirl.md): full 9 of
+    # 12 tasks no costlier, 9 of 12 the same classes, median ratio 0.98; quick 2 of 3, 2 of 3, 0.91.  The plans are
+    # functions of their seeds; the ranges leave one task of room for another machine's rounding (quick's "same
+    # classes" none, as before)
+    bound = {"cheaper": 8 / 12, "same": 8 / 12, "median": 1.1} if not quick else \
+        {"cheaper": 1 / 3, "same": 2 / 3, "median": 1.05}
     headlines += [
         Headline("tasks where most plans cost no more than the demonstration (fraction, true cost)",
                  summary["tasks_no_costlier"] / tasks, bound["cheaper"], 1.0, 2 / 12,
-                 "the issue asks for 10 of 12; the thesis's own Table 4.1 has 2 of 12; ours 6 of 12 (full), 3 of 3 "
+                 "the issue asks for 10 of 12; the thesis's own Table 4.1 has 2 of 12; ours 9 of 12 (full), 2 of 3 "
                  "(quick), after the local search in the recovered cost"),
         Headline("tasks where most plans deform the same classes (fraction; a class > 10% of the true cost)",
                  summary["tasks_same_objects"] / tasks, bound["same"], 1.0, 11 / 12,
-                 "the issue asks for 11 of 12; ours 10 of 12 (full: in tasks 1 and 11 the cheaper plans take more "
-                 "than 10% from the second face), 2 of 3 (quick)"),
+                 "the issue asks for 11 of 12; ours 9 of 12 (full: tasks 2, 4 and 11 sit near the 10% line; the "
+                 "true values' own optimum matches 9 of 12), 2 of 3 (quick)"),
         Headline("median planned / demonstrated true cost", summary["ratio_true"]["median"], 0.0, bound["median"],
                  (thesis_ratios[5] + thesis_ratios[6]) / 2,
-                 "a plan at the demonstration's cost is 1; ours 0.99 (full), 0.93 (quick); the thesis's 30-minute "
+                 "a plan at the demonstration's cost is 1; ours 0.98 (full), 0.91 (quick); the thesis's 30-minute "
                  "RRT* plans 1.55")]
     directory = run.output / f"learn-table-4.1{'-quick' if quick else ''}"
     return Outcome(rows, headlines, {"plans": plans, **budget, "quick": quick},
