@@ -9,7 +9,7 @@ _MODULE = "pliant_piirl.learner"
 @hookimpl
 def pliant_register(registrar):
     registrar.add("learner", "piirl", f"{_MODULE}:PiirlLearner",
-                  description="object sensitivities from demonstrations by PIIRL (thesis 4.3.3, eq. 4.1)")
+                  description="object sensitivities from demonstrations by PIIRL (thesis 4.3.3; a ranking, or eq. 4.1)")
     registrar.add("learner", "active-piirl", f"{_MODULE}:ActivePiirlLearner",
                   description="Alg. 2-3 choose demonstrations, a simulated expert shows them, PIIRL learns (ch. 4)")
     registrar.add("learner", "press-deformability", "pliant_piirl.deformability:PressDeformabilityLearner",
