@@ -229,3 +229,37 @@ def rollout(s0, objs, prims, means):
         out[j + 1, o, 1] = y + s * dx + c * dy
         out[j + 1, o, 2] = (t + dt + math.pi) % (2 * math.pi) - math.pi
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def beam_expand(poses, means, target, scale, period, bin_width):
+    """One object's beam step (:func:`pliant_tsrrt.refine.push_toward`): every pose ``(b, 3)`` moved by each of the
+    six mean displacements ``means`` ``(6, 3)`` (MODEL); returns the new poses ``(6 b, 3)``, their pose error to
+    ``target`` (position and ``scale`` times the yaw error modulo ``period``), the duplicate keys (0.5 mm, 2 mrad)
+    and the yaw bins (``bin_width`` rad, modulo ``period``)."""
+    b = poses.shape[0]
+    n = 6 * b
+    to = np.empty((n, 3))
+    err = np.empty(n)
+    key = np.empty(n, dtype=np.int64)
+    bins = np.empty(n, dtype=np.int64)
+    for i in range(b):
+        x, y, t = poses[i, 0], poses[i, 1], poses[i, 2]
+        c, s = math.cos(t), math.sin(t)
+        for p in range(6):
+            j = 6 * i + p
+            dx, dy, dt = means[p, 0], means[p, 1], means[p, 2]
+            nx = x + c * dx - s * dy
+            ny = y + s * dx + c * dy
+            nt = (t + dt + math.pi) % (2 * math.pi) - math.pi
+            to[j, 0], to[j, 1], to[j, 2] = nx, ny, nt
+            d = nt - target[2]
+            dth = (d + period / 2) % period - period / 2
+            ex, ey = nx - target[0], ny - target[1]
+            err[j] = math.sqrt(ex * ex + ey * ey + (scale * dth) ** 2)
+            ix = np.int64(np.rint(nx / 5e-4))
+            iy = np.int64(np.rint(ny / 5e-4))
+            it = np.int64(np.rint(((nt + math.pi) % (2 * math.pi)) / 2e-3))
+            key[j] = (ix * 1_000_003 + iy) * 4099 + it
+            bins[j] = np.int64(np.rint((nt % period) / bin_width))
+    return to, err, key, bins

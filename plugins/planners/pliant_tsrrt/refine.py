@@ -32,6 +32,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from pliant_tsrrt import kernels
 from pliant_tsrrt.models import compose
 
 N_PRIMITIVES = 6
@@ -146,7 +147,9 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
     closest to the target (fewest pushes among equally close ones; :func:`connect` then cuts the whole sequence
     where the cost is lowest), or ``cost``, the state of lowest task cost seen (``s`` itself when no push lowers
     it: an object whose way to its target first raises the cost then stays)."""
-    means = space.means[o]
+    means = np.ascontiguousarray(space.means[o])
+    target = np.asarray(target, dtype=np.float64)
+    scale, period = float(space.scale[o]), float(space.period[o])
     prims6 = np.arange(N_PRIMITIVES)
     clean = not space.checker.in_collision(s)[0]          # then only the moved object's pairs need checking
     poses = s[o][None]                                     # the beam: object o's poses (the others stay)
@@ -174,17 +177,13 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
         b = len(poses)
         from_pose = np.repeat(poses, N_PRIMITIVES, axis=0)
         prim = np.tile(prims6, b)
-        to_pose = compose(from_pose, means[prim])
-        err = _pose_error(space, o, to_pose, target)
-        ix = np.round(to_pose[:, 0] / 5e-4).astype(np.int64)
-        iy = np.round(to_pose[:, 1] / 5e-4).astype(np.int64)
-        it = np.round(((to_pose[:, 2] + np.pi) % (2 * np.pi)) / 2e-3).astype(np.int64)
-        _, first = np.unique((ix * 1_000_003 + iy) * 4099 + it, return_index=True)
-        if yaw_quota and space.scale[o] > 0:
+        to_pose, err, key, all_bins = kernels.beam_expand(poses, means, target, scale, period, np.radians(0.25))
+        _, first = np.unique(key, return_index=True)
+        if yaw_quota and scale > 0:
             # at most yaw_quota outcomes per yaw (0.25 degree bins, modulo the footprint's symmetry), so that the
             # beam keeps the different numbers of turns: a box's yaw is set by how many turns of each sense it had,
             # and a combination that ends within a degree of the target's yaw may pass through poses farther off
-            bins = np.round((to_pose[first, 2] % space.period[o]) / np.radians(0.25)).astype(np.int64)
+            bins = all_bins[first]
             order = np.lexsort((err[first], bins))
             sb = bins[order]
             starts = np.r_[0, np.nonzero(np.diff(sb))[0] + 1]

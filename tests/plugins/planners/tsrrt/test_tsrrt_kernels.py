@@ -61,3 +61,20 @@ def test_rollout_kernel_composes_the_models_in_turn():
         expected.append(space.step(expected[-1], a))
     assert np.allclose(states, np.array(expected), rtol=0, atol=1e-12)
     assert np.all((states[..., 2] >= -np.pi) & (states[..., 2] < np.pi))
+
+
+def test_beam_expand_moves_every_pose_by_every_primitive():
+    from pliant_tsrrt.kernels import beam_expand
+    from pliant_tsrrt.models import compose
+
+    rng = np.random.default_rng(4)
+    poses = np.column_stack([rng.uniform(0, 1, 50), rng.uniform(0, 0.8, 50), rng.uniform(-np.pi, np.pi, 50)])
+    means = np.array(MODEL, dtype=float)
+    target = np.array([0.5, 0.4, 0.3])
+    to, err, key, bins = beam_expand(poses, means, target, 0.144, np.pi, np.radians(0.25))
+    expected = compose(np.repeat(poses, 6, axis=0), np.tile(means, (50, 1)))
+    assert np.allclose(to, expected, rtol=0, atol=1e-12)
+    d = (to[:, 2] - target[2] + np.pi / 2) % np.pi - np.pi / 2
+    assert np.allclose(err, np.sqrt(np.sum((to[:, :2] - target[:2]) ** 2, axis=1) + (0.144 * d) ** 2), atol=1e-12)
+    assert len(np.unique(key)) == len(key)                  # 300 distinct poses, 300 keys
+    assert np.all((bins >= 0) & (bins <= round(np.pi / np.radians(0.25))))
