@@ -134,6 +134,7 @@ class ObjectSpace:
         self.valid_actions(s, self.outcomes(s))
         self.valid_steps(s[None], s[None], np.zeros(1, dtype=np.int64), valid_before=True)
         self.rollout(s, [0])
+        kernels.beam_expand(s[:1].copy(), self.means[0].copy(), s[0].copy(), 0.1, np.pi, 0.01)
 
     # --- MODEL, rho, IN_COLLISION ------------------------------------------------------------------------------
 
