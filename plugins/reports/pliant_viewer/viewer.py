@@ -492,9 +492,10 @@ class Viewer:
         for name in [k for k in self.nodes if k.startswith("/policy/")]:
             self.nodes.pop(name).remove()
         self._draw_tree(self.view.tree, radius, whole=event.target.value)
+        if getattr(self, "summary", None) is not None:
+            self.summary.content = self._summary(self.view)        # how many nodes are drawn now
 
-    def _gui(self, view: ViewContent) -> None:
-        g = self.server.gui
+    def _summary(self, view: ViewContent) -> str:
         lines = [f"**pliant** -- {view.title}", ""]
         lines += [f"- {o.name}: {o.total} voxels (deformability {o.deformability:.2f})" for o in view.objects]
         if view.path is not None:
@@ -507,7 +508,11 @@ class Viewer:
             lines += [f"  - {i}: length {p['length_voxels']:.1f} voxels, deformation {p['deformation']:.4g}"
                       for i, p in enumerate(view.pareto)]
         lines += [f"- {n}" for n in view.notes]
-        self.summary = g.add_markdown("\n".join(lines))
+        return "\n".join(lines)
+
+    def _gui(self, view: ViewContent) -> None:
+        g = self.server.gui
+        self.summary = g.add_markdown(self._summary(view))
         with g.add_folder("layers"):
             for prefix in ("/scene/objects", "/robot", "/path", "/policy", "/pareto"):
                 names = [n for n in self.nodes if n == prefix or n.startswith(prefix + "/")]

@@ -256,13 +256,14 @@ def test_large_trees_drawn_from_their_first_nodes_and_solutions(monkeypatch):
         assert not hasattr(viewer.nodes["/policy/edges"], "glb_data")      # 4 edges: line segments
         np.testing.assert_allclose(_edges(viewer.nodes["/policy/edges"])[:, :, 0], [[0, 1], [1, 2], [2, 3], [8, 9]],
                                    atol=1e-6)
+        assert "6 nodes drawn" in viewer.summary.content
         monkeypatch.setattr(viewer_module, "GLB_EDGES", 5)
         viewer._whole_tree(type("Event", (), {"target": type("Box", (), {"value": True})()})())
         edges, colour = glb.read_lines(viewer.nodes["/policy/edges"].glb_data)    # 9 edges: WebGL lines (a GLB)
         assert viewer.tree_drawn == 10 and len(edges) == 9
         np.testing.assert_allclose(edges[:, :, 0], np.stack([np.arange(9), np.arange(1, 10)], axis=1), atol=1e-6)
         np.testing.assert_allclose(colour, content.TREE_COLOUR, atol=1e-6)
-        assert "6 nodes drawn" in viewer.summary.content
+        assert "10 nodes, 10 particles" in viewer.summary.content and "nodes drawn" not in viewer.summary.content
     finally:
         viewer.stop()
 
