@@ -14,7 +14,7 @@
    first 2,000 nodes and every solution's, with their particles) and after the page's "whole tree" switch (10,000
    nodes and edges, 50,000 of the 240,000 particles).  Interactive = at least 10 frames drawn a second while the view
    moves (the mouse dragging it, the server swinging it); the page lightens a moving camera's frames in software
-   WebGL (pliant_viewer.page: half the pixel ratio, 10,000 of the particles), and the table says when it did.
+   WebGL (pliant_viewer.page: 0.4 of the pixel ratio, 10,000 of the particles), and the table says when it did.
 3. 10 s of a 24-particle execution, live: the Baxter execution of the run streamed through :meth:`Viewer.on_step`
    at its own rate (25 Hz) with 24 particles (the executed configuration plus noise) drawn and trailed every step;
    frames drawn per second during the stream.  ``--parts before-after`` streams it alternately into the page as it

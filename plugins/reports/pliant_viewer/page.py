@@ -30,9 +30,9 @@ _SWAP = threading.Lock()        # one server built at a time while viser's Webso
 SOFTWARE_WEBGL = """<script>
 (function () {
   // pliant viewer (see pliant_viewer/page.py): on a software WebGL renderer, no multisampling, and a lighter frame
-  // while the camera moves (half the pixel ratio, at most MOTION_POINTS points of the clouds named in LOD_NODES);
+  // while the camera moves (0.4 of the pixel ratio, at most MOTION_POINTS points of the clouds named in LOD_NODES);
   // everything at full resolution again once the camera has rested REST_MS
-  var MOTION_SCALE = 0.5, MOTION_POINTS = 10000, MOTION_TICKS = 3, REST_MS = 400, LOD_NODES = ['/policy/particles'];
+  var MOTION_SCALE = 0.4, MOTION_POINTS = 10000, MOTION_TICKS = 3, REST_MS = 400, LOD_NODES = ['/policy/particles'];
   var search = location.search;
   var getContext = HTMLCanvasElement.prototype.getContext, software = null;
   function isSoftware() {
@@ -63,7 +63,8 @@ SOFTWARE_WEBGL = """<script>
   }
   // viser's client exposes its scene (window.__viserMutable) and its settings store (window.__viserTestpoints);
   // without them nothing here happens
-  var lod = {moving: false, engaged: 0, since: -1e9, saved: null, run: 0, changed: false};
+  var lod = {moving: false, engaged: 0, since: -1e9, saved: null, run: 0, changed: false, scale: MOTION_SCALE,
+             points: MOTION_POINTS};
   window.__pliantLod = lod;
   function reduce(on) {
     var m = window.__viserMutable, t = window.__viserTestpoints, dirty = on !== lod.moving;
@@ -73,14 +74,14 @@ SOFTWARE_WEBGL = """<script>
       if (!root) return;
       root.traverse(function (o) {
         var g = o.isPoints && o.geometry, n = g && g.attributes.position ? g.attributes.position.count : 0;
-        var count = on && n > MOTION_POINTS ? MOTION_POINTS : Infinity;
+        var count = on && n > lod.points ? lod.points : Infinity;
         if (g && g.drawRange.count !== count) { g.setDrawRange(0, count); dirty = true; }
       });
     });
     if (on !== lod.moving && t && t.devSettings) {
       if (on) {
         lod.saved = t.devSettings.get().fixedDpr;
-        t.devSettings.set({fixedDpr: MOTION_SCALE * (lod.saved || window.devicePixelRatio || 1)});
+        t.devSettings.set({fixedDpr: lod.scale * (lod.saved || window.devicePixelRatio || 1)});
       } else {
         t.devSettings.set({fixedDpr: lod.saved});
       }
