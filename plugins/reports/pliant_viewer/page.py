@@ -7,6 +7,14 @@ same page drew in about half the time (``docs/plugins/viewer.md``, Figures).  So
 is a software one, the script creates WebGL contexts without multisampling; edges are then not smoothed.  With a GPU
 nothing changes.  ``?antialias=1`` in the page's address keeps multisampling on a software renderer too.
 
+It also lightens the frames of a moving camera there (level of detail): from the first drag or wheel event on the
+canvas, or once the camera has changed in 3 animation frames in a row (a camera set once, as when the page loads, is
+not a move), the page draws at 0.4 of its pixel ratio (viser's own ``fixedDpr`` setting) and only the first 10,000
+points of ``/policy/particles`` (three.js's draw range; the viewer sends them shuffled, so they are an even sample);
+0.4 s after the camera stops, everything at full resolution again.  Every node and edge is drawn in every frame.
+It reaches viser's client through the objects it exposes (``window.__viserMutable``, ``window.__viserTestpoints``);
+without them it does nothing.  ``?lod=0`` turns it off; ``window.__pliantLod`` holds its state and settings.
+
 viser serves its client from one directory (``http_server_root``, its package's ``client/build``) chosen when its
 server is created; :func:`start_server` points it at a copy of that ``index.html`` with the script added, written
 once into the user's cache (``$XDG_CACHE_HOME/pliant/viewer``, else a temporary directory).  Should viser change
