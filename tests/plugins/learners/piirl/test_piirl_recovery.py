@@ -64,13 +64,14 @@ def test_the_ranking_balances_the_samples_relative_margins():
         "sensitivities"] == pytest.approx([0.1, 0.1], rel=1e-6)
 
 
-def test_each_objective_has_its_own_default_temperature():
+def test_each_objective_has_its_own_default_temperature_and_restarts():
     rng = np.random.default_rng(3)
     demos, samples = rng.uniform(0, 1, (3, 3)), [rng.uniform(0, 2, (6, 3)) for _ in range(3)]
-    for objective, h in (("likelihood", 30.0), ("ranking", 10.0)):
+    for objective, h, restarts in (("likelihood", 30.0, 4), ("ranking", 10.0, 4), ("ratio", None, 2)):
         a = recover(demos, samples, RecoveryOptions(objective=objective))
-        b = recover(demos, samples, RecoveryOptions(objective=objective, temperature=h))
+        b = recover(demos, samples, RecoveryOptions(objective=objective, temperature=h, restarts=restarts))
         assert a["sensitivities"] == pytest.approx(b["sensitivities"]) and a["objective"] == b["objective"]
+        assert a["iterations"] == b["iterations"]
 
 
 def ranking(s, demos, samples, h=10.0):
@@ -128,6 +129,7 @@ def likelihood(s, demos, samples, h=30.0):
 
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 10_000))
+@example(2028)                  # with 2 restarts the likelihood stopped at a bound of the log-S box (9.544 > 9.320)
 def test_the_likelihood_is_no_worse_than_any_point_of_a_random_search_and_invariant_to_scale(seed):
     rng = np.random.default_rng(seed)
     demos = rng.uniform(0, 1, (3, 4))
