@@ -87,8 +87,14 @@ def test_heartbeat_loss_mid_motion_stops_the_arm_with_a_clear_error(make_peer, m
             driver.move_to(Q)
         assert "node 6 (lbr_iiwa_joint_6): heartbeat lost" in str(info.value)
         driver.stop()
-    assert peer.drive(6).state == DriveState.OPERATION_ENABLED     # not disabled: its heartbeat is gone
-    assert abs(peer.drive(6).velocity) < 1.0                       # but it came to rest (counts/s)
+    # The driver cannot reach node 6, so it leaves it enabled; once the master's heartbeat stops on shutdown, the
+    # drive's own heartbeat consumer (0x1016, the same 0.1 s) faults it with EMCY 0x8130, a race with this line.
+    # Either way it was never disabled by the driver, and it came to rest.
+    drive = peer.drive(6)
+    assert drive.state in (DriveState.OPERATION_ENABLED, DriveState.FAULT)
+    if drive.state == DriveState.FAULT:
+        assert drive.emcy_sent[-1] == 0x8130                       # master heartbeat lost, not another fault
+    assert abs(drive.velocity) < 1.0                               # counts/s
     assert_targets_within_limits(peer, driver.limits)
 
 
