@@ -86,35 +86,6 @@ def ranking(s, demos, samples, h=10.0):
     return total if len(total) > 1 else float(total[0])
 
 
-@settings(max_examples=15, deadline=None)
-@given(st.integers(0, 10_000))
-def test_the_ranking_is_no_worse_than_any_point_of_a_random_search_and_invariant_to_scale(seed):
-    rng = np.random.default_rng(seed)
-    demos = rng.uniform(0, 1, (3, 4))
-    samples = [rng.uniform(0, 2, (5, 4)) for _ in range(3)]
-    result = recover(demos, samples)                    # the default
-    s = result["sensitivities"]
-    assert result["objective"] == pytest.approx(ranking(s, demos, samples), rel=1e-9)
-    assert ranking(s * 123.0, demos, samples) == pytest.approx(result["objective"], rel=1e-9)
-    best = ranking(rng.uniform(0.1, 1000, (2000, 4)), demos, samples).min()
-    assert result["objective"] <= best + 1e-9
-    assert s.min() == pytest.approx(0.1) and s.max() <= 1000 + 1e-9
-
-
-def test_the_ranking_gradient_matches_finite_differences_with_unequal_sample_counts():
-    from scipy.optimize import check_grad
-
-    rng = np.random.default_rng(1)
-    demos = [rng.uniform(0, 1, 3) for _ in range(4)]
-    samples = [rng.uniform(0, 2, (6, 3)) for _ in range(3)] + [rng.uniform(0, 2, (2, 3))]
-    objective, batch, _ = _ranking(demos, samples, 10.0)
-    for s in rng.uniform(0.1, 10, (5, 3)):
-        f, g = (lambda x: objective(x)[0]), (lambda x: objective(x)[1])
-        assert f(s) == pytest.approx(ranking(s, demos, samples), rel=1e-12)   # padding changes nothing
-        assert batch(s[None])[0] == pytest.approx(f(s), rel=1e-12)
-        assert check_grad(f, g, s, epsilon=1e-7) < 1e-5 * np.linalg.norm(g(s)) + 1e-9
-
-
 def likelihood(s, demos, samples, h=30.0):
     """The normalised PIIRL negative log-likelihood at ``s`` (one point ``(n,)`` or many ``(P, n)``)."""
     s = np.atleast_2d(s)
@@ -127,32 +98,41 @@ def likelihood(s, demos, samples, h=30.0):
     return total if len(total) > 1 else float(total[0])
 
 
+#: each objective: its options, its reference implementation above, its batched builder and its default temperature
+OBJECTIVES = {"ranking": (RecoveryOptions(), ranking, _ranking, 10.0),
+              "likelihood": (LIKELIHOOD, likelihood, _likelihood, 30.0)}
+
+
+@pytest.mark.parametrize("name", OBJECTIVES)
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 10_000))
 @example(2028)                  # with 2 restarts the likelihood stopped at a bound of the log-S box (9.544 > 9.320)
-def test_the_likelihood_is_no_worse_than_any_point_of_a_random_search_and_invariant_to_scale(seed):
+def test_the_recovery_is_no_worse_than_any_point_of_a_random_search_and_invariant_to_scale(name, seed):
+    options, reference, _, _ = OBJECTIVES[name]
     rng = np.random.default_rng(seed)
     demos = rng.uniform(0, 1, (3, 4))
     samples = [rng.uniform(0, 2, (5, 4)) for _ in range(3)]
-    result = recover(demos, samples, LIKELIHOOD)
+    result = recover(demos, samples, options)
     s = result["sensitivities"]
-    assert result["objective"] == pytest.approx(likelihood(s, demos, samples), rel=1e-9)
-    assert likelihood(s * 123.0, demos, samples) == pytest.approx(result["objective"], rel=1e-9)
-    best = likelihood(rng.uniform(0.1, 1000, (2000, 4)), demos, samples).min()
+    assert result["objective"] == pytest.approx(reference(s, demos, samples), rel=1e-9)
+    assert reference(s * 123.0, demos, samples) == pytest.approx(result["objective"], rel=1e-9)
+    best = reference(rng.uniform(0.1, 1000, (2000, 4)), demos, samples).min()
     assert result["objective"] <= best + 1e-9
     assert s.min() == pytest.approx(0.1) and s.max() <= 1000 + 1e-9
 
 
-def test_the_likelihood_gradient_matches_finite_differences_with_unequal_sample_counts():
+@pytest.mark.parametrize("name", OBJECTIVES)
+def test_the_gradient_matches_finite_differences_with_unequal_sample_counts(name):
     from scipy.optimize import check_grad
 
+    _, reference, build, temperature = OBJECTIVES[name]
     rng = np.random.default_rng(1)
     demos = [rng.uniform(0, 1, 3) for _ in range(4)]
     samples = [rng.uniform(0, 2, (6, 3)) for _ in range(3)] + [rng.uniform(0, 2, (2, 3))]
-    objective, batch, _ = _likelihood(demos, samples, 30.0)
+    objective, batch, _ = build(demos, samples, temperature)
     for s in rng.uniform(0.1, 10, (5, 3)):
         f, g = (lambda x: objective(x)[0]), (lambda x: objective(x)[1])
-        assert f(s) == pytest.approx(likelihood(s, demos, samples), rel=1e-12)   # padding changes nothing
+        assert f(s) == pytest.approx(reference(s, demos, samples), rel=1e-12)   # padding changes nothing
         assert batch(s[None])[0] == pytest.approx(f(s), rel=1e-12)
         assert check_grad(f, g, s, epsilon=1e-7) < 1e-5 * np.linalg.norm(g(s)) + 1e-9
 
