@@ -16,6 +16,8 @@ from pliant.errors import JointMismatch, PipelineError
 from pliant.hardware.limits import load_limits
 from pliant.testing.memory_robot import MemoryDriver, MemoryRobot
 
+pytestmark = pytest.mark.usefixtures("frozen_heap")      # a command stream with a watchdog runs in this process
+
 IIWA = [f"lbr_iiwa_joint_{i}" for i in range(1, 8)]
 START = np.array([0.0, 0.3, 0.0, -1.2, 0.0, 0.6, 0.0])    # the iiwa-shelf scene's start
 

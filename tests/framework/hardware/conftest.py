@@ -66,3 +66,9 @@ def robot_and_driver(limits_file, limits):
     driver.close()
     robot.stop()
     MemoryDriver.robots.pop(rid, None)
+
+
+@pytest.fixture(autouse=True)
+def _realtime(frozen_heap):
+    """Heartbeats, watchdogs and command streams run in threads of this process: no multi-100 ms collector pauses
+    (see ``frozen_heap``)."""

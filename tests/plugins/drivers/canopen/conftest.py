@@ -106,3 +106,9 @@ def make_driver(channel):
     yield make
     for driver in drivers:
         driver.close()
+
+
+@pytest.fixture(autouse=True)
+def _realtime(frozen_heap):
+    """Heartbeats, watchdogs and command streams run in threads of this process: no multi-100 ms collector pauses
+    (see ``frozen_heap``)."""
