@@ -236,7 +236,9 @@ def main() -> None:
                                       action_limit=args.action_limit)
                 ex.append({"final_cost": record.final_cost, "ratio_reference": record.final_cost / ref_cost,
                            "ratio_plan": record.final_cost / found.cost, "collided": record.collided,
-                           "replans": len(record.adaptations), "pushes": len(record.actions),
+                           "replans": sum(not a.get("repair") for a in record.adaptations),
+                           "repairs": sum(bool(a.get("repair")) for a in record.adaptations),
+                           "pushes": len(record.actions),
                            "outcome": record.outcome})
             runs.append({"seed": seed, "start_cost": float(space.cost.cost(s0[None])[0]), "cost": found.cost,
                          "reference_cost": ref_cost, "reference_random_starts_cost": ref_random_cost,
@@ -250,13 +252,15 @@ def main() -> None:
                          f"{ref_cost:.3f}", f"{ratio:.3f}", "yes" if collided else "no", redundant,
                          f"{st['refine_branch']}/{st['actions_before_shortcut']}+{st['refine_pushes']}",
                          len(found.actions), st["nodes"], f"{st['tree_time']:.2f}", f"{st['time']:.2f}", f"{cpu:.2f}",
-                         " ".join(f"{x['ratio_reference']:.3f}/{x['ratio_plan']:.3f}/{x['replans']}" for x in ex)))
+                         " ".join(f"{x['ratio_reference']:.3f}/{x['ratio_plan']:.3f}/{x['replans']}/{x['repairs']}"
+                                  for x in ex)))
             print(f"seed {seed}: cost {found.cost:.4f} ref {ref_cost:.4f} ratio {ratio:.3f}", flush=True)
         budget = f"{args.iterations} iterations" if args.iterations else f"budget {args.budget:g} s"
         print_table(f"2-3. TS-RRT on tsrrt-table, 3 objects at random poses, {budget}; executed in pymunk "
                     f"with noise (placement {args.noise * 1000:.0f} mm, actuation 0.01 m/s) and replanning",
                     ("seed", "start", "tree", "TS-RRT", "free opt", "ratio", "collision", "redundant",
-                     "kept+added", "pushes", "nodes", "t tree s", "t total s", "cpu s", "exec: /ref /plan replans"),
+                     "kept+added", "pushes", "nodes", "t tree s", "t total s", "cpu s",
+                     "exec: /ref /plan replans/repairs"),
                     rows)
         # every seed arranges the same objects under the same cost: the best free placement over all seeds is the
         # reference
@@ -283,6 +287,9 @@ def main() -> None:
                    "executions_within_10pct_of_plan_wilson95": [lo, hi],
                    "execution_collisions": int(sum(x["collided"] for x in exr)),
                    "replans_mean": float(np.mean([x["replans"] for x in exr])) if exr else float("nan"),
+                   "repairs_mean": float(np.mean([x["repairs"] for x in exr])) if exr else float("nan"),
+                   "execution_pushes_median": float(np.median([x["pushes"] for x in exr])) if exr else float("nan"),
+                   "executions_at_action_limit": int(sum(x["outcome"] == "action limit" for x in exr)),
                    "tree_best_median": float(np.median([r["tree_best_cost"] for r in runs])) / best_ref,
                    "time_tree_median": float(np.median([r["tree_time"] for r in runs])),
                    "time_total_median": float(np.median([r["time"] for r in runs])),

@@ -34,6 +34,8 @@ from pliant_tsrrt.learning import LearningArena, LearnSettings, learn_models
 from pliant_tsrrt.models import PushModels, footprints_from_scene, object_class, scene_pose, wrap
 from pliant_tsrrt.pushing import PRIMITIVES, apply_action, paddle_sweeps
 from pliant_tsrrt.reference import random_arrangements
+from pliant_tsrrt.repair import restore as repair_restore
+from pliant_tsrrt.repair import toward_goal as repair_toward_goal
 from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow
 
 
@@ -108,6 +110,14 @@ class TSRRTOptions(PushOptions):
     max_replans: int = option(20, "most replannings in one execution", minimum=0)
     replan_refine: bool = option(False, "execution: the improvement phase in every replanning; else (default) only "
                                  "in the replanning after the plan is done, deviations are replanned by the tree")
+    repair: bool = option(True, "execution: before replanning, try to repair the plan: push the displaced objects "
+                          "back to the plan's predicted poses and carry on (after a deviation), or toward the first "
+                          "plan's final arrangement (when the plan is done, or after a deviation that cannot be "
+                          "undone, if that ends within finish_tolerance); replan only when that fails "
+                          "(pliant_tsrrt.repair)")
+    repair_depth: int = option(12, "execution: most pushes per object of a repair (refine_depth toward the first "
+                               "plan's final arrangement after a deviation)", minimum=1)
+    max_repairs: int = option(40, "most repairs in one execution (beside max_replans)", minimum=0)
 
     def validate(self) -> None:
         if self.min_pushes > self.max_pushes:
@@ -291,9 +301,9 @@ class PushPlan(Policy):
         """Run the plan in ``world`` (a simulator that can place objects) with monitoring and replanning; the
         ``controller`` is not used (pushes are the primitives' velocity commands).  Returns an
         :class:`~pliant.execution.loop.ExecutionRecord` whose ``actions`` hold, per push, the object, the primitive, the
-        predicted and observed poses, the error (m, rad) and whether it triggered a replan; ``adaptations`` list the
-        replans; ``outcome`` is ``success`` (plan completed, final arrangement collision-free), ``failure`` (it is
-        not) or ``action limit``."""
+        predicted and observed poses, the error (m, rad) and whether it triggered a replan or a repair;
+        ``adaptations`` list the replans and repairs (``repair: True``); ``outcome`` is ``success`` (plan completed,
+        final arrangement collision-free), ``failure`` (it is not) or ``action limit``."""
         scene = context.scene if context is not None else None
         if scene is None:
             raise PlanningError("executing a TS-RRT plan needs the pipeline's context (its scene)", field="context")
@@ -353,6 +363,19 @@ def _pose_errors(space: ObjectSpace, observed: np.ndarray, expected: np.ndarray)
     return err_t, np.where(space.scale > 0, dth, 0.0)
 
 
+def _replanned(adaptations: list[dict]) -> int:
+    """How many of an execution's adaptations were replannings (not repairs)."""
+    return sum(1 for a in adaptations if not a.get("repair"))
+
+
+def _repair_entry(space: ObjectSpace, after: int, cause: str, observed: np.ndarray, fix, names) -> dict:
+    """An execution record's adaptation entry for a repair (:mod:`pliant_tsrrt.repair`)."""
+    return {"after_action": after, "reason": cause, "repair": True,
+            "cost_before": float(space.cost.cost(observed[None])[0]),
+            "planned_cost": float(space.cost.cost(fix.states[-1][None])[0]), "actions": len(fix.actions),
+            "repair_pushes": fix.pushes, "objects": [names[o] for o in fix.objects]}
+
+
 def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, action_limit: int = 100,
                  on_step=None, world_name: str = "", noise: float | None = None):
     """Execute ``plan`` in ``world`` with monitoring and replanning (see :meth:`PushPlan.execute`); ``noise``
@@ -383,19 +406,29 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
     replans: list[dict] = []
     outcome = "success"
     blocked = 0
+    repairs = 0
     stalled = False           # a replanning when the plan was done found nothing cheaper than the arrangement
     j = 0
     while True:
         if j == len(actions):
             # the plan is done: replan if the arrangement is clearly worse than the first plan's
             cost_now = float(space.cost.cost(observed[None])[0])
-            if cost_now <= goal_cost * (1 + o.finish_tolerance) + 1e-12 or len(replans) >= o.max_replans \
-                    or stalled:
+            if cost_now <= goal_cost * (1 + o.finish_tolerance) + 1e-12 or stalled:
                 break
             if len(records) >= action_limit:
                 outcome = "action limit"
                 break
             reason = "finish"
+            fix = repair_toward_goal(_room_for(space, observed), observed, goal, depth=o.repair_depth,
+                                     width=o.refine_width, yaw_quota=o.refine_yaw_quota) \
+                if o.repair and repairs < o.max_repairs else None
+            if fix is not None:
+                repairs += 1
+                replans.append(_repair_entry(space, len(records), reason, observed, fix, plan.names))
+                actions, expected, j = fix.actions, fix.states, 0
+                continue
+            if _replanned(replans) >= o.max_replans:
+                break
         else:
             if len(records) >= action_limit:
                 outcome = "action limit"
@@ -408,7 +441,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             except SimulationError as exc:     # e.g. the noisy paddle placement lands in a wall: skip it, replan
                 blocked += 1
                 records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "skipped": str(exc)})
-                if len(replans) >= o.max_replans:
+                if _replanned(replans) >= o.max_replans:
                     outcome = "failure"
                     break
                 reason = "blocked"
@@ -427,10 +460,29 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "predicted": predicted,
                             "observed": observed.copy(), "step_error": float(step_t.max()),
                             "step_angle_error": float(step_th.max()), "plan_error": float(err_t.max()),
-                            "plan_angle_error": float(dth.max()), "replanned": replan and len(replans) < o.max_replans})
-            if not (replan and len(replans) < o.max_replans):
+                            "plan_angle_error": float(dth.max()),
+                            "replanned": replan and _replanned(replans) < o.max_replans})
+            if not replan:
                 continue
             reason = "deviation"
+            fix = None
+            if o.repair and repairs < o.max_repairs:
+                room = _room_for(space, observed)
+                fix = repair_restore(room, observed, expected[j], actions[j:], threshold=o.replan_threshold,
+                                     angle=o.replan_angle, depth=o.repair_depth, width=o.refine_width,
+                                     yaw_quota=o.refine_yaw_quota) \
+                    or repair_toward_goal(room, observed, goal, depth=o.refine_depth, width=o.refine_width,
+                                          yaw_quota=o.refine_yaw_quota,
+                                          at_most=goal_cost * (1 + o.finish_tolerance))
+            if fix is not None:
+                repairs += 1
+                records[-1]["replanned"] = False
+                records[-1]["repaired"] = True
+                replans.append(_repair_entry(space, len(records), reason, observed, fix, plan.names))
+                actions, expected, j = fix.actions, fix.states, 0
+                continue
+            if _replanned(replans) >= o.max_replans:
+                continue
         cost_now = float(space.cost.cost(observed[None])[0])
         found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
                      Termination(max_time=o.replan_time), seed_plan=actions[j:], goal=goal)
@@ -448,7 +500,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
         outcome = "failure"
     recorder.settle(world)
     record = recorder.record(outcome, events=[f"final cost {final_cost:.4g} (first plan {plan.cost:.4g}); "
-                                              f"{len(replans)} replans; {blocked} pushes skipped; "
+                                              f"{_replanned(replans)} replans; {repairs} repairs; "
+                                              f"{blocked} pushes skipped; "
                                               f"collision-free: {not collided}"],
                              actions=records, adaptations=replans, world=world_name)
     record.final_cost = final_cost

@@ -1,12 +1,14 @@
 """Execution with monitoring and replanning (poster: "Robot monitored error and replanned as necessary"): when the
 plan is done, the arrangement is judged against the *first* plan's cost, and the replanning connects back to the
 first plan's final arrangement.  The pushes and the replanning are scripted here (the world follows the models
-exactly except where a test moves an object), so only the monitoring logic is under test."""
+exactly except where a test moves an object), so only the monitoring logic is under test.  The replanning tests turn
+the repairs off; the repair tests check that a repair comes first and replanning only when it cannot help."""
 
 from __future__ import annotations
 
 import numpy as np
 import pliant_tsrrt.planner as planner_module
+import pytest
 from pliant import load_scene, registry
 from pliant.interfaces import Context
 from pliant_tsrrt.models import Displacement, PushModels, footprints_from_scene, object_class, scene_pose
@@ -17,7 +19,7 @@ NAMES = ["book-1", "block-1", "can-1"]
 MEANS = [[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], [0, 0.002, 0.2], [0, -0.002, -0.2]]
 
 
-def _setup():
+def _setup(repair: bool = False, finish_tolerance: float = 0.05):
     scene = load_scene("tsrrt-table")
     ctx = Context(scene=scene)
     ctx.robot = registry.create("robot", "rigid", ctx)
@@ -33,7 +35,7 @@ def _setup():
             per.append(d)
         models.models[object_class(name)] = per
         models.footprints[object_class(name)] = (int(fp.kind[i]), fp.half[i].copy())
-    options = TSRRTOptions(finish_tolerance=0.05, replan_threshold=0.02)
+    options = TSRRTOptions(finish_tolerance=finish_tolerance, replan_threshold=0.02, repair=repair)
     space = build_space(scene, options, models, NAMES)
     return scene, world, models, options, space
 
@@ -114,3 +116,41 @@ def test_replanning_from_a_jammed_arrangement_keeps_the_largest_margin_it_allows
     assert _room_for(space, free) is space
     s[1, 0] = 0.3 + 0.12 + 0.05 - 0.004              # overlapping by 4 mm: nothing but touching is left
     assert _room_for(space, s).checker.margin == TOUCH
+
+
+def test_a_deviation_is_repaired_by_pushing_the_object_back_and_the_plan_goes_on(monkeypatch):
+    scene, world, models, options, space = _setup(repair=True)
+    s0 = np.array([scene_pose(scene, n) for n in NAMES])
+    first = _result(space, s0, [15, 15, 15])
+    # the first push leaves the can one push length (4.5 cm) back toward the edge: one push -y brings it back
+    calls = _script(monkeypatch, space, (0, 2, 0.045), [])
+    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, options.__dict__, models)
+    record = execute_plan(plan, world, scene, np.random.default_rng(0))
+    assert calls["grow"] == []                                          # no replanning
+    (repair,) = record.adaptations
+    assert repair["repair"] and repair["reason"] == "deviation" and repair["objects"] == ["can-1"]
+    assert repair["repair_pushes"] == 1 and repair["actions"] == 3     # the push back, then the plan's last two
+    assert [a["object"] for a in record.actions] == ["can-1"] * 4
+    assert record.actions[0]["repaired"] and not record.actions[0]["replanned"]
+    assert np.allclose(record.final_state, first.states[-1], atol=1e-9)
+    assert record.final_cost == pytest.approx(first.cost)
+
+
+def test_a_deviation_no_push_can_undo_is_repaired_toward_the_first_plans_end_when_that_ends_within_tolerance(
+        monkeypatch):
+    scene, world, models, options, space = _setup(repair=True)
+    s0 = np.array([scene_pose(scene, n) for n in NAMES])
+    first = _result(space, s0, [15, 15, 15])
+    # 6 cm back: pushes of 4.5 cm leave 1.5 or 3 cm, more than half the 2 cm threshold, so the plan cannot be
+    # restored; pushing the can toward the first plan's final arrangement ends 1.5 cm from it, within 5 % of its cost
+    calls = _script(monkeypatch, space, (0, 2, 0.06), [])
+    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, options.__dict__, models)
+    record = execute_plan(plan, world, scene, np.random.default_rng(0))
+    assert calls["grow"] == []
+    repair = record.adaptations[0]
+    assert repair["reason"] == "deviation" and repair["repair"] and repair["objects"] == ["can-1"]
+    assert repair["planned_cost"] <= 1.05 * first.cost
+    assert np.isclose(record.final_state[2, 1], first.states[-1][2, 1] + 0.015, atol=1e-9)
+    assert record.final_cost <= 1.05 * first.cost
+
+
