@@ -459,10 +459,10 @@ def descend(space: ObjectSpace, s0: np.ndarray, plan: list[int], limit: int = 20
 def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 4000,
              deadline: float | None = None) -> tuple[list[int], np.ndarray, float]:
     """Drop actions -- single ones, then pairs of opposite actions on one object -- while the plan stays valid and its
-    final cost does not rise, until none can be dropped or ``budget`` trial plans have been checked; returns the plan,
-    its predicted states and its final cost.  After ``deadline`` (a ``time.perf_counter()`` value) no pairs are
-    tried, but rounds of single drops go on until none can be dropped (a pair drop may make a single one redundant;
-    a round costs one rollout per action)."""
+    final cost does not rise, until none can be dropped; returns the plan, its predicted states and its final cost.
+    Pairs are tried until ``budget`` trial plans have been checked or ``deadline`` (a ``time.perf_counter()``
+    value); rounds of single drops always go on until none can be dropped (a pair drop may make a single one
+    redundant; a round costs one rollout per action), so that no action of the result can be dropped alone."""
     plan = list(plan)
     states, _ = space.rollout(s0, plan)
     cost = float(space.cost.cost(states[-1][None])[0])
@@ -481,15 +481,15 @@ def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 
         return False
 
     changed = True
-    while changed and plan and trials < budget:
-        late = deadline is not None and time.perf_counter() >= deadline
+    while changed and plan:
+        late = (deadline is not None and time.perf_counter() >= deadline) or trials >= budget
         changed = False
         j = len(plan) - 1
-        while j >= 0 and trials < budget:              # from the end: a drop there changes the fewest states
+        while j >= 0:                                  # from the end: a drop there changes the fewest states
             if attempt((j,)):
                 changed = True
             j = min(j, len(plan)) - 1
-        if late:                                       # past the deadline: single drops until none is left
+        if late:                                       # past the deadline or the budget: single drops only
             continue
         for i in range(len(plan)):
             for k in range(i + 1, len(plan)):

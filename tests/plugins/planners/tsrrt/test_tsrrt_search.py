@@ -68,6 +68,9 @@ def test_shortcut_drops_back_and_forth_and_useless_pushes():
     short, _, cost = shortcut(space, s0, plan)
     assert np.isclose(cost, 0.125) and len(short) == 4
     assert redundant_actions(space, s0, short) == 0
+    # with no trial budget left (a long plan): the pairs are not tried, but no single redundant action is left
+    short, _, cost = shortcut(space, s0, plan, budget=0)
+    assert np.isclose(cost, 0.125) and redundant_actions(space, s0, short) == 0
 
 
 def test_valid_steps_match_one_at_a_time():
