@@ -101,8 +101,10 @@ class TSRRTOptions(PushOptions):
     max_pushes: int = option(40, "LEARN_MODEL: most pushes per class and primitive", minimum=2)
     replan_threshold: float = option(0.02, "execution: replan when an object lies this far from where the plan "
                                      "predicted it at this step (m)", minimum=0.0)
-    replan_angle: float = option(0.15, "execution: replan when a box is turned this far from the plan's predicted "
-                                 "yaw at this step (rad, modulo its symmetry)", minimum=0.0)
+    replan_angle: float = option(0.3, "execution: replan when a box is turned this far from the plan's predicted "
+                                 "yaw at this step (rad, modulo its symmetry); three standard deviations of the "
+                                 "noisiest turn of tsrrt-table (the block's, 6 degrees), so that one turn's noise "
+                                 "alone seldom triggers", minimum=0.0)
     finish_tolerance: float = option(0.05, "execution: when a plan is done and the arrangement costs more than "
                                      "(1 + this) x the first plan's final cost, replan (toward the first plan's "
                                      "final arrangement) until it does not or nothing cheaper is found", minimum=0.0)
