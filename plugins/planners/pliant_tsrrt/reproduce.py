@@ -145,7 +145,9 @@ def poster(run: ReproductionRun) -> Outcome:
             done = execute_plan(plan, noisy, scene, np.random.default_rng(50_000 + 100 * seed + e),
                                 action_limit=ACTION_LIMIT)
             record["executions"].append({"final_cost": done.final_cost, "collided": bool(done.collided),
-                                         "replans": len(done.adaptations), "pushes": len(done.actions),
+                                         "replans": sum(not a.get("repair") for a in done.adaptations),
+                                         "repairs": sum(bool(a.get("repair")) for a in done.adaptations),
+                                         "pushes": len(done.actions),
                                          "outcome": done.outcome})
         plans.append(record)
         run.echo(f"start {seed}: cost {record['start_cost']:.3f} -> {found.cost:.3f} in {len(found.actions)} pushes; "
@@ -189,6 +191,8 @@ def poster(run: ReproductionRun) -> Outcome:
                  "replanned as necessary", float(np.mean(within)) if within else None),
              Row("executions: replans per execution (mean)", None,
                  float(np.mean([x["replans"] for x in executions])) if executions else None),
+             Row("executions: repairs per execution (mean)", None,
+                 float(np.mean([x["repairs"] for x in executions])) if executions else None),
              Row("LEARN_MODEL wall time (not checked)", None, learn_seconds, unit="s")]
     worst_axes = max(p["axis_deviation_deg"] for p in plans)
     headlines = [
