@@ -34,6 +34,7 @@ from pliant_tsrrt.learning import LearningArena, LearnSettings, learn_models
 from pliant_tsrrt.models import PushModels, footprints_from_scene, object_class, scene_pose, wrap
 from pliant_tsrrt.pushing import PRIMITIVES, apply_action, paddle_sweeps
 from pliant_tsrrt.reference import random_arrangements
+from pliant_tsrrt.repair import pose_errors
 from pliant_tsrrt.repair import restore as repair_restore
 from pliant_tsrrt.repair import toward_goal as repair_toward_goal
 from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow
@@ -357,14 +358,6 @@ def _room_for(space: ObjectSpace, observed: np.ndarray) -> ObjectSpace:
     return replace(space, checker=replace(space.checker, margin=TOUCH))
 
 
-def _pose_errors(space: ObjectSpace, observed: np.ndarray, expected: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per object: position error (m) and yaw error (rad, modulo the footprint's symmetry; 0 for circles)."""
-    err_t = np.linalg.norm(observed[:, :2] - expected[:, :2], axis=1)
-    dth = wrap(observed[:, 2] - expected[:, 2])
-    dth = np.abs((dth + space.period / 2) % space.period - space.period / 2)
-    return err_t, np.where(space.scale > 0, dth, 0.0)
-
-
 def _replanned(adaptations: list[dict]) -> int:
     """How many of an execution's adaptations were replannings (not repairs)."""
     return sum(1 for a in adaptations if not a.get("repair"))
@@ -456,8 +449,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                 continue
             observed = np.array([poses[n] for n in plan.names])
             j += 1
-            err_t, dth = _pose_errors(space, observed, expected[j])
-            step_t, step_th = _pose_errors(space, observed, predicted)
+            err_t, dth = pose_errors(space, observed, expected[j])
+            step_t, step_th = pose_errors(space, observed, predicted)
             replan = bool(np.any(err_t > o.replan_threshold) or np.any(dth > o.replan_angle))
             records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "predicted": predicted,
                             "observed": observed.copy(), "step_error": float(step_t.max()),

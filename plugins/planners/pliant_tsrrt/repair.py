@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from pliant_tsrrt.models import wrap
 from pliant_tsrrt.refine import _pose_error, connect, push_toward
 
 
@@ -34,13 +35,20 @@ class Repair:
     objects: list[int]
 
 
+def pose_errors(space, observed: np.ndarray, expected: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per object: position error (m) and yaw error (rad, modulo the footprint's symmetry; 0 for circles) of
+    arrangement ``observed`` against ``expected`` (both ``(k, 3)``): what execution monitors."""
+    err_t = np.linalg.norm(observed[:, :2] - expected[:, :2], axis=1)
+    dth = wrap(observed[:, 2] - expected[:, 2])
+    dth = np.abs((dth + space.period / 2) % space.period - space.period / 2)
+    return err_t, np.where(space.scale > 0, dth, 0.0)
+
+
 def _displaced(space, observed: np.ndarray, target: np.ndarray, distance: float, angle: float) -> list[int]:
     """The objects more than ``distance`` (m) or ``angle`` (rad, modulo the footprint's symmetry) from ``target``,
     most displaced first (pose error with the yaw weighted by the footprint's radius)."""
-    d = observed - target
-    dtheta = np.abs((d[:, 2] + space.period / 2) % space.period - space.period / 2)
-    dtheta = np.where(space.scale > 0, dtheta, 0.0)
-    off = (np.hypot(d[:, 0], d[:, 1]) > distance) | (dtheta > angle)
+    err_t, dtheta = pose_errors(space, observed, target)
+    off = (err_t > distance) | (dtheta > angle)
     errors = [float(_pose_error(space, o, observed[o], target[o])) for o in range(space.k)]
     return sorted((int(o) for o in np.nonzero(off)[0]), key=lambda o: -errors[o])
 
@@ -108,4 +116,4 @@ def toward_goal(space, observed: np.ndarray, goal: np.ndarray, *, depth: int = 1
     return Repair(actions, states, len(actions), objects)
 
 
-__all__ = ["Repair", "loosened", "restore", "toward_goal"]
+__all__ = ["Repair", "loosened", "pose_errors", "restore", "toward_goal"]

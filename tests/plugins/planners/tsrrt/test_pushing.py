@@ -86,7 +86,8 @@ def test_pipeline_runs_end_to_end(tmp_path):
 
     record = Pipeline.from_file("tsrrt-demo", overrides=[f'output="{tmp_path}"', "planner.max_time=1.0",
                                                            "learner.max_pushes=4", "learner.holdout=0",
-                                                           "planner.replan_time=0.3", "planner.max_replans=2"]).run()
+                                                           "planner.replan_time=0.3", "planner.max_replans=2",
+                                                           "planner.max_repairs=2"]).run()
     assert record.result.status.success
     plan = record.result.policy
     assert record.result.cost < record.result.statistics["start_cost"]

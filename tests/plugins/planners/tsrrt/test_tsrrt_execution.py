@@ -72,16 +72,22 @@ def _script(monkeypatch, space, kick, replans):
     return calls
 
 
-def test_a_done_plan_is_judged_against_the_first_plans_cost_and_replanned_toward_its_end(monkeypatch):
-    scene, world, models, options, space = _setup()
+def _execute_can_plan(monkeypatch, kick, replans, **setup):
+    """The first plan pushes the can -y three times, away from the table's edge; it is executed in the scripted world
+    (``kick`` and ``replans`` as in :func:`_script`).  Returns the first plan, the calls and the record."""
+    scene, world, models, options, space = _setup(**setup)
     s0 = np.array([scene_pose(scene, n) for n in NAMES])
-    first = _result(space, s0, [15, 15, 15])          # the can pushed -y three times, away from the table's edge
+    first = _result(space, s0, [15, 15, 15])
+    calls = _script(monkeypatch, space, kick, replans)
+    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, options.__dict__, models)
+    return first, calls, execute_plan(plan, world, scene, np.random.default_rng(0))
+
+
+def test_a_done_plan_is_judged_against_the_first_plans_cost_and_replanned_toward_its_end(monkeypatch):
     # the first push leaves the can 6 cm back toward the edge (a deviation); the replanning after it (the tree
     # alone) finds nothing to do, which ends more than 5 % above the first plan's cost; the replanning when that
     # plan is done (with the improvement phase) pushes the can -y three times again
-    calls = _script(monkeypatch, space, (0, 2, 0.06), [lambda s: [], lambda s: [15, 15, 15]])
-    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, options.__dict__, models)
-    record = execute_plan(plan, world, scene, np.random.default_rng(0))
+    first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [lambda s: [], lambda s: [15, 15, 15]])
     reasons = [r["reason"] for r in record.adaptations]
     assert reasons == ["deviation", "finish"]
     assert record.adaptations[0]["planned_cost"] > 1.05 * first.cost   # the replanned plan ended higher ...
@@ -92,13 +98,8 @@ def test_a_done_plan_is_judged_against_the_first_plans_cost_and_replanned_toward
 
 
 def test_a_replanning_that_finds_nothing_cheaper_ends_the_execution(monkeypatch):
-    scene, world, models, options, space = _setup()
-    s0 = np.array([scene_pose(scene, n) for n in NAMES])
-    first = _result(space, s0, [15, 15, 15])
     # the last push leaves the can 12 cm back toward the edge; no replanning finds a push that helps
-    calls = _script(monkeypatch, space, (2, 2, 0.12), [lambda s: []] * 5)
-    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, options.__dict__, models)
-    record = execute_plan(plan, world, scene, np.random.default_rng(0))
+    first, calls, record = _execute_can_plan(monkeypatch, (2, 2, 0.12), [lambda s: []] * 5)
     reasons = [r["reason"] for r in record.adaptations]
     assert reasons == ["deviation", "finish"]          # not max_replans finish replannings
     assert len(calls["grow"]) == 2 and record.final_cost > 1.05 * first.cost
@@ -119,13 +120,8 @@ def test_replanning_from_a_jammed_arrangement_keeps_the_largest_margin_it_allows
 
 
 def test_a_deviation_is_repaired_by_pushing_the_object_back_and_the_plan_goes_on(monkeypatch):
-    scene, world, models, options, space = _setup(repair=True)
-    s0 = np.array([scene_pose(scene, n) for n in NAMES])
-    first = _result(space, s0, [15, 15, 15])
     # the first push leaves the can one push length (4.5 cm) back toward the edge: one push -y brings it back
-    calls = _script(monkeypatch, space, (0, 2, 0.045), [])
-    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, options.__dict__, models)
-    record = execute_plan(plan, world, scene, np.random.default_rng(0))
+    first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.045), [], repair=True)
     assert calls["grow"] == []                                          # no replanning
     (repair,) = record.adaptations
     assert repair["repair"] and repair["reason"] == "deviation" and repair["objects"] == ["can-1"]
@@ -138,14 +134,9 @@ def test_a_deviation_is_repaired_by_pushing_the_object_back_and_the_plan_goes_on
 
 def test_a_deviation_no_push_can_undo_is_repaired_toward_the_first_plans_end_when_that_ends_within_tolerance(
         monkeypatch):
-    scene, world, models, options, space = _setup(repair=True)
-    s0 = np.array([scene_pose(scene, n) for n in NAMES])
-    first = _result(space, s0, [15, 15, 15])
     # 6 cm back: pushes of 4.5 cm leave 1.5 or 3 cm, more than half the 2 cm threshold, so the plan cannot be
     # restored; pushing the can toward the first plan's final arrangement ends 1.5 cm from it, within 5 % of its cost
-    calls = _script(monkeypatch, space, (0, 2, 0.06), [])
-    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, options.__dict__, models)
-    record = execute_plan(plan, world, scene, np.random.default_rng(0))
+    first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [], repair=True)
     assert calls["grow"] == []
     repair = record.adaptations[0]
     assert repair["reason"] == "deviation" and repair["repair"] and repair["objects"] == ["can-1"]
