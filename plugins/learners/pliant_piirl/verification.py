@@ -35,11 +35,16 @@ def scene_with(scene, sensitivities: dict[str, float]):
 
 def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstration, tip, rng: np.random.Generator,
               *, max_time: float | None, shortcut_iterations: int = 300, planner_options: dict | None = None,
-              planner: str = "rrtstar", refine_rounds: int = 0):
+              planner: str = "rrtstar", refine_rounds: int = 0, straight: bool = False):
     """RRT* (puncture check on) for ``demonstration``'s task in ``scene`` with ``sensitivities``; the planner's
     result and its path after cost-aware shortcutting and ``refine_rounds`` of :func:`refine` with :data:`REFINE`
     in the cost of ``sensitivities`` (``None`` without a path or with no shortcut iterations).  ``max_time``: RRT*'s
-    budget in seconds (None: the iteration budget in ``planner_options``, ``max_iterations``)."""
+    budget in seconds (None: the iteration budget in ``planner_options``, ``max_iterations``).
+
+    ``straight``: for a task that ends with the tip on a target in SE(3), also plan the cheapest straight insertion
+    in the cost of ``sensitivities`` (:func:`straight_insertion`) and start the local search from whichever of it
+    and the shortcut RRT* path is cheaper in that cost (a straight insertion with a puncture or cut is not used).
+    The choice and both costs are in ``result.statistics["verification"]``."""
     import pliant
     from pliant.interfaces import Context, PlanningProblem
 
@@ -64,28 +69,72 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
     problem = PlanningProblem(space=context.space, start=task.start, goal=goal, goal_tolerance=scene.goal_tolerance,
                               cost=context.cost, robot=robot, scene=context.scene, validity=inside_funnel)
     result = planner.plan(problem, rng)
-    if result.path is None or shortcut_iterations == 0:
+    straight = straight and task.goal is None and context.space.tangent_dim == 6
+    if (result.path is None and not straight) or shortcut_iterations == 0:
         return result, None
     from pliant.geometry.topology import PunctureChecker, arc_margin
     from pliant.geometry.voxelgrid import VoxelGrid
     from pliant.planning.shortcut import shortcut
 
+    from pliant_piirl.features import DeformationFeatures
+
     checker = PunctureChecker(VoxelGrid.from_scene(context.scene), robot.body_points,
                               arc_margin=arc_margin(context.scene, context.space))
-    path, _ = shortcut(problem, result.path.configurations, rng, step=scene.resolution / 2,
-                       iterations=shortcut_iterations, check=lambda q: checker.check(q)[0])
+    features = DeformationFeatures(context.scene)
+    weights = features.sensitivity_vector(sensitivities)
+
+    def intact(candidate: np.ndarray) -> bool:
+        return bool(checker.check(features.states(candidate))[0])
+
+    path = None
+    if result.path is not None:
+        path, _ = shortcut(problem, result.path.configurations, rng, step=scene.resolution / 2,
+                           iterations=shortcut_iterations, check=lambda q: checker.check(q)[0])
+    if straight:
+        path = _cheaper_start(path, straight_insertion(features, sensitivities, task, tip), features, weights,
+                              intact, result.statistics)
+        if path is None:
+            return result, None
     if refine_rounds:
-        from pliant_piirl.features import DeformationFeatures
-
-        features = DeformationFeatures(context.scene)
-        densify = features.states
-
-        def intact(candidate: np.ndarray) -> bool:
-            return bool(checker.check(densify(candidate))[0])
-
-        path = refine(path, demonstration.task, features, features.sensitivity_vector(sensitivities), tip, rng,
-                      rounds=refine_rounds, check=intact, **REFINE)
+        path = refine(path, demonstration.task, features, weights, tip, rng, rounds=refine_rounds, check=intact,
+                      **REFINE)
     return result, path
+
+
+def straight_insertion(features, sensitivities: dict[str, float], task, tip) -> np.ndarray | None:
+    """The cheapest straight insertion for ``task`` in the cost of ``sensitivities``: the search of
+    :class:`~pliant_piirl.expert.SimulatedExpert` over insertion directions inside the task's funnel, without its
+    noise (``[start, pre-insertion, final]``, SE(3) configurations), or ``None`` when no direction is valid.  Only
+    the given (recovered) values are read."""
+    from pliant.errors import PlanningError
+
+    from pliant_piirl.expert import ExpertOptions, SimulatedExpert
+
+    searcher = SimulatedExpert(features, sensitivities, tip, ExpertOptions(noise=0.0))
+    try:
+        tilt, frame = searcher.optimum(task)
+    except PlanningError:
+        return None
+    return searcher.path(task, tilt, frame)
+
+
+def _cheaper_start(path, candidate, features, weights: np.ndarray, intact, statistics: dict):
+    """Whichever of ``path`` (the shortcut RRT* path or None) and ``candidate`` (a straight insertion or None) is
+    cheaper in ``features``' cost with ``weights`` and free of punctures; the comparison goes into
+    ``statistics["verification"]``."""
+    def cost(p) -> float:
+        return float(features.of_path(p) @ weights) if p is not None else float("inf")
+
+    usable = candidate is not None and intact(candidate)
+    searched, straight_cost = cost(path), cost(candidate) if usable else float("inf")
+    chosen = "straight" if straight_cost < searched else "rrtstar"
+    def finite(x: float) -> float | None:
+        return x if np.isfinite(x) else None
+
+    statistics["verification"] = {"start": chosen if np.isfinite(min(searched, straight_cost)) else None,
+                                  "rrtstar_cost": finite(searched), "straight_cost": finite(straight_cost),
+                                  "straight_intact": bool(usable)}
+    return candidate if chosen == "straight" else path
 
 
 #: the local optimiser of Table 4.1's verification (``learn-table --refine``, :func:`plan_task`): noise starting at
