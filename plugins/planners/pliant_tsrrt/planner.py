@@ -84,6 +84,11 @@ class TSRRTOptions(PushOptions):
     beam_depth: int = option(4, "improvement: most pushes of the final beam search over every object's "
                              "primitives, ordered by the task cost (0: none)", minimum=0)
     beam_width: int = option(128, "improvement: beam width of that final search", minimum=1)
+    push_cost: float = option(0.0, "the plan length's price (task cost per push) after the tree: the improvement "
+                              "phase's connections are compared by final cost plus push_cost x pushes and cut "
+                              "where that is lowest, the final beam and descent append only pushes that gain more, "
+                              "the shortcut drops a push that gains less (shorter plans execute with fewer "
+                              "deviations)", minimum=0.0)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
     w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
@@ -121,6 +126,9 @@ class TSRRTOptions(PushOptions):
     repair_depth: int = option(12, "execution: most pushes per object of a repair (refine_depth toward the first "
                                "plan's final arrangement after a deviation)", minimum=1)
     max_repairs: int = option(40, "most repairs in one execution (beside max_replans)", minimum=0)
+    replan_shortest: bool = option(False, "execution: a replanning counts every final cost at or below the first "
+                                   "plan's as equally good, so of the plans that get there the one with the fewest "
+                                   "pushes (with push_cost) wins, instead of the cheapest")
 
     def validate(self) -> None:
         if self.min_pushes > self.max_pushes:
@@ -226,7 +234,7 @@ def search_settings(o: TSRRTOptions) -> SearchSettings:
                           refine_randoms=o.refine_randoms, refine_sweeps=o.refine_sweeps,
                           refine_yaw_quota=o.refine_yaw_quota,
                           beam_depth=o.beam_depth,
-                          beam_width=o.beam_width)
+                          beam_width=o.beam_width, push_cost=o.push_cost)
 
 
 def replan_settings(o: TSRRTOptions, reason: str) -> SearchSettings:
@@ -397,6 +405,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
     # the first plan's final arrangement and cost: what every replanning connects back to, and what the arrangement
     # is judged against when a plan is done (a replanned plan may end higher than the first one)
     goal, goal_cost = plan.states[-1], plan.cost
+    # replan_shortest: a replanning or repair need not end cheaper than the first plan; the fewest pushes win
+    enough = goal_cost if o.replan_shortest else None
     records: list[dict] = []
     replans: list[dict] = []
     outcome = "success"
@@ -415,7 +425,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                 break
             reason = "finish"
             fix = repair_toward_goal(_room_for(space, observed), observed, goal, depth=o.repair_depth,
-                                     width=o.refine_width, yaw_quota=o.refine_yaw_quota) \
+                                     width=o.refine_width, yaw_quota=o.refine_yaw_quota, push_cost=o.push_cost,
+                                     enough=enough) \
                 if o.repair and repairs < o.max_repairs else None
             if fix is not None:
                 repairs += 1
@@ -441,7 +452,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                     break
                 reason = "blocked"
                 found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
-                             Termination(max_time=o.replan_time), seed_plan=actions[j + 1:], goal=goal)
+                             Termination(max_time=o.replan_time), seed_plan=actions[j + 1:], goal=goal,
+                             enough=enough)
                 replans.append({"after_action": len(records), "reason": reason,
                                 "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
                                 "actions": len(found.actions)})
@@ -468,7 +480,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                                      yaw_quota=o.refine_yaw_quota) \
                     or repair_toward_goal(room, observed, goal, depth=o.refine_depth, width=o.refine_width,
                                           yaw_quota=o.refine_yaw_quota,
-                                          at_most=goal_cost * (1 + o.finish_tolerance))
+                                          at_most=goal_cost * (1 + o.finish_tolerance), push_cost=o.push_cost,
+                                          enough=enough)
             if fix is not None:
                 repairs += 1
                 records[-1]["replanned"] = False
@@ -480,7 +493,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                 continue
         cost_now = float(space.cost.cost(observed[None])[0])
         found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
-                     Termination(max_time=o.replan_time), seed_plan=actions[j:], goal=goal)
+                     Termination(max_time=o.replan_time), seed_plan=actions[j:], goal=goal,
+                     enough=enough)
         replans.append({"after_action": len(records), "reason": reason, "cost_before": cost_now,
                         "planned_cost": found.cost, "actions": len(found.actions)})
         if reason == "finish" and found.cost >= cost_now - 1e-3 * goal_cost:

@@ -220,12 +220,16 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
 
 def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, width: int = 64,
             deadline: float | None = None, sweeps: int = 1, cache: dict | None = None,
-            stop: str = "closest", yaw_quota: int = 0) -> tuple[float, list[int]]:
+            stop: str = "closest", yaw_quota: int = 0, push_cost: float = 0.0,
+            enough: float = -np.inf) -> tuple[float, list[int]]:
     """The objects pushed toward ``target`` ``(k, 3)`` one after another in ``order`` (:func:`push_toward`),
     ``sweeps`` times over (a later sweep moves the objects an earlier one left blocked by objects that have moved
     since, while one is more than 5 mm off); returns the final cost and the actions, cut after the push of lowest
-    task cost (``stop``: see :func:`push_toward`).  ``cache``: a dict that keeps :func:`push_toward`'s results
-    across calls (orders that begin alike share their first searches)."""
+    task cost (``stop``: see :func:`push_toward`); with ``push_cost`` (task cost per push) after the push of lowest
+    task cost plus ``push_cost`` times the pushes so far, so that a tail of pushes that each gain less than
+    ``push_cost`` is left off (``enough``: a task cost below which lower costs count as ``enough``, so the sequence
+    stops where it first reaches it).  ``cache``: a dict that keeps :func:`push_toward`'s results across calls
+    (orders that begin alike share their first searches)."""
     actions: list[int] = []
     start = s
     cost = float(space.cost.cost(s[None])[0])
@@ -244,7 +248,7 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
     if stop == "closest" and actions:              # the way there may cost more than the start: cut at the cheapest
         states, _ = space.rollout(start, actions)
         costs = space.cost.cost(states)
-        cut = int(np.argmin(costs))
+        cut = int(np.argmin(np.maximum(costs, enough) + push_cost * np.arange(len(costs))))
         return float(costs[cut]), actions[:cut]
     return cost, actions
 
@@ -252,7 +256,8 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
 def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2, rounds: int = 800,
             slack: float = 0.003, depth: int = 20, width: int = 64, max_orders: int = 6, passes: int = 2,
             branch_points: int = 3, deadline: float | None = None, goals: np.ndarray | None = None,
-            randoms: int = 0, sweeps: int = 1, yaw_quota: int = 0) -> tuple[float, int, list[int], dict]:
+            randoms: int = 0, sweeps: int = 1, yaw_quota: int = 0, push_cost: float = 0.0,
+            enough: float = -np.inf) -> tuple[float, int, list[int], dict]:
     """The improvement phase on the tree's best path ``path`` ``(m + 1, k, 3)`` (its states, start to best node):
     :func:`targets` from the best node (after the given ``goals`` ``(g, k, 3)`` in the first pass: when replanning
     during execution, the arrangement the first plan ends in), then :func:`connect` to each target from the best
@@ -261,11 +266,16 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     identity and its rotations), the orders outermost.  ``randoms``: random arrangements whose free descent adds
     targets (first pass).  Later passes (up to ``passes``) start from the previous pass's result; after a pass
     without gain the next one connects with a beam twice as wide, up to four times ``width``, then the phase ends.
-    ``yaw_quota``: see :func:`push_toward`.
+    ``yaw_quota``: see :func:`push_toward`.  ``push_cost`` (task cost per push): connections are compared by their
+    final cost plus ``push_cost`` times the whole plan's pushes (kept ones included), so that of two connections of
+    nearly equal cost the shorter wins, and a connection must gain more than ``push_cost`` per push it adds;
+    ``enough``: a final cost below it counts as ``enough`` (replanning during execution: no cheaper than the first
+    plan is needed, so the shortest connection that gets there wins).
     Returns the cheapest cost reached, how many of the path's actions to keep, the actions to append, and statistics."""
     s = path[-1]
     base = best_cost = float(space.cost.cost(s[None])[0])
     keep = len(path) - 1
+    best_score = max(best_cost, enough) + push_cost * keep      # the task cost plus push_cost per push of the plan
     k = space.k
     orders = list(itertools.permutations(range(k))) if k <= 3 else [tuple(np.roll(np.arange(k), -i)) for i in range(k)]
     orders = orders[:max_orders]
@@ -290,9 +300,10 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
                 break
             tried += 1
             cost, actions = connect(space, s if b is None else path[b], goal, order, depth, w, deadline, sweeps,
-                                    cache, yaw_quota=yaw_quota)
-            if cost < best_cost - 1e-12:
-                best_cost, found = cost, (b, actions)
+                                    cache, yaw_quota=yaw_quota, push_cost=push_cost, enough=enough)
+            score = max(cost, enough) + push_cost * ((keep + len(best_actions) if b is None else b) + len(actions))
+            if score < best_score - 1e-12:
+                best_cost, best_score, found = cost, score, (b, actions)
         if found is None:
             if p == 0 or w >= 4 * width:
                 break
@@ -310,20 +321,24 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     return best_cost, keep, best_actions, stats
 
 
-def final_beam(space, s: np.ndarray, depth: int = 4, width: int = 128, deadline: float | None = None) -> tuple[
-        float, list[int]]:
+def final_beam(space, s: np.ndarray, depth: int = 4, width: int = 128, deadline: float | None = None,
+               push_cost: float = 0.0, enough: float = -np.inf) -> tuple[float, list[int]]:
     """A beam search over every object's primitives from arrangement ``s``, ordered by the task cost: per depth the
     ``width`` cheapest valid outcomes (duplicates within 0.5 mm / 0.1 degree merged), up to ``depth`` pushes.  Returns
-    the lowest cost seen and the actions to it (none when no sequence lowers the cost).  Unlike the greedy descent
+    the lowest cost seen and the actions to it (none when no sequence lowers the cost; with ``push_cost``, task cost
+    per push: the lowest cost plus ``push_cost`` times the pushes, none unless that is below the cost of ``s``;
+    costs below ``enough`` count as ``enough``).
+    Unlike the greedy descent
     (:func:`pliant_tsrrt.search.descend`) it goes through pushes that first raise the cost -- one object moved out
     of the way, or a turn that needs a push after it -- and moves any objects together."""
     n_actions = space.k * N_PRIMITIVES
     acts_all = np.arange(n_actions)
     objs, prims = acts_all // N_PRIMITIVES, acts_all % N_PRIMITIVES
     best = (float(space.cost.cost(s[None])[0]), [])
+    best_score = max(best[0], enough)
     frontier = s[None]
     seqs: list[list[int]] = [[]]
-    for _ in range(depth):
+    for d in range(depth):
         if _late(deadline):
             break
         b = len(frontier)
@@ -344,6 +359,7 @@ def final_beam(space, s: np.ndarray, depth: int = 4, width: int = 128, deadline:
             break
         seqs = [seqs[i // n_actions] + [int(acts[i])] for i in keep]
         frontier = after[keep]
-        if c[keep[0]] < best[0] - 1e-12:
-            best = (float(c[keep[0]]), seqs[0])
+        score = max(float(c[keep[0]]), enough) + push_cost * (d + 1)
+        if score < best_score - 1e-12:
+            best, best_score = (float(c[keep[0]]), seqs[0]), score
     return best

@@ -95,10 +95,12 @@ def restore(space, observed: np.ndarray, expected: np.ndarray, rest: list[int], 
 
 def toward_goal(space, observed: np.ndarray, goal: np.ndarray, *, depth: int = 12, width: int = 64,
                 yaw_quota: int = 4, distance: float = 0.002, angle: float = 0.01,
-                at_most: float | None = None) -> Repair | None:
+                at_most: float | None = None, push_cost: float = 0.0,
+                enough: float | None = None) -> Repair | None:
     """Repair toward the first plan's final arrangement ``goal``: the objects of ``observed`` more than ``distance``
     (m) or ``angle`` (rad) from it are pushed toward it (two sweeps over them, most displaced first, at most
-    ``depth`` pushes per object and sweep; the sequence cut where the predicted task cost is lowest).  ``None``
+    ``depth`` pushes per object and sweep; the sequence cut where the predicted task cost, plus ``push_cost`` per
+    push, is lowest; costs below ``enough`` count as ``enough``).  ``None``
     unless that lowers the predicted cost by at least 0.1 % and, with ``at_most``, ends at no more than that
     cost.  Used when a plan is done above the tolerance, and after a deviation that :func:`restore` cannot undo
     (then the rest of the plan is dropped)."""
@@ -107,7 +109,8 @@ def toward_goal(space, observed: np.ndarray, goal: np.ndarray, *, depth: int = 1
         return None
     cost_now = float(space.cost.cost(observed[None])[0])
     cost, actions = connect(space, observed, goal, objects, depth=depth, width=width, sweeps=2, stop="closest",
-                            yaw_quota=yaw_quota)
+                            yaw_quota=yaw_quota, push_cost=push_cost,
+                            enough=-np.inf if enough is None else enough)
     if not actions or cost > cost_now * (1 - 1e-3) or (at_most is not None and cost > at_most):
         return None
     states, ok = space.rollout(observed, actions)

@@ -68,7 +68,10 @@ class SearchSettings:
     ``gd_step`` (DIRECTGD step, in mean push lengths), ``gd_pool`` and ``gd_tries`` (DIRECTGD's node choice),
     ``duplicate`` (rho below which a new state counts as an existing node, m), ``gd_noise`` (standard deviation of
     a Gaussian added to DIRECTGD's sample, in mean push lengths); ``refine*``: the improvement phase
-    (:mod:`pliant_tsrrt.refine`; ``refine_share``: its share of a time budget, the tree gets the rest)."""
+    (:mod:`pliant_tsrrt.refine`; ``refine_share``: its share of a time budget, the tree gets the rest);
+    ``push_cost``: the plan length's price in task cost per push, in the choices after the tree (the improvement
+    phase's connections and their cut, the final beam, the final descent, the shortcut): a push must gain more than
+    that, or it is left off."""
 
     epsilon: float = 0.1
     max_nodes: int = 5000
@@ -91,6 +94,7 @@ class SearchSettings:
     refine_yaw_quota: int = 4
     beam_depth: int = 4
     beam_width: int = 128
+    push_cost: float = 0.0
 
 
 @dataclass
@@ -240,12 +244,14 @@ class SearchResult:
 
 def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings: SearchSettings,
          termination: Condition | None = None, seed_plan: list[int] | None = None,
-         goal: np.ndarray | None = None) -> SearchResult:
+         goal: np.ndarray | None = None, enough: float | None = None) -> SearchResult:
     """TASK_SPACE_RRT lines 3-14 from ``s0`` ``(k, 3)`` until ``max_nodes`` nodes or ``termination``; returns the
     (shortcut) plan to the cheapest node.  Ctrl-C inside returns the best plan so far.  ``seed_plan``: actions whose
     valid prefix, rolled out from ``s0``, starts the tree as one branch (replanning during execution seeds the tree
     with the rest of the plan it replaces, so a new plan is never worse than carrying on).  ``goal`` ``(k, 3)``: an
-    arrangement the improvement phase also connects to (replanning: the one the first plan ends in)."""
+    arrangement the improvement phase also connects to (replanning: the one the first plan ends in).  ``enough``: a
+    task cost below which lower costs count as ``enough`` after the tree (improvement phase, final beam, descent,
+    shortcut), so that of the plans that reach it the shortest wins (replanning: the first plan's cost)."""
     t0 = time.perf_counter()
     k = space.k
     n_actions = k * N_PRIMITIVES
@@ -355,7 +361,8 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     raw_length = len(plan)
     stats.update(refine_targets=[], refine_connects=0, refine_gain=0.0, refine_pushes=0, refine_branch=len(plan),
                  beam_pushes=0)
-    plan, polished = descend(space, s0, plan)
+    floor = -np.inf if enough is None else float(enough)
+    plan, polished = descend(space, s0, plan, push_cost=settings.push_cost, enough=floor)
     if settings.refine and not interrupted:
         path, _ = space.rollout(s0, plan)
         _, keep, extra, more = improve(space, path, rng, count=settings.refine_targets,
@@ -364,20 +371,23 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
                                        passes=settings.refine_passes, branch_points=settings.refine_branches,
                                        deadline=deadline, goals=None if goal is None else goal[None],
                                        randoms=settings.refine_randoms, sweeps=settings.refine_sweeps,
-                                       yaw_quota=settings.refine_yaw_quota)
+                                       yaw_quota=settings.refine_yaw_quota, push_cost=settings.push_cost,
+                                       enough=floor)
         stats.update(more, refine_pushes=len(extra))
         plan = plan[:keep] + extra
     if settings.refine and settings.beam_depth > 0 and not interrupted:
         end = space.rollout(s0, plan)[0][-1]
-        _, extra = final_beam(space, end, depth=settings.beam_depth, width=settings.beam_width, deadline=deadline)
+        _, extra = final_beam(space, end, depth=settings.beam_depth, width=settings.beam_width, deadline=deadline,
+                              push_cost=settings.push_cost, enough=floor)
         plan += extra
         stats["refine_pushes"] += len(extra)
         stats["beam_pushes"] = len(extra)
     refine_time = time.perf_counter() - t0 - tree_time
     if stats["refine_pushes"]:
-        plan, more_polished = descend(space, s0, plan)
+        plan, more_polished = descend(space, s0, plan, push_cost=settings.push_cost, enough=floor)
         polished += more_polished
-    plan, path_states, final = shortcut(space, s0, plan, deadline=None if budget is None else t0 + 0.9 * budget)
+    plan, path_states, final = shortcut(space, s0, plan, deadline=None if budget is None else t0 + 0.9 * budget,
+                                        push_cost=settings.push_cost, enough=floor)
     stats.update(iterations=iteration, nodes=n, time=time.perf_counter() - t0, tree_time=tree_time,
                  refine_time=refine_time,
                  cost_history=history, tree_best_cost=float(costs[best]), actions_before_shortcut=raw_length,
@@ -436,20 +446,22 @@ def _directgd(space: ObjectSpace, states, costs, fails, used, n, rng, settings, 
     return node, sample
 
 
-def descend(space: ObjectSpace, s0: np.ndarray, plan: list[int], limit: int = 200) -> tuple[list[int], int]:
-    """From the plan's final state, append the valid action that lowers the cost most, while one does (at most
-    ``limit``): the discrete end of DIRECTGD's descent, so the plan ends in a local minimum over single pushes.
-    Returns the plan and how many pushes were appended."""
+def descend(space: ObjectSpace, s0: np.ndarray, plan: list[int], limit: int = 200,
+            push_cost: float = 0.0, enough: float = -np.inf) -> tuple[list[int], int]:
+    """From the plan's final state, append the valid action that lowers the cost most, while one lowers it by more
+    than ``push_cost`` (task cost per push; at most ``limit``): the discrete end of DIRECTGD's descent, so the plan
+    ends in a local minimum over single pushes; not below ``enough``.  Returns the plan and how many pushes were
+    appended."""
     states, _ = space.rollout(s0, plan)
     s = states[-1]
     cost = float(space.cost.cost(s[None])[0])
     added = 0
     plan = list(plan)
-    while added < limit:
+    while added < limit and cost > enough:
         out = space.outcomes(s)
         c = np.where(space.valid_actions(s, out), space.cost.cost(out), np.inf)
         a = int(np.argmin(c))
-        if not c[a] < cost - 1e-12:
+        if not c[a] < cost - max(push_cost, 1e-12):
             break
         plan.append(a)
         s, cost, added = out[a], float(c[a]), added + 1
@@ -457,9 +469,13 @@ def descend(space: ObjectSpace, s0: np.ndarray, plan: list[int], limit: int = 20
 
 
 def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 4000,
-             deadline: float | None = None) -> tuple[list[int], np.ndarray, float]:
+             deadline: float | None = None, push_cost: float = 0.0,
+             enough: float = -np.inf) -> tuple[list[int], np.ndarray, float]:
     """Drop actions -- single ones, then pairs of opposite actions on one object -- while the plan stays valid and its
-    final cost does not rise, until none can be dropped; returns the plan, its predicted states and its final cost.
+    final cost does not rise (by more than ``push_cost``, task cost per push, times the pushes dropped: a push that
+    gains less is not worth its execution; costs below ``enough`` count as ``enough``), until none can be dropped;
+    returns the plan, its predicted states and
+    its final cost.
     Pairs are tried until ``budget`` trial plans have been checked or ``deadline`` (a ``time.perf_counter()``
     value); rounds of single drops always go on until none can be dropped (a pair drop may make a single one
     redundant; a round costs one rollout per action), so that no action of the result can be dropped alone."""
@@ -475,7 +491,7 @@ def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 
         trial = [a for i, a in enumerate(plan) if i not in drop]
         tail, ok = space.rollout(states[first], trial[first:])     # the states before the first drop stay
         c = float(space.cost.cost(tail[-1][None])[0])
-        if ok and c <= cost + 1e-12:
+        if ok and max(c, enough) <= max(cost, enough) + push_cost * len(drop) + 1e-12:
             plan, states, cost = trial, np.concatenate([states[:first], tail]), c
             return True
         return False

@@ -19,7 +19,7 @@ NAMES = ["book-1", "block-1", "can-1"]
 MEANS = [[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], [0, 0.002, 0.2], [0, -0.002, -0.2]]
 
 
-def _setup(repair: bool = False, finish_tolerance: float = 0.05):
+def _setup(repair: bool = False, finish_tolerance: float = 0.05, **more):
     scene = load_scene("tsrrt-table")
     ctx = Context(scene=scene)
     ctx.robot = registry.create("robot", "rigid", ctx)
@@ -35,7 +35,7 @@ def _setup(repair: bool = False, finish_tolerance: float = 0.05):
             per.append(d)
         models.models[object_class(name)] = per
         models.footprints[object_class(name)] = (int(fp.kind[i]), fp.half[i].copy())
-    options = TSRRTOptions(finish_tolerance=finish_tolerance, replan_threshold=0.02, repair=repair)
+    options = TSRRTOptions(finish_tolerance=finish_tolerance, replan_threshold=0.02, repair=repair, **more)
     space = build_space(scene, options, models, NAMES)
     return scene, world, models, options, space
 
@@ -63,8 +63,8 @@ def _script(monkeypatch, space, kick, replans):
         world.set_object_poses({n: p for n, p in zip(NAMES, s)})
         return {n: p for n, p in zip(NAMES, s)}
 
-    def fake_grow(space_, s0, rng, settings, termination=None, seed_plan=None, goal=None):
-        calls["grow"].append({"refine": settings.refine, "goal": goal})
+    def fake_grow(space_, s0, rng, settings, termination=None, seed_plan=None, goal=None, enough=None):
+        calls["grow"].append({"refine": settings.refine, "goal": goal, "enough": enough})
         return _result(space, s0, replans[len(calls["grow"]) - 1](s0))
 
     monkeypatch.setattr(planner_module, "apply_action", fake_apply)
@@ -95,6 +95,14 @@ def test_a_done_plan_is_judged_against_the_first_plans_cost_and_replanned_toward
     for call in calls["grow"]:                                         # ... and every replanning knows the goal
         assert np.allclose(call["goal"], first.states[-1])
     assert record.final_cost <= 1.05 * first.cost + 1e-9
+    assert all(call["enough"] is None for call in calls["grow"])      # replan_shortest off: the cheapest plan wins
+
+
+def test_with_replan_shortest_every_replanning_counts_the_first_plans_cost_as_enough(monkeypatch):
+    first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [lambda s: [], lambda s: [15, 15, 15]],
+                                             replan_shortest=True)
+    assert [r["reason"] for r in record.adaptations] == ["deviation", "finish"]
+    assert [call["enough"] for call in calls["grow"]] == [first.cost, first.cost]
 
 
 def test_a_replanning_that_finds_nothing_cheaper_ends_the_execution(monkeypatch):

@@ -143,3 +143,46 @@ def test_the_final_beam_lowers_the_cost_through_valid_pushes_or_returns_nothing(
         states, ok = space.rollout(s, actions)
         assert ok and np.isclose(float(space.cost.cost(states[-1][None])[0]), cost)
         assert (cost < start) == bool(actions)
+
+
+def test_push_cost_cuts_a_connection_and_the_final_beam_where_a_push_gains_less():
+    # the book at yaw 0.3 rad, orthogonality alone, turns of exactly -0.1 rad: the three turns to yaw 0 gain 0.167,
+    # 0.112 and 0.0395 (sin^2(2 theta) = 0.3188, 0.1516, 0.0395, 0)
+    fp = Footprints([BOX], [[0.12, 0.08]])
+    turns = [[0.047, 0, 0], [-0.047, 0, 0], [0, 0.047, 0], [0, -0.046, 0], [0, 0, 0.1], [0, 0, -0.1]]
+    space = _space(fp, [turns], (1.0, 0.0, 0.0, 0.0))
+    s = np.array([[0.5, 0.4, 0.3]])
+    target = np.array([[0.5, 0.4, 0.0]])
+    assert connect(space, s, target, (0,), depth=6, width=16)[1] == [5, 5, 5]
+    cost, actions = connect(space, s, target, (0,), depth=6, width=16, push_cost=0.05)
+    assert actions == [5, 5] and np.isclose(cost, np.sin(0.2) ** 2)
+    assert final_beam(space, s, depth=4, width=32)[1] == [5, 5, 5]
+    cost, actions = final_beam(space, s, depth=4, width=32, push_cost=0.05)
+    assert actions == [5, 5] and np.isclose(cost, np.sin(0.2) ** 2)
+    assert final_beam(space, s, depth=4, width=32, push_cost=0.2) == (float(np.sin(0.6) ** 2), [])
+
+
+def test_push_cost_prefers_the_shorter_of_two_connections_of_nearly_equal_cost():
+    # the same book (turns only): improve() connects the path's end to the free descent's targets (at yaw 0 and at a
+    # quarter turn; the way to the latter first raises the cost); with a push cost the connection is cut after two
+    # turns, a score of 0.0395 + 2 x 0.05 against 0 + 3 x 0.05 for three turns
+    fp = Footprints([BOX], [[0.12, 0.08]])
+    turns = [[0.0, 0, 0], [0.0, 0, 0], [0, 0.0, 0], [0, 0.0, 0], [0, 0, 0.1], [0, 0, -0.1]]
+    space = _space(fp, [turns], (1.0, 0.0, 0.0, 0.0))
+    path = np.array([[[0.5, 0.4, 0.3]]])
+    cost, keep, actions, _ = improve(space, path, np.random.default_rng(0), count=4, rounds=100, depth=8,
+                                     width=16)
+    assert keep == 0 and sorted(actions) == [5, 5, 5] and cost < 1e-9
+    cost, keep, actions, _ = improve(space, path, np.random.default_rng(0), count=4, rounds=100, depth=8,
+                                     width=16, push_cost=0.05)
+    assert keep == 0 and actions == [5, 5] and np.isclose(cost, np.sin(0.2) ** 2)
+
+
+def test_a_connection_with_enough_stops_where_it_first_reaches_it():
+    fp = Footprints([BOX], [[0.12, 0.08]])
+    turns = [[0.047, 0, 0], [-0.047, 0, 0], [0, 0.047, 0], [0, -0.046, 0], [0, 0, 0.1], [0, 0, -0.1]]
+    space = _space(fp, [turns], (1.0, 0.0, 0.0, 0.0))
+    s = np.array([[0.5, 0.4, 0.3]])
+    cost, actions = connect(space, s, np.array([[0.5, 0.4, 0.0]]), (0,), depth=6, width=16, enough=0.2)
+    assert actions == [5] and np.isclose(cost, np.sin(0.4) ** 2)           # 0.1516: the first state below 0.2
+    assert final_beam(space, s, depth=4, width=32, enough=0.2)[1] == [5]

@@ -8,7 +8,7 @@ from pliant.termination import Termination
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import BOX, CIRCLE, CollisionChecker, Footprints
 from pliant_tsrrt.pushing import PushSettings
-from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow, redundant_actions, shortcut
+from pliant_tsrrt.search import ObjectSpace, SearchSettings, descend, grow, redundant_actions, shortcut
 
 TABLE = (0.0, 0.0, 1.0, 0.8)
 BOUNDS = (-0.2, -0.2, 1.2, 1.0)
@@ -111,3 +111,51 @@ def test_terminating_from_outside_returns_the_best_plan_so_far():
     assert found.cost <= space.cost.cost(s0[None])[0]
     _, ok = space.rollout(s0, found.actions)
     assert ok
+
+
+# the book at yaw 0.3 rad under orthogonality alone, turned by -0.1 rad per push: the costs sin^2(2 theta) after 0-3
+# turns are 0.3188, 0.1516, 0.0395 and 0, so the three turns gain 0.167, 0.112 and 0.0395
+def _book_at(yaw):
+    fp = Footprints([BOX], [[0.12, 0.08]])
+    return _space(fp, [BOOK_MODEL], (1.0, 0.0, 0.0, 0.0)), np.array([[0.5, 0.4, yaw]])
+
+
+def test_push_cost_makes_the_shortcut_drop_a_push_that_gains_less():
+    space, s0 = _book_at(0.3)
+    assert shortcut(space, s0, [5, 5, 5])[0] == [5, 5, 5]                          # every turn lowers the cost
+    assert shortcut(space, s0, [5, 5, 5], push_cost=0.03)[0] == [5, 5, 5]          # 0.0395 > 0.03: kept
+    short, states, cost = shortcut(space, s0, [5, 5, 5], push_cost=0.05)            # 0.0395 < 0.05: dropped
+    assert short == [5, 5] and np.isclose(cost, np.sin(0.2) ** 2) and np.isclose(states[-1, 0, 2], 0.1)
+    assert shortcut(space, s0, [5, 5, 5], push_cost=0.12)[0] == [5]                 # 0.112 < 0.12 too
+    # what is left is still free of redundant actions (no push can be dropped without raising the cost)
+    assert redundant_actions(space, s0, short) == 0
+
+
+def test_push_cost_stops_the_final_descent_at_the_first_push_that_gains_less():
+    space, s0 = _book_at(0.3)
+    assert descend(space, s0, [])[0] == [5, 5, 5]
+    assert descend(space, s0, [], push_cost=0.05) == ([5, 5], 2)
+    assert descend(space, s0, [], push_cost=0.12) == ([5], 1)
+    assert descend(space, s0, [], push_cost=0.2) == ([], 0)
+
+
+def test_grow_with_a_push_cost_returns_the_plan_of_lowest_cost_plus_push_cost_per_push():
+    space, s0 = _book_at(0.3)
+    found = grow(space, s0, np.random.default_rng(1), SearchSettings(max_nodes=2000),
+                 Termination(max_iterations=2000))
+    assert found.actions == [5, 5, 5] and found.cost < 1e-20
+    found = grow(space, s0, np.random.default_rng(1), SearchSettings(max_nodes=2000, push_cost=0.05),
+                 Termination(max_iterations=2000))
+    assert found.actions == [5, 5] and np.isclose(found.cost, np.sin(0.2) ** 2)    # 0.0395 + 2 x 0.05 < 0 + 3 x 0.05
+
+
+def test_enough_counts_every_cost_below_it_as_equal_so_the_shorter_plan_wins():
+    # replanning during execution (replan_shortest): a cost below the first plan's is no better than reaching it
+    space, s0 = _book_at(0.3)
+    assert shortcut(space, s0, [5, 5, 5], enough=0.05)[0] == [5, 5]       # 0.0395 counts as 0.05, as does 0
+    short, _, cost = shortcut(space, s0, [5, 5, 5], enough=0.2)            # 0.1516 counts as 0.2 too
+    assert short == [5] and np.isclose(cost, np.sin(0.4) ** 2)
+    assert descend(space, s0, [], enough=0.1) == ([5, 5], 2)                # stops once at or below 0.1
+    found = grow(space, s0, np.random.default_rng(1), SearchSettings(max_nodes=2000),
+                 Termination(max_iterations=2000), enough=0.2)
+    assert found.actions == [5] and np.isclose(found.cost, np.sin(0.4) ** 2)
