@@ -159,6 +159,9 @@ def main() -> None:
     parser.add_argument("--noise", type=float, default=0.004, help="paddle placement noise (m, std)")
     parser.add_argument("--action-limit", type=int, default=300, help="most pushes per execution (the pipelines' "
                         "[execution] action_limit)")
+    parser.add_argument("--action-limit-per-push", type=float, default=0.0, help="a limit relative to the plan's "
+                        "length: each execution may take max(--action-limit, this x the plan's pushes) pushes (a "
+                        "longer plan needs proportionally more pushes under noise; 0: the fixed limit alone)")
     parser.add_argument("--reach", action="store_true", help="only the reachability check: how close each object "
                         "gets to its pose in the best free-placement arrangement with its own pushes (beam search "
                         "through the models, the other objects ignored), from each seed's start")
@@ -176,7 +179,8 @@ def main() -> None:
     extra = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (s.split("=", 1) for s in args.set)}
     options = TSRRTOptions(placement_noise=args.noise, **extra)
     out: dict = {"budget": args.budget, "iterations": args.iterations, "seeds": seeds, "noise": args.noise,
-                 "action_limit": args.action_limit, "options": extra}
+                 "action_limit": args.action_limit, "action_limit_per_push": args.action_limit_per_push,
+                 "options": extra}
     load0 = f"{os.getloadavg()[0]:.2f}"
     name = "tsrrt" + ("-quick" if args.quick else "") + ("-plan" if args.plan_only else "") + \
         (f"-it{args.iterations}" if args.iterations else "") + ("-scaling" if args.only_scaling else "")
@@ -230,15 +234,16 @@ def main() -> None:
             redundant = redundant_actions(space, s0, found.actions)
             plan = PushPlan(names, s0, found.actions, found.states, found.cost, options.__dict__, models)
             ex = []
+            limit = max(args.action_limit, int(np.ceil(args.action_limit_per_push * len(found.actions))))
             for e in range(executions):
                 _, world = world_for("tsrrt-table", noise=True)
                 record = execute_plan(plan, world, scene, np.random.default_rng(50_000 + 100 * seed + e),
-                                      action_limit=args.action_limit)
+                                      action_limit=limit)
                 ex.append({"final_cost": record.final_cost, "ratio_reference": record.final_cost / ref_cost,
                            "ratio_plan": record.final_cost / found.cost, "collided": record.collided,
                            "replans": sum(not a.get("repair") for a in record.adaptations),
                            "repairs": sum(bool(a.get("repair")) for a in record.adaptations),
-                           "pushes": len(record.actions),
+                           "pushes": len(record.actions), "action_limit": limit,
                            "outcome": record.outcome})
             runs.append({"seed": seed, "start_cost": float(space.cost.cost(s0[None])[0]), "cost": found.cost,
                          "reference_cost": ref_cost, "reference_random_starts_cost": ref_random_cost,
@@ -290,6 +295,11 @@ def main() -> None:
                    "repairs_mean": float(np.mean([x["repairs"] for x in exr])) if exr else float("nan"),
                    "execution_pushes_median": float(np.median([x["pushes"] for x in exr])) if exr else float("nan"),
                    "executions_at_action_limit": int(sum(x["outcome"] == "action limit" for x in exr)),
+                   "execution_pushes_max": int(max(x["pushes"] for x in exr)) if exr else 0,
+                   "execution_pushes_per_plan_push_median": float(np.median(
+                       [x["pushes"] / max(1, r["actions"]) for r in runs for x in r["executions"]])) if exr
+                   else float("nan"),
+                   "executions_above_base_limit": int(sum(x["pushes"] > args.action_limit for x in exr)),
                    "tree_best_median": float(np.median([r["tree_best_cost"] for r in runs])) / best_ref,
                    "time_tree_median": float(np.median([r["tree_time"] for r in runs])),
                    "time_total_median": float(np.median([r["time"] for r in runs])),
