@@ -36,6 +36,7 @@ from pliant_tsrrt.pushing import PRIMITIVES, apply_action, paddle_sweeps
 from pliant_tsrrt.reference import random_arrangements
 from pliant_tsrrt.repair import pose_errors
 from pliant_tsrrt.repair import restore as repair_restore
+from pliant_tsrrt.repair import retarget as repair_retarget
 from pliant_tsrrt.repair import toward_goal as repair_toward_goal
 from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow
 
@@ -126,6 +127,10 @@ class TSRRTOptions(PushOptions):
     repair_depth: int = option(12, "execution: most pushes per object of a repair (refine_depth toward the first "
                                "plan's final arrangement after a deviation)", minimum=1)
     max_repairs: int = option(40, "most repairs in one execution (beside max_replans)", minimum=0)
+    repair_retarget: bool = option(False, "execution: a repair after a deviation may also re-plan the displaced "
+                                   "objects' part of the plan (push them toward the poses the plan leaves them in, "
+                                   "dropping their remaining pushes) instead of pushing them back; the repair with "
+                                   "fewer pushes in all wins (pliant_tsrrt.repair.retarget)")
     replan_shortest: bool = option(False, "execution: a replanning counts every final cost at or below the first "
                                    "plan's as equally good, so of the plans that get there the one with the fewest "
                                    "pushes (with push_cost) wins, instead of the cheapest")
@@ -475,13 +480,21 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             fix = None
             if o.repair and repairs < o.max_repairs:
                 room = _room_for(space, observed)
-                fix = repair_restore(room, observed, expected[j], actions[j:], threshold=o.replan_threshold,
-                                     angle=o.replan_angle, depth=o.repair_depth, width=o.refine_width,
-                                     yaw_quota=o.refine_yaw_quota) \
-                    or repair_toward_goal(room, observed, goal, depth=o.refine_depth, width=o.refine_width,
-                                          yaw_quota=o.refine_yaw_quota,
-                                          at_most=goal_cost * (1 + o.finish_tolerance), push_cost=o.push_cost,
-                                          enough=enough)
+                fixes = [repair_restore(room, observed, expected[j], actions[j:], threshold=o.replan_threshold,
+                                        angle=o.replan_angle, depth=o.repair_depth, width=o.refine_width,
+                                        yaw_quota=o.refine_yaw_quota)]
+                if o.repair_retarget:
+                    fixes.append(repair_retarget(room, observed, expected[j], actions[j:],
+                                                 threshold=o.replan_threshold, angle=o.replan_angle,
+                                                 depth=o.refine_depth, width=o.refine_width,
+                                                 yaw_quota=o.refine_yaw_quota,
+                                                 at_most=goal_cost * (1 + o.finish_tolerance)))
+                fixes = [f for f in fixes if f is not None]
+                fix = min(fixes, key=lambda f: len(f.actions)) if fixes else None
+                fix = fix or repair_toward_goal(room, observed, goal, depth=o.refine_depth, width=o.refine_width,
+                                                yaw_quota=o.refine_yaw_quota,
+                                                at_most=goal_cost * (1 + o.finish_tolerance), push_cost=o.push_cost,
+                                                enough=enough)
             if fix is not None:
                 repairs += 1
                 records[-1]["replanned"] = False

@@ -93,6 +93,55 @@ def restore(space, observed: np.ndarray, expected: np.ndarray, rest: list[int], 
     return Repair(plan, states, len(actions), objects)
 
 
+def retarget(space, observed: np.ndarray, expected: np.ndarray, rest: list[int], *, threshold: float,
+             angle: float, depth: int = 40, width: int = 64, yaw_quota: int = 4, slack: float = 0.5,
+             at_most: float | None = None) -> Repair | None:
+    """Repair after a deviation by re-planning the displaced objects' part of the plan: each object of ``observed``
+    farther than half the thresholds from ``expected`` (the plan's predicted arrangement at this step) loses its
+    remaining pushes of ``rest`` and is pushed instead, at most ``depth`` pushes, toward the pose the plan leaves it
+    in (its yaw modulo the footprint's symmetry: no push of the plan follows), where the plan would have moved it
+    first (one displaced object), or before the rest of the plan.  Unlike :func:`restore` it does not bring the
+    object back to a pose on the way (under noise, a noisy turn of a heavy box is undone by more noisy turns).
+    ``None`` unless every displaced object ends (as predicted by the models) within half the thresholds of that
+    pose, the whole sequence is valid with the clearance margin times ``slack``, and, with ``at_most``, the
+    predicted final cost is at most that."""
+    objects = _displaced(_exact_yaw(space), observed, expected, threshold / 2, angle / 2)
+    if not objects:
+        return None
+    rest = list(rest)
+    final = space.rollout(expected, rest)[0][-1]
+    loose = loosened(space, slack)
+    candidates = []
+    starts = [0]
+    if len(objects) == 1:
+        first = next((i for i, a in enumerate(rest) if a // 6 == objects[0]), None)
+        if first:
+            starts.insert(0, first)                    # where the plan would have moved the object next
+    for at in starts:
+        head = rest[:at]
+        s = space.rollout(observed, head)[0][-1]
+        added: list[int] = []
+        for o in objects:
+            _, seq, s = push_toward(space, s, o, final[o], depth=depth, width=width, stop="closest",
+                                    yaw_quota=yaw_quota)
+            added += seq
+        if _displaced_of(space, s, final, objects, threshold / 2, angle / 2):
+            continue
+        plan = head + added + [a for a in rest[at:] if a // 6 not in objects]
+        states, ok = loose.rollout(observed, plan)
+        if not ok or (at_most is not None and float(space.cost.cost(states[-1][None])[0]) > at_most):
+            continue
+        candidates.append(Repair(plan, states, len(added), objects))
+    return min(candidates, key=lambda r: len(r.actions)) if candidates else None
+
+
+def _displaced_of(space, s: np.ndarray, target: np.ndarray, objects: list[int], distance: float,
+                  angle: float) -> bool:
+    """Whether any of ``objects`` lies more than ``distance`` / ``angle`` from its pose in ``target``."""
+    err_t, dtheta = pose_errors(space, s, target)
+    return bool(np.any((err_t[objects] > distance) | (dtheta[objects] > angle)))
+
+
 def toward_goal(space, observed: np.ndarray, goal: np.ndarray, *, depth: int = 12, width: int = 64,
                 yaw_quota: int = 4, distance: float = 0.002, angle: float = 0.01,
                 at_most: float | None = None, push_cost: float = 0.0,
@@ -119,4 +168,4 @@ def toward_goal(space, observed: np.ndarray, goal: np.ndarray, *, depth: int = 1
     return Repair(actions, states, len(actions), objects)
 
 
-__all__ = ["Repair", "loosened", "pose_errors", "restore", "toward_goal"]
+__all__ = ["Repair", "loosened", "pose_errors", "restore", "retarget", "toward_goal"]
