@@ -9,8 +9,10 @@ minutes per task with RRT* alone; the budget here is an option (iterations or se
 shortcut path is then improved by local search in the recovered cost (:func:`refine` with :data:`REFINE`): the
 sample paths of thesis 4.3.1 and rigid turns of the path's tail about the target drawn around it, the cheapest kept
 when it is cheaper and free of punctures, with the noise adapting to success -- the local optimisation a
-trajectory optimiser (STOMP, which the chapter's sampling follows) does after a sampling planner.  The ground truth
-is never read while planning or refining.
+trajectory optimiser (STOMP, which the chapter's sampling follows) does after a sampling planner.  With
+``straight`` the local search starts from the cheaper of that path and the recovered values' best straight insertion
+(:func:`straight_insertion`), as a trajectory optimiser starts from a simple initial guess.  The ground truth is
+never read while planning or refining.
 The planned path and the demonstration are then both measured in the scene's *true* sensitivities: the deformation
 of each object and the cost ``S . V``.
 """
@@ -18,7 +20,6 @@ of each object and the cost ``S . V``.
 from __future__ import annotations
 
 import dataclasses
-import time
 
 import numpy as np
 
@@ -223,24 +224,3 @@ def compare(features, truth: dict[str, float], demonstration: Demonstration, pla
             "demonstrated_objects": [n for n, v in zip(names, shown) if v > deformed],
             "planned_objects": [n for n, v in zip(names, planned) if v > deformed],
             "demonstrated_cost": float(shown @ weights), "planned_cost": float(planned @ weights)}
-
-
-def verify(scene, features, learned: dict[str, float], demonstrations: list[Demonstration], tip,
-           rng: np.random.Generator, *, max_time: float, shortcut_iterations: int = 300, echo=print) -> list[dict]:
-    """:func:`plan_task` and :func:`compare` for every demonstration; one row each."""
-    from pliant_piirl.features import true_sensitivities
-
-    truth = true_sensitivities(scene)
-    rows = []
-    for k, demonstration in enumerate(demonstrations):
-        started = time.perf_counter()
-        result, path = plan_task(scene, learned, demonstration, tip, rng, max_time=max_time,
-                                 shortcut_iterations=shortcut_iterations)
-        if path is None and result.path is not None:
-            path = result.path.configurations
-        row = {"task": k, "objects": list(demonstration.task.objects), "status": result.status.value,
-               "seconds": time.perf_counter() - started, **compare(features, truth, demonstration, path)}
-        rows.append(row)
-        echo(f"task {k} {row['objects']}: {row['status']}, demonstrated {row['demonstrated_objects']} cost "
-             f"{row['demonstrated_cost']:.1f}, planned {row['planned_objects']} cost {row['planned_cost']:.1f}")
-    return rows
