@@ -95,7 +95,7 @@ def restore(space, observed: np.ndarray, expected: np.ndarray, rest: list[int], 
 
 def retarget(space, observed: np.ndarray, expected: np.ndarray, rest: list[int], *, threshold: float,
              angle: float, depth: int = 40, width: int = 64, yaw_quota: int = 4, slack: float = 0.5,
-             at_most: float | None = None) -> Repair | None:
+             at_most: float | None = None, objects: list[int] | None = None) -> Repair | None:
     """Repair after a deviation by re-planning the displaced objects' part of the plan: each object of ``observed``
     farther than half the thresholds from ``expected`` (the plan's predicted arrangement at this step) loses its
     remaining pushes of ``rest`` and is pushed instead, at most ``depth`` pushes, toward the pose the plan leaves it
@@ -104,8 +104,9 @@ def retarget(space, observed: np.ndarray, expected: np.ndarray, rest: list[int],
     object back to a pose on the way (under noise, a noisy turn of a heavy box is undone by more noisy turns).
     ``None`` unless every displaced object ends (as predicted by the models) within half the thresholds of that
     pose, the whole sequence is valid with the clearance margin times ``slack``, and, with ``at_most``, the
-    predicted final cost is at most that."""
-    objects = _displaced(_exact_yaw(space), observed, expected, threshold / 2, angle / 2)
+    predicted final cost is at most that.  ``objects``: only these of the displaced objects (all by default)."""
+    displaced = _displaced(_exact_yaw(space), observed, expected, threshold / 2, angle / 2)
+    objects = [o for o in displaced if objects is None or o in objects]
     if not objects:
         return None
     rest = list(rest)

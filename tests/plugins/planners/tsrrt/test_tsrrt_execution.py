@@ -49,8 +49,8 @@ def _result(space, s0, actions):
 
 def _script(monkeypatch, space, kick, replans):
     """Pushes follow the models, except push number ``kick[0]`` (0-based), after which object ``kick[1]`` lies
-    ``kick[2]`` (m, along y) off; each replanning returns the next plan of ``replans`` (a function of the observed
-    arrangement) and records its reason and goal."""
+    ``kick[2]`` (m, along y; or a pose offset ``(dx, dy, dtheta)``) off; each replanning returns the next plan of
+    ``replans`` (a function of the observed arrangement) and records its reason and goal."""
     calls = {"pushes": 0, "grow": []}
 
     def fake_apply(world, names, fp, index, primitive, settings, rng, poses=None):
@@ -58,7 +58,10 @@ def _script(monkeypatch, space, kick, replans):
         s = np.array([now[n] for n in NAMES])
         s = space.step(s, 6 * NAMES.index(names[index]) + primitive)
         if calls["pushes"] == kick[0]:
-            s[kick[1], 1] += kick[2]
+            if np.ndim(kick[2]):
+                s[kick[1]] += kick[2]
+            else:
+                s[kick[1], 1] += kick[2]
         calls["pushes"] += 1
         world.set_object_poses({n: p for n, p in zip(NAMES, s)})
         return {n: p for n, p in zip(NAMES, s)}
@@ -72,12 +75,12 @@ def _script(monkeypatch, space, kick, replans):
     return calls
 
 
-def _execute_can_plan(monkeypatch, kick, replans, **setup):
+def _execute_can_plan(monkeypatch, kick, replans, actions=(15, 15, 15), **setup):
     """The first plan pushes the can -y three times, away from the table's edge; it is executed in the scripted world
     (``kick`` and ``replans`` as in :func:`_script`).  Returns the first plan, the calls and the record."""
     scene, world, models, options, space = _setup(**setup)
     s0 = np.array([scene_pose(scene, n) for n in NAMES])
-    first = _result(space, s0, [15, 15, 15])
+    first = _result(space, s0, list(actions))
     calls = _script(monkeypatch, space, kick, replans)
     plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, options.__dict__, models)
     return first, calls, execute_plan(plan, world, scene, np.random.default_rng(0))
@@ -153,3 +156,21 @@ def test_a_deviation_no_push_can_undo_is_repaired_toward_the_first_plans_end_whe
     assert record.final_cost <= 1.05 * first.cost
 
 
+
+
+def test_a_placed_box_off_its_final_yaw_is_turned_there_at_once_with_repair_placed(monkeypatch):
+    # the plan turns the book once (+0.2 rad), then pushes the can twice; the book's turn ends 0.15 rad too far:
+    # below replan_angle (0.3), so no deviation, but it is the book's last push and 0.15 > place_angle (0.07):
+    # one turn- (-0.2 rad) leaves it 0.05 rad off, and the plan goes on
+    kick = (0, 0, np.array([0.0, 0.0, 0.15]))
+    first, calls, record = _execute_can_plan(monkeypatch, kick, [], actions=(4, 15, 15), repair=True,
+                                             repair_placed=True)
+    assert calls["grow"] == []
+    (fix,) = record.adaptations
+    assert fix["reason"] == "placed" and fix["repair"] and fix["objects"] == ["book-1"] and fix["repair_pushes"] == 1
+    assert [(a["object"], a["primitive"]) for a in record.actions] == [("book-1", "turn+"), ("book-1", "turn-"),
+                                                                        ("can-1", "push-y"), ("can-1", "push-y")]
+    assert np.isclose(record.final_state[0, 2] - first.states[-1][0, 2], -0.05, atol=1e-9)
+    # without repair_placed the book stays 0.15 rad off
+    first, calls, record = _execute_can_plan(monkeypatch, kick, [], actions=(4, 15, 15), repair=True)
+    assert record.adaptations == [] and np.isclose(record.final_state[0, 2] - first.states[-1][0, 2], 0.15)
