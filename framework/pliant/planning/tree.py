@@ -101,10 +101,6 @@ class Tree:
         self._path_cost[below] += delta
         return below
 
-    def set_path_cost(self, node: int, path_cost: float) -> None:
-        """Overwrite the cost-from-root of ``node``."""
-        self._path_cost[node] = path_cost
-
     def deactivate(self, nodes) -> None:
         """Exclude ``nodes`` from nearest-neighbour queries (they stay in the tree)."""
         self._active[np.asarray(nodes, dtype=np.int64)] = False

@@ -125,11 +125,6 @@ def _give_back_logging(root: logging.Logger, handlers: list, level: int) -> None
         logger.propagate = False
 
 
-def node_master() -> str | None:
-    """The master this process's node belongs to (None before :func:`ensure_node`)."""
-    return _node_master
-
-
 class MasterWatch:
     """Asks the master for its pid every ``period`` s in a daemon thread; :attr:`error` is the one-line reason once
     it is gone (it stays set: a master that comes back has lost every registration).

@@ -102,12 +102,6 @@ def run_tables(tasks: list[str], *, runs: int, jobs: int, output: Path, fresh: b
     return finish()
 
 
-def _mean_std(values: list[float]) -> str:
-    if not values:
-        return "-"
-    return f"{np.mean(values):.2f} [{np.std(values):.2f}]"
-
-
 def _reference(records: list[dict], task: str, method: str) -> dict[int, float]:
     out = {}
     for cell in range(len(cells())):

@@ -146,11 +146,6 @@ class VoxelDeformationCost(CostModel):
         trilinear_with_gradient(self.grid.sdf, self.grid.lower, float(self.grid.resolution), points, value, gradient)
         return value, gradient
 
-    def surrogate_weights(self, points: np.ndarray, costs: np.ndarray) -> np.ndarray:
-        """``C_i`` for points that penetrate an object (sdf < 0) with a finite cost, else 0."""
-        inside = self.grid.sdf_at(points) < 0
-        return np.where(inside & np.isfinite(costs), costs, 0.0)
-
     def surrogate(self, q) -> np.ndarray:
         """The smooth surrogate ``S(q) = sum_i C_i max(0, -sdf(x_i))`` whose gradient :meth:`gradient` is.
 

@@ -57,14 +57,6 @@ class Browser:
     def __exit__(self, *exc) -> None:
         self.quit()
 
-    def frames_per_second(self, seconds: float = 3.0) -> float:
-        """Frames the page drew per second over ``seconds`` (see :func:`start_frame_counter`)."""
-        import time
-
-        start_frame_counter(self.driver)
-        time.sleep(seconds)
-        return read_frame_counter(self.driver)
-
 
 def wait_for_text(driver, text: str, timeout: float = 60.0) -> float:
     """Seconds until ``text`` shows in the page's body (the viewer's summary arrives after the scene's nodes);
@@ -101,7 +93,7 @@ def dismiss_notifications(driver) -> None:
 
 
 def start_frame_counter(driver) -> None:
-    """Count the page's frames from now on (read with :func:`read_frame_counter`): animation frames, and drawn
+    """Count the page's frames from now on (read with :func:`read_frame_counters`): animation frames, and drawn
     frames -- those in which WebGL drew anything.  viser renders on demand: a page left alone draws about one frame a
     second while its animation frames run at the display's rate, so only drawn frames say how smooth a moving view
     is.  Drawn frames need :func:`install_draw_probe` before the page was opened (else they read 0)."""
@@ -125,11 +117,6 @@ def read_frame_counters(driver) -> dict[str, float]:
         "return [window.__pliantFrames, window.__pliantDrawn, performance.now() - window.__pliantT0,"
         " (window.__pliantDrawCalls || 0) - window.__pliantCalls0];")
     return {"drawn": drawn / (ms / 1000.0), "animation": frames / (ms / 1000.0), "calls": calls / max(drawn, 1)}
-
-
-def read_frame_counter(driver) -> float:
-    """Frames drawn per second since :func:`start_frame_counter`."""
-    return read_frame_counters(driver)["drawn"]
 
 
 def orbit(driver, seconds: float) -> int:
