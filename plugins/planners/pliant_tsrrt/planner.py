@@ -85,11 +85,12 @@ class TSRRTOptions(PushOptions):
     beam_depth: int = option(4, "improvement: most pushes of the final beam search over every object's "
                              "primitives, ordered by the task cost (0: none)", minimum=0)
     beam_width: int = option(128, "improvement: beam width of that final search", minimum=1)
-    push_cost: float = option(0.0, "the plan length's price (task cost per push) after the tree: the improvement "
+    push_cost: float = option(0.0002, "the plan length's price (task cost per push; the cost of tsrrt-table's "
+                              "plans is about 0.77, so 0.0002 is 0.026 % of it) after the tree: the improvement "
                               "phase's connections are compared by final cost plus push_cost x pushes and cut "
                               "where that is lowest, the final beam and descent append only pushes that gain more, "
                               "the shortcut drops a push that gains less (shorter plans execute with fewer "
-                              "deviations)", minimum=0.0)
+                              "deviations); 0: the cheapest plan whatever its length", minimum=0.0)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
     w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
     w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
@@ -108,10 +109,11 @@ class TSRRTOptions(PushOptions):
     max_pushes: int = option(40, "LEARN_MODEL: most pushes per class and primitive", minimum=2)
     replan_threshold: float = option(0.02, "execution: replan when an object lies this far from where the plan "
                                      "predicted it at this step (m)", minimum=0.0)
-    replan_angle: float = option(0.3, "execution: replan when a box is turned this far from the plan's predicted "
-                                 "yaw at this step (rad, modulo its symmetry); three standard deviations of the "
-                                 "noisiest turn of tsrrt-table (the block's, 6 degrees), so that one turn's noise "
-                                 "alone seldom triggers", minimum=0.0)
+    replan_angle: float = option(0.15, "execution: repair or replan when a box is turned this far from the plan's "
+                                 "predicted yaw at this step (rad, modulo its symmetry): about 1.5 standard "
+                                 "deviations of the noisiest turn of tsrrt-table (the block's, 6 degrees), so that a "
+                                 "bad turn is undone by one turn before the side pushes after it carry the box "
+                                 "centimetres off", minimum=0.0)
     finish_tolerance: float = option(0.05, "execution: when a plan is done and the arrangement costs more than "
                                      "(1 + this) x the first plan's final cost, replan (toward the first plan's "
                                      "final arrangement) until it does not or nothing cheaper is found", minimum=0.0)
@@ -127,11 +129,11 @@ class TSRRTOptions(PushOptions):
     repair_depth: int = option(12, "execution: most pushes per object of a repair (refine_depth toward the first "
                                "plan's final arrangement after a deviation)", minimum=1)
     max_repairs: int = option(40, "most repairs in one execution (beside max_replans)", minimum=0)
-    repair_retarget: bool = option(False, "execution: a repair after a deviation may also re-plan the displaced "
+    repair_retarget: bool = option(True, "execution: a repair after a deviation may also re-plan the displaced "
                                    "objects' part of the plan (push them toward the poses the plan leaves them in, "
                                    "dropping their remaining pushes) instead of pushing them back; the repair with "
                                    "fewer pushes in all wins (pliant_tsrrt.repair.retarget)")
-    repair_placed: bool = option(False, "execution: after an object's last push of the plan, check it against the "
+    repair_placed: bool = option(True, "execution: after an object's last push of the plan, check it against the "
                                  "pose the plan leaves it in with the tighter place_threshold / place_angle (yaw "
                                  "modulo symmetry) and, if it is off, push it there at once (repair.retarget), while "
                                  "the objects placed after it do not yet box it in")
@@ -140,7 +142,7 @@ class TSRRTOptions(PushOptions):
     place_angle: float = option(0.07, "execution, repair_placed: yaw error (rad, modulo symmetry) of a placed box "
                                 "that is repaired (0.07 rad costs 0.019 in orthogonality, 2.5 % of the plans' cost)",
                                 minimum=0.0)
-    replan_shortest: bool = option(False, "execution: a replanning counts every final cost at or below the first "
+    replan_shortest: bool = option(True, "execution: a replanning counts every final cost at or below the first "
                                    "plan's as equally good, so of the plans that get there the one with the fewest "
                                    "pushes (with push_cost) wins, instead of the cheapest")
 

@@ -98,7 +98,6 @@ def test_a_done_plan_is_judged_against_the_first_plans_cost_and_replanned_toward
     for call in calls["grow"]:                                         # ... and every replanning knows the goal
         assert np.allclose(call["goal"], first.states[-1])
     assert record.final_cost <= 1.05 * first.cost + 1e-9
-    assert all(call["enough"] is None for call in calls["grow"])      # replan_shortest off: the cheapest plan wins
 
 
 def test_with_replan_shortest_every_replanning_counts_the_first_plans_cost_as_enough(monkeypatch):
@@ -106,6 +105,9 @@ def test_with_replan_shortest_every_replanning_counts_the_first_plans_cost_as_en
                                              replan_shortest=True)
     assert [r["reason"] for r in record.adaptations] == ["deviation", "finish"]
     assert [call["enough"] for call in calls["grow"]] == [first.cost, first.cost]
+    first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [lambda s: [], lambda s: [15, 15, 15]],
+                                             replan_shortest=False)
+    assert [call["enough"] for call in calls["grow"]] == [None, None]       # off: the cheapest plan wins
 
 
 def test_a_replanning_that_finds_nothing_cheaper_ends_the_execution(monkeypatch):
@@ -147,7 +149,7 @@ def test_a_deviation_no_push_can_undo_is_repaired_toward_the_first_plans_end_whe
         monkeypatch):
     # 6 cm back: pushes of 4.5 cm leave 1.5 or 3 cm, more than half the 2 cm threshold, so the plan cannot be
     # restored; pushing the can toward the first plan's final arrangement ends 1.5 cm from it, within 5 % of its cost
-    first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [], repair=True)
+    first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [], repair=True, repair_retarget=False)
     assert calls["grow"] == []
     repair = record.adaptations[0]
     assert repair["reason"] == "deviation" and repair["repair"] and repair["objects"] == ["can-1"]
@@ -156,6 +158,11 @@ def test_a_deviation_no_push_can_undo_is_repaired_toward_the_first_plans_end_whe
     assert record.final_cost <= 1.05 * first.cost
 
 
+    # with repair_retarget (the default) the can's remaining pushes are re-planned instead: its glancing pushes (2 mm
+    # along y each) bring it to within a millimetre of where the plan leaves it
+    first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [], repair=True)
+    assert calls["grow"] == [] and record.adaptations[0]["objects"] == ["can-1"]
+    assert abs(record.final_state[2, 1] - first.states[-1][2, 1]) < 0.001
 
 
 def test_a_placed_box_off_its_final_yaw_is_turned_there_at_once_with_repair_placed(monkeypatch):
@@ -164,7 +171,7 @@ def test_a_placed_box_off_its_final_yaw_is_turned_there_at_once_with_repair_plac
     # one turn- (-0.2 rad) leaves it 0.05 rad off, and the plan goes on
     kick = (0, 0, np.array([0.0, 0.0, 0.15]))
     first, calls, record = _execute_can_plan(monkeypatch, kick, [], actions=(4, 15, 15), repair=True,
-                                             repair_placed=True)
+                                             replan_angle=0.3, repair_placed=True)
     assert calls["grow"] == []
     (fix,) = record.adaptations
     assert fix["reason"] == "placed" and fix["repair"] and fix["objects"] == ["book-1"] and fix["repair_pushes"] == 1
@@ -172,5 +179,6 @@ def test_a_placed_box_off_its_final_yaw_is_turned_there_at_once_with_repair_plac
                                                                         ("can-1", "push-y"), ("can-1", "push-y")]
     assert np.isclose(record.final_state[0, 2] - first.states[-1][0, 2], -0.05, atol=1e-9)
     # without repair_placed the book stays 0.15 rad off
-    first, calls, record = _execute_can_plan(monkeypatch, kick, [], actions=(4, 15, 15), repair=True)
+    first, calls, record = _execute_can_plan(monkeypatch, kick, [], actions=(4, 15, 15), repair=True,
+                                             replan_angle=0.3, repair_placed=False)
     assert record.adaptations == [] and np.isclose(record.final_state[0, 2] - first.states[-1][0, 2], 0.15)
