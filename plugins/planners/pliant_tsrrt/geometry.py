@@ -47,11 +47,8 @@ class Footprints:
         return np.where(self.kind == CIRCLE, self.half[:, 0], np.hypot(self.half[:, 0], self.half[:, 1]))
 
     def subset(self, index) -> Footprints:
+        """The footprints at ``index`` (an index, slice or index array), in that order."""
         return Footprints(self.kind[index], self.half[index])
-
-    @staticmethod
-    def concat(*parts: Footprints) -> Footprints:
-        return Footprints(np.concatenate([p.kind for p in parts]), np.concatenate([p.half for p in parts]))
 
 
 def box_corners(poses: np.ndarray, half: np.ndarray) -> np.ndarray:
