@@ -345,11 +345,8 @@ def write_table41(directory: Path, learned: dict, records: list[dict]) -> dict:
         planned = [_class_costs(r["planned"], truth) for r in solved]
         rows.append({"task": task, "objects": mine[0]["objects"], "demonstrated": shown,
                      "planned": {k: [p[k] for p in planned] for k in "LMH"}, "plans": len(mine),
-                     "solved": len(planned),
-                     "same_objects": sum(_main_class(p) == _main_class(shown) for p in planned),
-                     "same_share": sum(_deformed(p) == _deformed(shown) for p in planned),
+                     "solved": len(planned), **_agreement([(shown, p) for p in planned]),
                      "starts": [r.get("start", "rrtstar") for r in solved],
-                     "no_costlier": sum(sum(p.values()) <= sum(shown.values()) for p in planned),
                      # planned / demonstrated cost per solved plan, in the true and in the recovered sensitivities
                      "ratio_true": [cost(r["planned"], truth) / cost(r["demonstrated"], truth) for r in solved],
                      "ratio_recovered": [cost(r["planned"], recovered) / cost(r["demonstrated"], recovered)
@@ -382,12 +379,17 @@ def _score_references(directory: Path, records: list[dict], truth: dict[str, flo
     for name, entries in json.loads(file.read_text()).items():
         scored = [(shown[e["task"]], _class_costs(e["deformation"], truth)) for e in entries
                   if e["task"] in shown and e["deformation"] is not None]
-        out[name] = {"tasks": len(scored),
-                     "same_objects": sum(_main_class(p) == _main_class(d) for d, p in scored),
-                     "same_share": sum(_deformed(p) == _deformed(d) for d, p in scored),
-                     "no_costlier": sum(sum(p.values()) <= sum(d.values()) for d, p in scored),
+        out[name] = {"tasks": len(scored), **_agreement(scored),
                      "ratio_true": [sum(p.values()) / sum(d.values()) for d, p in scored]}
     return out
+
+
+def _agreement(pairs: list[tuple[dict[str, float], dict[str, float]]]) -> dict[str, int]:
+    """Table 4.1's three counts over ``(demonstrated, planned)`` true costs per class: paths whose main class is the
+    demonstration's, whose classes above :data:`DEFORMED_SHARE` are, and that cost no more."""
+    return {"same_objects": sum(_main_class(p) == _main_class(d) for d, p in pairs),
+            "same_share": sum(_deformed(p) == _deformed(d) for d, p in pairs),
+            "no_costlier": sum(sum(p.values()) <= sum(d.values()) for d, p in pairs)}
 
 
 def render_table41(summary: dict) -> str:

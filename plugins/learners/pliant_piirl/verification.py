@@ -77,20 +77,22 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
     from pliant.geometry.voxelgrid import VoxelGrid
     from pliant.planning.shortcut import shortcut
 
-    from pliant_piirl.features import DeformationFeatures
-
     checker = PunctureChecker(VoxelGrid.from_scene(context.scene), robot.body_points,
                               arc_margin=arc_margin(context.scene, context.space))
-    features = DeformationFeatures(context.scene)
+    path = None
+    if result.path is not None:
+        path, _ = shortcut(problem, result.path.configurations, rng, step=scene.resolution / 2,
+                           iterations=shortcut_iterations, check=lambda q: checker.check(q)[0])
+    if not (straight or refine_rounds):
+        return result, path
+    from pliant_piirl.features import DeformationFeatures
+
+    features = DeformationFeatures(context.scene)       # only the straight start and the local search read it
     weights = features.sensitivity_vector(sensitivities)
 
     def intact(candidate: np.ndarray) -> bool:
         return bool(checker.check(features.states(candidate))[0])
 
-    path = None
-    if result.path is not None:
-        path, _ = shortcut(problem, result.path.configurations, rng, step=scene.resolution / 2,
-                           iterations=shortcut_iterations, check=lambda q: checker.check(q)[0])
     if straight:
         path = _cheaper_start(path, straight_insertion(features, sensitivities, task, tip), features, weights,
                               intact, result.statistics)

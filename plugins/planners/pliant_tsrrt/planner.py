@@ -425,6 +425,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
     # the first plan's final arrangement and cost: what every replanning connects back to, and what the arrangement
     # is judged against when a plan is done (a replanned plan may end higher than the first one)
     goal, goal_cost = plan.states[-1], plan.cost
+    ceiling = goal_cost * (1 + o.finish_tolerance)     # an arrangement at or below it needs no finishing
     # replan_shortest: a replanning or repair need not end cheaper than the first plan; the fewest pushes win
     enough = goal_cost if o.replan_shortest else None
     records: list[dict] = []
@@ -439,7 +440,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
         if j == len(actions):
             # the plan is done: replan if the arrangement is clearly worse than the first plan's
             cost_now = float(space.cost.cost(observed[None])[0])
-            if cost_now <= goal_cost * (1 + o.finish_tolerance) + 1e-12 or stalled:
+            if cost_now <= ceiling + 1e-12 or stalled:
                 break
             if len(records) >= action_limit:
                 outcome = "action limit"
@@ -498,7 +499,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                     fix = repair_retarget(_room_for(space, observed), observed, expected[j], actions[j:],
                                           threshold=2 * o.place_threshold, angle=2 * o.place_angle,
                                           depth=o.repair_depth, width=o.refine_width, yaw_quota=o.refine_yaw_quota,
-                                          at_most=goal_cost * (1 + o.finish_tolerance), objects=[obj])
+                                          at_most=ceiling, objects=[obj])
                     if fix is not None and fix.pushes:
                         repairs += 1
                         records[-1]["repaired"] = True
@@ -519,12 +520,12 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                                                  threshold=o.replan_threshold, angle=o.replan_angle,
                                                  depth=o.refine_depth, width=o.refine_width,
                                                  yaw_quota=o.refine_yaw_quota,
-                                                 at_most=goal_cost * (1 + o.finish_tolerance)))
+                                                 at_most=ceiling))
                 fixes = [f for f in fixes if f is not None]
                 fix = min(fixes, key=lambda f: len(f.actions)) if fixes else None
                 fix = fix or repair_toward_goal(room, observed, goal, depth=o.refine_depth, width=o.refine_width,
                                                 yaw_quota=o.refine_yaw_quota,
-                                                at_most=goal_cost * (1 + o.finish_tolerance), push_cost=o.push_cost,
+                                                at_most=ceiling, push_cost=o.push_cost,
                                                 enough=enough)
             if fix is not None:
                 repairs += 1

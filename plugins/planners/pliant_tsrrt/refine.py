@@ -218,6 +218,12 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
     return float(space.cost.cost(near[2][None])[0]), near[1], near[2]
 
 
+def plan_score(cost, pushes, push_cost: float = 0.0, enough: float = -np.inf):
+    """What the choices after the tree compare (lower is better): the task ``cost`` (a number or an array), costs
+    below ``enough`` counting as ``enough``, plus ``push_cost`` (task cost per push) times ``pushes``."""
+    return np.maximum(cost, enough) + push_cost * pushes
+
+
 def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, width: int = 64,
             deadline: float | None = None, sweeps: int = 1, cache: dict | None = None,
             stop: str = "closest", yaw_quota: int = 0, push_cost: float = 0.0,
@@ -248,7 +254,7 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
     if stop == "closest" and actions:              # the way there may cost more than the start: cut at the cheapest
         states, _ = space.rollout(start, actions)
         costs = space.cost.cost(states)
-        cut = int(np.argmin(np.maximum(costs, enough) + push_cost * np.arange(len(costs))))
+        cut = int(np.argmin(plan_score(costs, np.arange(len(costs)), push_cost, enough)))
         return float(costs[cut]), actions[:cut]
     return cost, actions
 
@@ -275,7 +281,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     s = path[-1]
     base = best_cost = float(space.cost.cost(s[None])[0])
     keep = len(path) - 1
-    best_score = max(best_cost, enough) + push_cost * keep      # the task cost plus push_cost per push of the plan
+    best_score = plan_score(best_cost, keep, push_cost, enough)
     k = space.k
     orders = list(itertools.permutations(range(k))) if k <= 3 else [tuple(np.roll(np.arange(k), -i)) for i in range(k)]
     orders = orders[:max_orders]
@@ -301,7 +307,8 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
             tried += 1
             cost, actions = connect(space, s if b is None else path[b], goal, order, depth, w, deadline, sweeps,
                                     cache, yaw_quota=yaw_quota, push_cost=push_cost, enough=enough)
-            score = max(cost, enough) + push_cost * ((keep + len(best_actions) if b is None else b) + len(actions))
+            score = plan_score(cost, (keep + len(best_actions) if b is None else b) + len(actions), push_cost,
+                               enough)
             if score < best_score - 1e-12:
                 best_cost, best_score, found = cost, score, (b, actions)
         if found is None:
@@ -335,7 +342,7 @@ def final_beam(space, s: np.ndarray, depth: int = 4, width: int = 128, deadline:
     acts_all = np.arange(n_actions)
     objs, prims = acts_all // N_PRIMITIVES, acts_all % N_PRIMITIVES
     best = (float(space.cost.cost(s[None])[0]), [])
-    best_score = max(best[0], enough)
+    best_score = plan_score(best[0], 0, push_cost, enough)
     frontier = s[None]
     seqs: list[list[int]] = [[]]
     for d in range(depth):
@@ -359,7 +366,7 @@ def final_beam(space, s: np.ndarray, depth: int = 4, width: int = 128, deadline:
             break
         seqs = [seqs[i // n_actions] + [int(acts[i])] for i in keep]
         frontier = after[keep]
-        score = max(float(c[keep[0]]), enough) + push_cost * (d + 1)
+        score = plan_score(float(c[keep[0]]), d + 1, push_cost, enough)
         if score < best_score - 1e-12:
             best, best_score = (float(c[keep[0]]), seqs[0]), score
     return best

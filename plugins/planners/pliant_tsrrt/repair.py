@@ -126,7 +126,7 @@ def retarget(space, observed: np.ndarray, expected: np.ndarray, rest: list[int],
             _, seq, s = push_toward(space, s, o, final[o], depth=depth, width=width, stop="closest",
                                     yaw_quota=yaw_quota)
             added += seq
-        if _displaced_of(space, s, final, objects, threshold / 2, angle / 2):
+        if set(objects) & set(_displaced(space, s, final, threshold / 2, angle / 2)):
             continue
         plan = head + added + [a for a in rest[at:] if a // 6 not in objects]
         states, ok = loose.rollout(observed, plan)
@@ -134,13 +134,6 @@ def retarget(space, observed: np.ndarray, expected: np.ndarray, rest: list[int],
             continue
         candidates.append(Repair(plan, states, len(added), objects))
     return min(candidates, key=lambda r: len(r.actions)) if candidates else None
-
-
-def _displaced_of(space, s: np.ndarray, target: np.ndarray, objects: list[int], distance: float,
-                  angle: float) -> bool:
-    """Whether any of ``objects`` lies more than ``distance`` / ``angle`` from its pose in ``target``."""
-    err_t, dtheta = pose_errors(space, s, target)
-    return bool(np.any((err_t[objects] > distance) | (dtheta[objects] > angle)))
 
 
 def toward_goal(space, observed: np.ndarray, goal: np.ndarray, *, depth: int = 12, width: int = 64,

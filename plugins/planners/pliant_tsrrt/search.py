@@ -57,7 +57,7 @@ from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corners
 from pliant_tsrrt.models import compose
 from pliant_tsrrt.pushing import PushSettings, contact_frames, paddle_sweep_rows
-from pliant_tsrrt.refine import final_beam, improve
+from pliant_tsrrt.refine import final_beam, improve, plan_score
 
 N_PRIMITIVES = 6
 
@@ -491,7 +491,8 @@ def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 
         trial = [a for i, a in enumerate(plan) if i not in drop]
         tail, ok = space.rollout(states[first], trial[first:])     # the states before the first drop stay
         c = float(space.cost.cost(tail[-1][None])[0])
-        if ok and max(c, enough) <= max(cost, enough) + push_cost * len(drop) + 1e-12:
+        if ok and plan_score(c, len(trial), push_cost, enough) <= plan_score(cost, len(plan), push_cost, enough) \
+                + 1e-12:
             plan, states, cost = trial, np.concatenate([states[:first], tail]), c
             return True
         return False
