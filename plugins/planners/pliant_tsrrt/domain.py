@@ -39,6 +39,9 @@ class PushOptions:
     placement_noise: float = option(0.0, "standard deviation of the paddle's placement error, along and across the "
                                     "push (m): execution noise besides the simulator's actuation noise", minimum=0.0)
     control_period: float = option(0.05, "period of the paddle's velocity commands (s)", minimum=1e-3)
+    guard_step: float = option(0.001, "guarded approach: the paddle advances in steps of this length (m) until the "
+                               "object moves, then pushes the depth from there; 0 for a blind push of gap + depth",
+                               minimum=0.0, maximum=0.01)
 
     def push_settings(self, scene) -> PushSettings:
         """The :class:`PushSettings` with the paddle's size read from the scene's robot."""
@@ -46,7 +49,7 @@ class PushOptions:
         return PushSettings(thickness=thickness, width=width, gap=self.push_gap, depth=self.push_depth,
                             turn_depth=self.turn_depth, speed=self.push_speed, retreat=self.retreat, settle=self.settle,
                             turn_offset=self.turn_offset, dt=self.control_period,
-                            placement_noise=self.placement_noise)
+                            placement_noise=self.placement_noise, guard=self.guard_step)
 
 
 def paddle_size(scene) -> tuple[float, float]:

@@ -349,6 +349,10 @@ def options_from_dict(values: dict) -> TSRRTOptions:
 #: may need a second one, but not a lottery of them
 PLACE_TRIES = 3
 
+#: finishing repairs or replannings (in one execution) that may fail to lower the arrangement's cost before execution
+#: stops: their predictions use the models' mean pushes, and a second failure shows the noise outweighs them
+FINISH_TRIES = 2
+
 #: margin (m) of the final collision verdict and of replanning from a jammed arrangement: footprints shrunk by 1 mm, so
 #: objects that merely touch (pymunk lets resting contacts overlap slightly) do not count as colliding
 TOUCH = -0.001
@@ -435,6 +439,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
     repairs = 0
     stalled = False           # a replanning when the plan was done found nothing cheaper than the arrangement
     placed = [0] * len(plan.names)      # repairs of each object after its last push (repair_placed)
+    finishing_from = None     # the arrangement's cost when the last finishing repair or replanning began
+    fruitless = 0             # finishing repairs and replannings that did not lower the cost
     j = 0
     while True:
         if j == len(actions):
@@ -442,13 +448,20 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             cost_now = float(space.cost.cost(observed[None])[0])
             if cost_now <= ceiling + 1e-12 or stalled:
                 break
+            if finishing_from is not None and cost_now > finishing_from * (1 - 1e-3):
+                fruitless += 1           # the last finishing repair or replanning did not lower the cost
+            if fruitless >= FINISH_TRIES:
+                break
             if len(records) >= action_limit:
                 outcome = "action limit"
                 break
+            finishing_from = cost_now
             reason = "finish"
+            # a finishing repair must be predicted to end within the tolerance: pushes that promise a fraction of a
+            # per cent are lost in the noise of their own execution (repeated, they spent the push budget)
             fix = repair_toward_goal(_room_for(space, observed), observed, goal, depth=o.repair_depth,
                                      width=o.refine_width, yaw_quota=o.refine_yaw_quota, push_cost=o.push_cost,
-                                     enough=enough) \
+                                     enough=enough, at_most=ceiling) \
                 if o.repair and repairs < o.max_repairs else None
             if fix is not None:
                 repairs += 1

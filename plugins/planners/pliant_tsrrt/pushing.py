@@ -33,8 +33,10 @@ class PushSettings:
     """How a push is executed (m, m/s, s): paddle ``thickness`` and ``width`` (its extent along and across the push
     direction), ``gap`` behind the contact at the start, push ``depth`` beyond the contact, ``speed``, ``retreat``
     after the push, ``settle`` time at rest, ``turn_offset`` (fraction of the half side at which turning pushes
-    press), control period ``dt`` and ``placement_noise`` (standard deviation, m, of the paddle's placement error
-    along and across the push; 0 for none)."""
+    press), control period ``dt``, ``placement_noise`` (standard deviation, m, of the paddle's placement error
+    along and across the push; 0 for none) and ``guard``: the step (m) of a guarded approach (0: none) -- the paddle
+    advances in steps of ``guard`` until the object moves, then travels ``depth`` from there, so the error of its
+    placement along the push does not change how far it pushes."""
 
     thickness: float = 0.03
     width: float = 0.08
@@ -47,6 +49,7 @@ class PushSettings:
     turn_offset: float = 0.9
     dt: float = 0.05
     placement_noise: float = 0.0
+    guard: float = 0.0
 
 
 def contact_frames(fp: Footprints, turn_offset: float) -> tuple[np.ndarray, np.ndarray]:
@@ -160,11 +163,41 @@ def apply_action(world, names: list[str], fp: Footprints, index: int, primitive:
     world.reset(q)
     world.set_object_poses(poses)
     depth = s.turn_depth if PRIMITIVES[primitive].startswith("turn") else s.depth
-    _move(world, heading * s.speed, (s.gap + depth) / s.speed, s.dt, rng)
+    if s.guard > 0:
+        _guarded_push(world, names[index], heading, depth, s, rng)
+    else:
+        _move(world, heading * s.speed, (s.gap + depth) / s.speed, s.dt, rng)
     if s.retreat > 0:
         _move(world, -heading * s.speed, s.retreat / s.speed, s.dt, rng)
     _move(world, np.zeros(2), s.settle, s.dt, rng)
     return {n: np.asarray(p, dtype=np.float64).copy() for n, p in world.object_poses().items()}
+
+
+#: how far (m) the guarded approach goes beyond the nominal gap, in placement-noise standard deviations, before it
+#: gives up waiting for contact and pushes the depth from there
+GUARD_REACH = 4.0
+
+
+#: a turn (rad) of the pushed object that also counts as the contact of a guarded approach
+GUARD_TURN = 0.005
+
+
+def _guarded_push(world, name: str, heading: np.ndarray, depth: float, s: PushSettings,
+                  rng: np.random.Generator) -> None:
+    """A guarded move (approach until contact, then push): advance in steps of ``s.guard`` until object ``name`` has
+    moved by half a step or turned by :data:`GUARD_TURN` (the contact; at most ``gap`` plus :data:`GUARD_REACH`
+    placement-noise deviations), then ``depth`` further.  The object's motion stands in for a force sensor's contact
+    signal."""
+    start = np.asarray(world.object_poses()[name], dtype=np.float64)
+    reach = s.gap + GUARD_REACH * s.placement_noise + s.guard
+    travelled = 0.0
+    while travelled < reach:
+        _move(world, heading * s.speed, s.guard / s.speed, s.dt, rng)
+        travelled += s.guard
+        now = np.asarray(world.object_poses()[name], dtype=np.float64)
+        if np.hypot(*(now[:2] - start[:2])) > 0.5 * s.guard or abs(now[2] - start[2]) > GUARD_TURN:
+            break
+    _move(world, heading * s.speed, depth / s.speed, s.dt, rng)
 
 
 def _move(world, velocity: np.ndarray, duration: float, dt: float, rng: np.random.Generator) -> None:

@@ -53,6 +53,31 @@ def test_a_push_moves_the_object_along_its_own_axis():
     assert np.allclose(after["book-1"], before["book-1"]) and np.allclose(after["can-1"], before["can-1"])
 
 
+def _push_lengths(guard: float, seeds=range(6)) -> np.ndarray:
+    """How far push+x moves the block (m) from one pose, with a 4 mm paddle placement error, per seed."""
+    scene, ctx = _world()
+    names = [o.name for o in scene.objects if o.movable]
+    fp = footprints_from_scene(scene, names)
+    sim = ctx.simulator
+    settings = PushSettings(placement_noise=0.004, guard=guard)
+    lengths = []
+    for seed in seeds:
+        sim.set_object_poses({"block-1": np.array([0.5, 0.4, 0.0])})
+        after = apply_action(sim, names, fp, names.index("block-1"), PRIMITIVES.index("push+x"), settings,
+                             np.random.default_rng(seed))
+        lengths.append(after["block-1"][0] - 0.5)
+    return np.array(lengths)
+
+
+def test_a_guarded_push_does_not_carry_the_placement_error_along_the_push():
+    blind, guarded = _push_lengths(0.0), _push_lengths(0.001)
+    # the same placement errors (seeds): a blind push travels gap + depth from wherever the paddle was put, so its
+    # length varies with the error along the push (4 mm sd); the guarded push travels the depth from the contact
+    assert np.std(blind) > 0.002
+    assert np.std(guarded) < 0.001 and np.std(guarded) < np.std(blind) / 3
+    assert np.all((guarded > 0.035) & (guarded < 0.05))
+
+
 def test_learn_model_stops_at_sigma_ref_and_restores_the_objects():
     scene, ctx = _world()
     sim = ctx.simulator
