@@ -504,7 +504,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                             "step_angle_error": float(step_th.max()), "plan_error": float(err_t.max()),
                             "plan_angle_error": float(dth.max()),
                             "replanned": replan and _replanned(replans) < o.max_replans})
-            if not replan and o.repair_placed and repairs < o.max_repairs and placed[obj] < PLACE_TRIES \
+            if not replan and o.repair and o.repair_placed and repairs < o.max_repairs and placed[obj] < PLACE_TRIES \
                     and obj not in [a // 6 for a in actions[j:]]:
                 # the object's last push of the plan: is it where the plan leaves it (tighter thresholds)?
                 if err_t[obj] > o.place_threshold or dth[obj] > o.place_angle:

@@ -35,7 +35,8 @@ def _setup(repair: bool = False, finish_tolerance: float = 0.05, **more):
             per.append(d)
         models.models[object_class(name)] = per
         models.footprints[object_class(name)] = (int(fp.kind[i]), fp.half[i].copy())
-    options = TSRRTOptions(finish_tolerance=finish_tolerance, replan_threshold=0.02, repair=repair, **more)
+    more.setdefault("replan_threshold", 0.02)
+    options = TSRRTOptions(finish_tolerance=finish_tolerance, repair=repair, **more)
     space = build_space(scene, options, models, NAMES)
     return scene, world, models, options, space
 
@@ -47,16 +48,18 @@ def _result(space, s0, actions):
     return SearchResult(list(actions), states, cost, states, np.zeros(len(states), int), np.zeros(len(states)), {})
 
 
-def _script(monkeypatch, space, kick, replans):
+def _script(monkeypatch, space, kick, replans, stuck_from=None):
     """Pushes follow the models, except push number ``kick[0]`` (0-based), after which object ``kick[1]`` lies
-    ``kick[2]`` (m, along y; or a pose offset ``(dx, dy, dtheta)``) off; each replanning returns the next plan of
-    ``replans`` (a function of the observed arrangement) and records its reason and goal."""
+    ``kick[2]`` (m, along y; or a pose offset ``(dx, dy, dtheta)``) off, and pushes from number ``stuck_from`` on,
+    which move nothing; each replanning returns the next plan of ``replans`` (a function of the observed
+    arrangement) and records its reason and goal."""
     calls = {"pushes": 0, "grow": []}
 
     def fake_apply(world, names, fp, index, primitive, settings, rng, poses=None):
         now = {n: np.asarray(p, float) for n, p in world.object_poses().items()}
         s = np.array([now[n] for n in NAMES])
-        s = space.step(s, 6 * NAMES.index(names[index]) + primitive)
+        if stuck_from is None or calls["pushes"] < stuck_from:
+            s = space.step(s, 6 * NAMES.index(names[index]) + primitive)
         if calls["pushes"] == kick[0]:
             if np.ndim(kick[2]):
                 s[kick[1]] += kick[2]
@@ -75,13 +78,14 @@ def _script(monkeypatch, space, kick, replans):
     return calls
 
 
-def _execute_can_plan(monkeypatch, kick, replans, actions=(15, 15, 15), **setup):
+def _execute_can_plan(monkeypatch, kick, replans, actions=(15, 15, 15), stuck_from=None, **setup):
     """The first plan pushes the can -y three times, away from the table's edge; it is executed in the scripted world
-    (``kick`` and ``replans`` as in :func:`_script`).  Returns the first plan, the calls and the record."""
+    (``kick``, ``replans`` and ``stuck_from`` as in :func:`_script`).  Returns the first plan, the calls and the
+    record."""
     scene, world, models, options, space = _setup(**setup)
     s0 = np.array([scene_pose(scene, n) for n in NAMES])
     first = _result(space, s0, list(actions))
-    calls = _script(monkeypatch, space, kick, replans)
+    calls = _script(monkeypatch, space, kick, replans, stuck_from)
     plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, options.__dict__, models)
     return first, calls, execute_plan(plan, world, scene, np.random.default_rng(0))
 
@@ -116,6 +120,17 @@ def test_a_replanning_that_finds_nothing_cheaper_ends_the_execution(monkeypatch)
     reasons = [r["reason"] for r in record.adaptations]
     assert reasons == ["deviation", "finish"]          # not max_replans finish replannings
     assert len(calls["grow"]) == 2 and record.final_cost > 1.05 * first.cost
+
+
+def test_execution_stops_after_two_finishing_attempts_that_did_not_lower_the_cost(monkeypatch):
+    # the last push leaves the can 12 cm back (not monitored: a replan_threshold of 1 m); every finishing replanning
+    # promises the three pushes -y again, but from then on the can is stuck: pushes move nothing, so no attempt
+    # lowers the cost
+    first, calls, record = _execute_can_plan(monkeypatch, (2, 2, 0.12), [lambda s: [15, 15, 15]] * 10, stuck_from=3,
+                                             replan_threshold=1.0)
+    assert [r["reason"] for r in record.adaptations] == ["finish", "finish"] and len(calls["grow"]) == 2
+    assert len(record.actions) == 3 + 3 + 3                 # not max_replans (20) rounds of three pushes
+    assert record.final_cost > 1.05 * first.cost
 
 
 def test_replanning_from_a_jammed_arrangement_keeps_the_largest_margin_it_allows():
