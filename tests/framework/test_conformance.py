@@ -129,3 +129,11 @@ def _check_bare(cls):
         check_component("learner", "kit-bare")
     finally:
         default_registry().unregister("learner", "kit-bare")
+
+
+def test_build_context_creates_components_with_the_given_options():
+    from pliant.testing.conformance import build_context
+
+    ctx = build_context("tsrrt-table", options={"simulator": {"max_force": 50.0}}, simulator="pymunk")
+    assert ctx.simulator.options.max_force == 50.0
+    assert build_context("tsrrt-table", simulator="pymunk").simulator.options.max_force == 2000.0

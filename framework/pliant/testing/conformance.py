@@ -52,12 +52,15 @@ def _raises_pliant_error(fn, who: str, rule: str) -> None:
     raise ConformanceFailure(f"{who}: {rule} (nothing was raised)")
 
 
-def build_context(scene: str | None = None, registry: Registry | None = None, **components: str) -> Context:
+def build_context(scene: str | None = None, registry: Registry | None = None,
+                  options: dict[str, dict] | None = None, **components: str) -> Context:
     """A context for ``scene`` (default: the built-in test scene) with the named components created.
 
     ``components`` maps kinds to registered names, e.g. ``cost="voxel"``; a robot is added from the
-    scene when not given.
+    scene when not given.  ``options`` maps a kind to the options its component is created with (e.g.
+    ``{"simulator": {"max_force": 50.0}}``).
     """
+    options = options or {}
     reg = registry or default_registry()
     sc = load_scene(scene or DEFAULT_SCENE)
     ctx = Context(scene=sc, seed=0)
@@ -65,7 +68,7 @@ def build_context(scene: str | None = None, registry: Registry | None = None, **
     ctx.robot = reg.create("robot", robot, ctx)
     for kind in ("cost", "simulator", "controller"):
         if kind in components:
-            setattr(ctx, kind, reg.create(kind, components.pop(kind), ctx))
+            setattr(ctx, kind, reg.create(kind, components.pop(kind), ctx, **options.get(kind, {})))
     return ctx
 
 
@@ -270,17 +273,19 @@ def check_component(kind: str, name: str, scene: str | None = None, seed: int = 
     The scene defaults to the component class's ``example_scene`` attribute, else the built-in test
     scene.  ``components`` names the other components it needs (``cost="voxel"``); the class's
     ``example_components`` and ``example_options`` (e.g. a small iteration budget for an anytime
-    planner, so the check is quick and deterministic) are used too.
+    planner, so the check is quick and deterministic) are used too, and ``example_component_options``
+    (kind -> options of the other components, e.g. the simulator settings a planner's pipelines use).
     """
     reg = registry or default_registry()
     cls = reg.entry(kind, name).load()
     scene = scene or getattr(cls, "example_scene", None)
     components = {**getattr(cls, "example_components", {}), **components}
+    component_options = getattr(cls, "example_component_options", {})
     who = f"{kind} '{name}'"
     if kind == "robot":
-        ctx = build_context(scene, reg, robot=name, **components)
+        ctx = build_context(scene, reg, component_options, robot=name, **components)
         return check_robot(ctx.robot, seed, who)
-    ctx = build_context(scene, reg, **components)
+    ctx = build_context(scene, reg, component_options, **components)
     component = reg.create(kind, name, ctx, **getattr(cls, "example_options", {}))
     _require(isinstance(component, Component), who, "is a Component")
     if kind == "cost":
