@@ -117,12 +117,6 @@ class PushModels:
                               field="models", value=missing[0])
         return np.array([[d.mean for d in self.models[c]] for c in classes])
 
-    def variances(self, classes: list[str]) -> np.ndarray:
-        """``(k, 6, 3)``: the variance of every primitive's displacement ``(dx, dy, dtheta)`` (m^2, rad^2; the
-        covariance's diagonal) for objects of ``classes``, as :meth:`means`."""
-        self.means(classes)                                  # the same check of missing classes
-        return np.array([[np.maximum(np.diag(d.cov), 0.0) for d in self.models[c]] for c in classes])
-
     def to_dict(self) -> dict:
         return {"format": FORMAT, "version": VERSION, "primitives": list(PRIMITIVES),
                 "classes": {c: {"shape": "circle" if self.footprints[c][0] == CIRCLE else "box",

@@ -133,14 +133,6 @@ class TSRRTOptions(PushOptions):
                                    "objects' part of the plan (push them toward the poses the plan leaves them in, "
                                    "dropping their remaining pushes) instead of pushing them back; the repair with "
                                    "fewer pushes in all wins (pliant_tsrrt.repair.retarget)")
-    noise_price: float = option(1.0, "weight of a push's expected noise cost in the shortcut's price per push (the "
-                                "orthogonality term's curvature times the learned variance of the push's turn: "
-                                "0.0137 task cost for a turn that varies by 3.35 degrees); 0: every push costs "
-                                "push_cost (pliant_tsrrt.search.noise_prices)", minimum=0.0)
-    repair_noise_aware: bool = option(True, "execution: a repair pushes an object to where its *expected* error is "
-                                      "least (the distance left plus the learned variances of the pushes on the "
-                                      "way), not to the pose nearest in the models' mean (pliant_tsrrt.refine."
-                                      "push_toward)")
     repair_placed: bool = option(True, "execution: after an object's last push of the plan, check it against the "
                                  "pose the plan leaves it in with the tighter place_threshold / place_angle (yaw "
                                  "modulo symmetry) and, if it is off, push it there at once (repair.retarget), while "
@@ -261,7 +253,7 @@ def search_settings(o: TSRRTOptions) -> SearchSettings:
                           refine_randoms=o.refine_randoms, refine_sweeps=o.refine_sweeps,
                           refine_yaw_quota=o.refine_yaw_quota,
                           beam_depth=o.beam_depth,
-                          beam_width=o.beam_width, push_cost=o.push_cost, noise_price=o.noise_price)
+                          beam_width=o.beam_width, push_cost=o.push_cost)
 
 
 def replan_settings(o: TSRRTOptions, reason: str) -> SearchSettings:
@@ -294,9 +286,8 @@ def build_space(scene, o: TSRRTOptions, models: PushModels, names: list[str]) ->
     relations = domain.parse_relations(o.relations, names)
     cost = domain.task_cost(fp, table, (o.w_orth, o.w_area, o.w_edge, o.w_setting), relations, o.setting_scale)
     check = domain.checker(fp, obs_fp, obs_poses, table, o.margin)
-    classes = [object_class(n) for n in names]
-    return ObjectSpace(fp, models.means(classes), check, cost, o.push_settings(scene), domain.bounds_rect(scene),
-                       spread=models.variances(classes))
+    means = models.means([object_class(n) for n in names])
+    return ObjectSpace(fp, means, check, cost, o.push_settings(scene), domain.bounds_rect(scene))
 
 
 class PushPlan(Policy):
@@ -428,8 +419,6 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
         raise PlanningError("executing a TS-RRT plan needs a world that can place objects (a simulator such as "
                             "pymunk)", field="execution.world", value=type(world).__name__)
     space = build_space(scene, o, plan.models, plan.names)
-    if not o.repair_noise_aware:
-        space = replace(space, spread=None)     # the repairs' searches then ignore the pushes' noise
     space.warm_up()
     push = o.push_settings(scene)
     all_names = domain.movable_names(scene, ())

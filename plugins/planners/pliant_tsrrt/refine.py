@@ -138,21 +138,15 @@ def _pose_error(space, o: int, poses: np.ndarray, target: np.ndarray) -> np.ndar
 
 
 def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 20, width: int = 64,
-                deadline: float | None = None, stop: str = "closest", yaw_quota: int = 0,
-                noise_aware: bool = False) -> tuple[float, list[int], np.ndarray]:
+                deadline: float | None = None, stop: str = "closest", yaw_quota: int = 0) -> tuple[
+                    float, list[int], np.ndarray]:
     """Object ``o`` of arrangement ``s`` pushed toward pose ``target`` ``(3,)``: a beam search over its primitives
     (the ``width`` outcomes closest to the target per depth, duplicates within 0.5 mm / 0.1 degree merged, every step
     valid), up to ``depth`` pushes, stopping early within 1 mm of the target or when four pushes came no closer.
     Returns the task cost, the actions and the state of where the object stops: ``stop`` ``closest``, the state
     closest to the target (fewest pushes among equally close ones; :func:`connect` then cuts the whole sequence
     where the cost is lowest), or ``cost``, the state of lowest task cost seen (``s`` itself when no push lowers
-    it: an object whose way to its target first raises the cost then stays).
-
-    ``noise_aware`` (with ``space.spread``): ``closest`` is judged by the *expected* error under the pushes' noise,
-    ``sqrt(e^2 + sum of the pushes' variances)`` in the same metric (m; yaw weighted by the footprint's radius), so a
-    long combination of noisy pushes that ends nearer in the mean loses to a short one whose noise adds less
-    (execution's repairs: the block's turns vary by some 3 degrees each, and a repair of ten turns that promised
-    the exact yaw landed 9-15 degrees off, which called the next repair)."""
+    it: an object whose way to its target first raises the cost then stays)."""
     means = np.ascontiguousarray(space.means[o])
     target = np.asarray(target, dtype=np.float64)
     scale, period = float(space.scale[o]), float(space.period[o])
@@ -177,10 +171,6 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
     best = (float(space.cost.cost(s[None])[0]), [], s)
     closest, stale = float(_pose_error(space, o, s[o], target)), 0
     near = (closest, [], s)
-    spread = space.spread if noise_aware else None
-    if spread is not None:     # variance (m^2) of each primitive's outcome in the pose-error metric
-        step_var = spread[o, :, 0] + spread[o, :, 1] + scale ** 2 * spread[o, :, 2]
-        acc = np.zeros(1)      # the beam's accumulated variance
     for d in range(depth):
         if _late(deadline) or closest < 1e-3 or stale >= 4:      # there, or no closer for four pushes
             break
@@ -214,13 +204,7 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
             closest, stale = float(err[keep[0]]), 0
         else:
             stale += 1
-        if spread is not None:
-            acc = acc[keep // N_PRIMITIVES] + step_var[prim[keep]]
-            expected = np.sqrt(err[keep] ** 2 + acc)
-            j = int(np.argmin(expected))
-            if expected[j] < near[0] - 1e-9:
-                near = (float(expected[j]), sequence(d, j), state(poses[j]))
-        elif err[keep[0]] < near[0] - 1e-9:
+        if err[keep[0]] < near[0] - 1e-9:
             near = (float(err[keep[0]]), sequence(d, 0), state(poses[0]))
         if stop == "cost":
             frontier = np.repeat(s[None], len(poses), axis=0)

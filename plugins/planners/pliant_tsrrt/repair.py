@@ -82,7 +82,7 @@ def restore(space, observed: np.ndarray, expected: np.ndarray, rest: list[int], 
     s, actions = observed, []
     for o in objects:
         _, seq, s = push_toward(space, s, o, expected[o], depth=depth, width=width, stop="closest",
-                                yaw_quota=yaw_quota, noise_aware=True)
+                                yaw_quota=yaw_quota)
         actions += seq
     if _displaced(space, s, expected, threshold / 2, angle / 2):
         return None
@@ -124,7 +124,7 @@ def retarget(space, observed: np.ndarray, expected: np.ndarray, rest: list[int],
         added: list[int] = []
         for o in objects:
             _, seq, s = push_toward(space, s, o, final[o], depth=depth, width=width, stop="closest",
-                                    yaw_quota=yaw_quota, noise_aware=True)
+                                    yaw_quota=yaw_quota)
             added += seq
         if set(objects) & set(_displaced(space, s, final, threshold / 2, angle / 2)):
             continue

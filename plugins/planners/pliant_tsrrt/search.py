@@ -71,8 +71,7 @@ class SearchSettings:
     (:mod:`pliant_tsrrt.refine`; ``refine_share``: its share of a time budget, the tree gets the rest);
     ``push_cost``: the plan length's price in task cost per push, in the choices after the tree (the improvement
     phase's connections and their cut, the final beam, the final descent, the shortcut): a push must gain more than
-    that, or it is left off.; ``noise_price``: the weight of a push's
-    expected noise cost (:func:`noise_prices`) in the shortcut's price per push"""
+    that, or it is left off."""
 
     epsilon: float = 0.1
     max_nodes: int = 5000
@@ -96,15 +95,13 @@ class SearchSettings:
     beam_depth: int = 4
     beam_width: int = 128
     push_cost: float = 0.0
-    noise_price: float = 0.0
 
 
 @dataclass
 class ObjectSpace:
     """The planning domain: footprints ``fp`` of the ``k`` objects, the mean displacements ``means`` ``(k, 6, 3)``,
     the collision checker, the task cost, the push settings and the scene bounds ``(x0, y0, x1, y1)`` (m) that the
-    paddle must stay inside; ``spread`` ``(k, 6, 3)``: the displacements' variances (m^2, rad^2; None when
-    unknown), which plan repair weighs against the error it removes (:func:`pliant_tsrrt.refine.push_toward`)."""
+    paddle must stay inside."""
 
     fp: Footprints
     means: np.ndarray
@@ -112,7 +109,6 @@ class ObjectSpace:
     cost: TaskCost
     push: PushSettings
     bounds: tuple[float, float, float, float]
-    spread: np.ndarray | None = None
     scale: np.ndarray = field(init=False)
     period: np.ndarray = field(init=False)
 
@@ -391,8 +387,7 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
         plan, more_polished = descend(space, s0, plan, push_cost=settings.push_cost, enough=floor)
         polished += more_polished
     plan, path_states, final = shortcut(space, s0, plan, deadline=None if budget is None else t0 + 0.9 * budget,
-                                        push_cost=settings.push_cost, enough=floor,
-                                        prices=noise_prices(space, settings.push_cost, settings.noise_price))
+                                        push_cost=settings.push_cost, enough=floor)
     stats.update(iterations=iteration, nodes=n, time=time.perf_counter() - t0, tree_time=tree_time,
                  refine_time=refine_time,
                  cost_history=history, tree_best_cost=float(costs[best]), actions_before_shortcut=raw_length,
@@ -473,29 +468,14 @@ def descend(space: ObjectSpace, s0: np.ndarray, plan: list[int], limit: int = 20
     return plan, added
 
 
-def noise_prices(space: ObjectSpace, push_cost: float, weight: float = 1.0) -> np.ndarray | None:
-    """The price ``(6 k,)`` (task cost) of each action ``6 o + p``: ``push_cost`` plus ``weight`` times the expected
-    cost of its noise left uncorrected -- for a box, the orthogonality term's curvature where the box is aligned
-    (``d^2/dtheta^2 sin^2(2 theta) = 8``) times half the variance of the push's turn: ``4 w_orth var(dtheta)``.  None
-    without the displacements' variances (``space.spread``) or with ``weight`` 0 (every action costs
-    ``push_cost``).  The block's turns, whose angle varies by some 3 degrees, cost 0.0137 each at ``weight`` 1; the
-    side pushes (0.02 degrees) nothing beyond ``push_cost``: a plan keeps a noisy turn only where it gains more than
-    its noise is expected to lose."""
-    if space.spread is None or weight <= 0:
-        return None
-    w_orth = float(space.cost.weights[0])
-    turn_var = np.where(space.cost.boxes[:, None], space.spread[..., 2], 0.0)          # (k, 6)
-    return (push_cost + weight * 4.0 * w_orth * turn_var).reshape(-1)
-
-
 def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 4000,
              deadline: float | None = None, push_cost: float = 0.0,
-             enough: float = -np.inf, prices: np.ndarray | None = None) -> tuple[list[int], np.ndarray, float]:
+             enough: float = -np.inf) -> tuple[list[int], np.ndarray, float]:
     """Drop actions -- single ones, then pairs of opposite actions on one object -- while the plan stays valid and its
     final cost does not rise (by more than ``push_cost``, task cost per push, times the pushes dropped: a push that
     gains less is not worth its execution; costs below ``enough`` count as ``enough``), until none can be dropped;
     returns the plan, its predicted states and
-    its final cost.  ``prices`` ``(6 k,)``: a price per action instead of ``push_cost`` (:func:`noise_prices`).
+    its final cost.
     Pairs are tried until ``budget`` trial plans have been checked or ``deadline`` (a ``time.perf_counter()``
     value); rounds of single drops always go on until none can be dropped (a pair drop may make a single one
     redundant; a round costs one rollout per action), so that no action of the result can be dropped alone."""
@@ -504,11 +484,6 @@ def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 
     cost = float(space.cost.cost(states[-1][None])[0])
     trials = 0
 
-    def score(c: float, actions: list[int]) -> float:
-        if prices is None:
-            return float(plan_score(c, len(actions), push_cost, enough))
-        return float(plan_score(c, 0, 0.0, enough)) + float(np.sum(prices[np.asarray(actions, dtype=np.int64)]))
-
     def attempt(drop: tuple[int, ...]) -> bool:
         nonlocal plan, states, cost, trials
         trials += 1
@@ -516,7 +491,8 @@ def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 
         trial = [a for i, a in enumerate(plan) if i not in drop]
         tail, ok = space.rollout(states[first], trial[first:])     # the states before the first drop stay
         c = float(space.cost.cost(tail[-1][None])[0])
-        if ok and score(c, trial) <= score(cost, plan) + 1e-12:
+        if ok and plan_score(c, len(trial), push_cost, enough) <= plan_score(cost, len(plan), push_cost, enough) \
+                + 1e-12:
             plan, states, cost = trial, np.concatenate([states[:first], tail]), c
             return True
         return False

@@ -68,26 +68,6 @@ def test_push_toward_reaches_a_reachable_target_exactly():
     assert ok and np.allclose(states[-1], end)
 
 
-def test_a_noise_aware_push_toward_stops_where_the_expected_error_is_least():
-    # a can whose only small moves are glancing pushes of 2 mm along y, each with a spread of 4 mm (sd): a target
-    # 6 mm away is reached exactly by three of them (in the mean), but their noise then leaves it sqrt(3) 4 = 6.9 mm
-    # off in expectation, worse than not moving (6 mm); one push: sqrt(4^2 + 4^2) = 5.7 mm; two: sqrt(2^2 + 32) = 6
-    fp = Footprints([CIRCLE], [[0.05, 0.05]])
-    model = [[0.05, 0, 0], [-0.05, 0, 0], [0, 0.05, 0], [0, -0.05, 0], [0, 0.002, 0], [0, 0.002, 0]]
-    space = _space(fp, [model], (0.0, 0.0, 1.0, 0.0), margin=0.0)
-    spread = np.zeros((1, 6, 3))
-    spread[0, 4:, 1] = 0.004 ** 2
-    space = replace(space, spread=spread)
-    s = np.array([[0.4, 0.3, 0.0]])
-    target = np.array([0.4, 0.306, 0.0])
-    _, exact, end = push_toward(space, s, 0, target, depth=6, width=16)
-    assert len(exact) == 3 and np.allclose(end[0], target)
-    _, aware, end = push_toward(space, s, 0, target, depth=6, width=16, noise_aware=True)
-    assert len(aware) == 1 and aware[0] in (4, 5) and np.isclose(end[0, 1], 0.302)
-    # without a spread (models with no variance) the noise-aware search is the plain one
-    assert push_toward(replace(space, spread=None), s, 0, target, depth=6, width=16, noise_aware=True)[1] == exact
-
-
 def test_improve_never_returns_a_worse_or_invalid_plan():
     space = _three()
     path = np.array([[[0.25, 0.25, 0.3], [0.75, 0.55, 0.2], [0.8, 0.2, 0.0]]])
