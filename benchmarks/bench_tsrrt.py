@@ -75,6 +75,25 @@ def relations_for(names: list[str]) -> tuple[str, ...]:
     return tuple(out)
 
 
+def adaptation_log(record) -> list[dict]:
+    """An execution's repairs and replannings, compact: after which push, why (for a deviation: the push's object and
+    primitive and its error from the plan, mm and degrees), a repair or a replanning, the cost before and as
+    planned, the plan's length and the pushes a repair added."""
+    log = []
+    for a in record.adaptations:
+        entry = {"after": a["after_action"], "reason": a["reason"], "repair": bool(a.get("repair")),
+                 "cost_before": round(a["cost_before"], 4), "planned_cost": round(a["planned_cost"], 4),
+                 "actions": a["actions"], "added": a.get("repair_pushes")}
+        i = a["after_action"] - 1
+        push = record.actions[i] if 0 <= i < len(record.actions) else {}
+        if a["reason"] == "deviation" and "plan_error" in push:
+            entry["push"] = f"{push['object']} {push['primitive']}"
+            entry["error"] = [round(1000 * push["plan_error"], 1),
+                              round(float(np.degrees(push["plan_angle_error"])), 1)]
+        log.append(entry)
+    return log
+
+
 def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
     """The Wilson score interval (95 %) of a proportion."""
     p = successes / n
@@ -244,7 +263,7 @@ def main() -> None:
                            "replans": sum(not a.get("repair") for a in record.adaptations),
                            "repairs": sum(bool(a.get("repair")) for a in record.adaptations),
                            "pushes": len(record.actions), "action_limit": limit,
-                           "outcome": record.outcome})
+                           "outcome": record.outcome, "adaptations": adaptation_log(record)})
             runs.append({"seed": seed, "start_cost": float(space.cost.cost(s0[None])[0]), "cost": found.cost,
                          "reference_cost": ref_cost, "reference_random_starts_cost": ref_random_cost,
                          "ratio": ratio, "collision": collided, "redundant": redundant, "actions": len(found.actions),
@@ -252,7 +271,8 @@ def main() -> None:
                          "iterations": st["iterations"], "tree_time": st["tree_time"], "time": st["time"],
                          "refine_time": st["refine_time"], "cpu_time": cpu, "tree_best_cost": st["tree_best_cost"],
                          "refine_branch": st["refine_branch"], "refine_pushes": st["refine_pushes"],
-                         "refine_targets": st["refine_targets"], "time_to_best": best_at, "executions": ex})
+                         "refine_targets": st["refine_targets"], "time_to_best": best_at, "executions": ex,
+                         "plan": {"start": s0.tolist(), "actions": [int(a) for a in found.actions]}})
             rows.append((seed, f"{runs[-1]['start_cost']:.3f}", f"{st['tree_best_cost']:.3f}", f"{found.cost:.3f}",
                          f"{ref_cost:.3f}", f"{ratio:.3f}", "yes" if collided else "no", redundant,
                          f"{st['refine_branch']}/{st['actions_before_shortcut']}+{st['refine_pushes']}",

@@ -34,7 +34,7 @@ class PushOptions:
     push_speed: float = option(0.1, "paddle speed during a push (m/s)", minimum=1e-3)
     retreat: float = option(0.02, "paddle's back-off after a push (m)", minimum=0.0)
     settle: float = option(0.2, "time at rest after a push before the objects are observed (s)", minimum=0.0)
-    turn_offset: float = option(0.9, "where turning pushes press, as a fraction of the half side from the middle",
+    turn_offset: float = option(1.0, "where turning pushes press, as a fraction of the half side from the middle",
                                 minimum=0.0, maximum=1.0)
     placement_noise: float = option(0.0, "standard deviation of the paddle's placement error, along and across the "
                                     "push (m): execution noise besides the simulator's actuation noise", minimum=0.0)
