@@ -51,6 +51,11 @@ class Footprints:
         return Footprints(self.kind[index], self.half[index])
 
 
+def wrap(angle):
+    """Angles wrapped to ``[-pi, pi)``."""
+    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
 def box_corners(poses: np.ndarray, half: np.ndarray) -> np.ndarray:
     """Corners ``(..., 4, 2)`` of boxes at ``poses`` ``(..., 3)`` with half extents ``half`` ``(..., 2)`` (m)."""
     signs = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])

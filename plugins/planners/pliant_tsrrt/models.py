@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 from pliant.errors import ConfigError
 
-from pliant_tsrrt.geometry import BOX, CIRCLE, Footprints
+from pliant_tsrrt.geometry import BOX, CIRCLE, Footprints, wrap
 from pliant_tsrrt.pushing import PRIMITIVES
 
 FORMAT = "pliant-tsrrt-push-models"
@@ -185,11 +185,6 @@ def relative(before: np.ndarray, after: np.ndarray) -> np.ndarray:
     c, s = np.cos(before[..., 2]), np.sin(before[..., 2])
     return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1],
                      wrap(after[..., 2] - before[..., 2])], axis=-1)
-
-
-def wrap(angle):
-    """Angles wrapped to ``[-pi, pi)``."""
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
 def footprints_from_scene(scene, names: list[str]) -> Footprints:

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pliant_tsrrt.geometry import CIRCLE, Footprints
+from pliant_tsrrt.geometry import CIRCLE, Footprints, wrap
 
 PRIMITIVES = ("push+x", "push-x", "push+y", "push-y", "turn+", "turn-")
 
@@ -34,9 +34,10 @@ class PushSettings:
     direction), ``gap`` behind the contact at the start, push ``depth`` beyond the contact, ``speed``, ``retreat``
     after the push, ``settle`` time at rest, ``turn_offset`` (fraction of the half side at which turning pushes
     press), control period ``dt``, ``placement_noise`` (standard deviation, m, of the paddle's placement error
-    along and across the push; 0 for none) and ``guard``: the step (m) of a guarded approach (0: none) -- the paddle
-    advances in steps of ``guard`` until the object moves, then travels ``depth`` from there, so the error of its
-    placement along the push does not change how far it pushes."""
+    along and across the push; 0 for none) and ``guard``: the step (m) of a guarded approach (0: a blind push) --
+    the paddle advances in steps of ``guard`` until the object moves, then travels ``depth`` from there, so the error
+    of its placement along the push does not change how far it pushes.  The defaults are
+    :class:`pliant_tsrrt.domain.PushOptions`'s."""
 
     thickness: float = 0.03
     width: float = 0.08
@@ -46,10 +47,10 @@ class PushSettings:
     speed: float = 0.1
     retreat: float = 0.02
     settle: float = 0.2
-    turn_offset: float = 0.9
+    turn_offset: float = 1.0
     dt: float = 0.05
     placement_noise: float = 0.0
-    guard: float = 0.0
+    guard: float = 0.001
 
 
 def contact_frames(fp: Footprints, turn_offset: float) -> tuple[np.ndarray, np.ndarray]:
@@ -195,7 +196,7 @@ def _guarded_push(world, name: str, heading: np.ndarray, depth: float, s: PushSe
         _move(world, heading * s.speed, s.guard / s.speed, s.dt, rng)
         travelled += s.guard
         now = np.asarray(world.object_poses()[name], dtype=np.float64)
-        if np.hypot(*(now[:2] - start[:2])) > 0.5 * s.guard or abs(now[2] - start[2]) > GUARD_TURN:
+        if np.hypot(*(now[:2] - start[:2])) > 0.5 * s.guard or abs(wrap(now[2] - start[2])) > GUARD_TURN:
             break
     _move(world, heading * s.speed, depth / s.speed, s.dt, rng)
 

@@ -78,6 +78,17 @@ def test_a_guarded_push_does_not_carry_the_placement_error_along_the_push():
     assert np.all((guarded > 0.035) & (guarded < 0.05))
 
 
+def test_push_settings_defaults_are_the_options_defaults():
+    from dataclasses import fields
+
+    from pliant import load_scene
+    from pliant_tsrrt.domain import PushOptions
+
+    from_options = PushOptions().push_settings(load_scene("tsrrt-table"))
+    for f in fields(PushSettings):
+        assert getattr(from_options, f.name) == getattr(PushSettings(), f.name), f.name
+
+
 def test_learn_model_stops_at_sigma_ref_and_restores_the_objects():
     scene, ctx = _world()
     sim = ctx.simulator
