@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import math
+import time
 from typing import Any
 
 import numpy as np
@@ -82,10 +83,31 @@ def checked_plan(method):
             raise PlanningError("must be a pliant.interfaces.PlanningProblem (PlanningProblem.from_context(context))",
                                 field="problem", value=type(problem).__name__)
         check_rng(rng)
-        return method(self, problem, rng, *args, **kwargs)
+        started = time.perf_counter()
+        result = method(self, problem, rng, *args, **kwargs)
+        _record_budget(self, result, args[0] if args else kwargs.get("termination"), time.perf_counter() - started)
+        return result
 
     setattr(plan, WRAPPED, True)
     return plan
+
+
+def _record_budget(planner, result, termination, seconds: float) -> None:
+    """Put the budget the plan ran under (``statistics["budget"]``: ``max_time`` s, ``max_iterations``; the
+    termination's if one was passed, else the planner's options) and the wall time of the whole ``plan`` call
+    (``statistics["planning_time"]``, s) on the result, for reports and budget benchmarks (docs/architecture.md)."""
+    from pliant.results import PlanResult
+    from pliant.termination import budget
+
+    if not isinstance(result, PlanResult):
+        return
+    if termination is not None:
+        limits = budget(termination)
+    else:
+        options = getattr(planner, "options", None)
+        limits = {key: getattr(options, key, None) for key in ("max_time", "max_iterations")}
+    result.statistics["budget"] = limits
+    result.statistics["planning_time"] = seconds
 
 
 def checked_reset(method):

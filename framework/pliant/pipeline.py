@@ -93,6 +93,11 @@ class RunRecord:
             if r.path is not None:
                 rows.append(("waypoints", str(len(r.path))))
                 rows.append(("path length", f"{self.context.space.path_length(r.path.configurations):.6g}"))
+            limits, used = r.statistics.get("budget"), r.statistics.get("planning_time")
+            if isinstance(limits, dict) and used is not None:       # recorded by the core (contracts.checked_plan)
+                cap, most = limits.get("max_time"), limits.get("max_iterations")
+                text = "no time limit" if cap is None else f"{cap:g} s"
+                rows.append(("budget", text + (f" or {most} iterations" if most else "") + f", used {used:.2f} s"))
             for key, value in sorted(r.statistics.items()):
                 if isinstance(value, (int, float, str, np.integer, np.floating)):
                     rows.append((key, f"{value:.6g}" if isinstance(value, (float, np.floating)) else str(value)))

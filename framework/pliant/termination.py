@@ -19,6 +19,17 @@ Progress values: ``should_stop(iteration, best_cost, solved)`` publishes ``itera
 snapshot from any thread.  Inside a task run by an executor (:mod:`pliant.experiments.executor`), every published value
 also goes to that task's progress, which the executor collects (live on a Ray cluster, and with the task's record), and
 the executor can cancel the task: every condition the task polls then terminates (:func:`task_progress`).
+
+Stopping inside long work: ``should_stop`` is polled between iterations, but one iteration may be long (a belief
+planner's forward simulation of many particles, a search kernel's expansions).  Inside ``with
+condition.interruptible():`` such work calls :func:`checkpoint` (a simulator once per control step, a chunked search
+between chunks), which raises :class:`BudgetExpired` as soon as the condition has :meth:`Condition.expired`: its time
+budget is spent or it was terminated (iteration, cost and callback rules are only checked by ``should_stop``).  The
+planner catches it, drops the unfinished iteration and returns its best result so far.  Outside such a block
+:func:`checkpoint` does nothing (and reads no clock), so work done without a time cap is unchanged.
+
+Clocks: every condition reads ``time.perf_counter`` unless given another (``Termination(max_time=5, clock=fake)``),
+so tests can expire a budget at a chosen point without depending on wall time.
 """
 
 from __future__ import annotations
@@ -29,9 +40,9 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from pliant.errors import ConfigError
+from pliant.errors import ConfigError, PliantError
 
 #: the progress values of the task an executor is running in this process, and the event by which the executor
 #: cancels it (see :func:`task_progress`)
@@ -39,16 +50,30 @@ _task_sink: dict | None = None
 _task_cancel: threading.Event | None = None
 _task_lock = threading.Lock()
 
+#: per thread: the conditions whose :meth:`Condition.interruptible` block is running (innermost last)
+_active = threading.local()
+
+
+class BudgetExpired(PliantError):
+    """Raised by :func:`checkpoint` inside :meth:`Condition.interruptible` once the condition has expired (time budget
+    spent, or terminated).  ``condition``: the condition that expired.  A planner catches it around its long inner
+    work and returns its best result so far; it never escapes a built-in planner."""
+
+    def __init__(self, message: str, *, condition: Condition | None = None, **kwargs) -> None:
+        super().__init__(message, **kwargs)
+        self.condition = condition
+
 
 class Condition:
     """Base of every stop condition: a clock, a thread-safe :meth:`terminate`, published progress values, and
     composition (``|`` = any of, ``&`` = all of).  Subclasses implement :meth:`_rule`."""
 
-    def _init_condition(self) -> None:
+    def _init_condition(self, clock: Callable[[], float] | None = None) -> None:
+        self._now = clock or time.perf_counter
         self._event = threading.Event()
         self._lock = threading.Lock()
         self._values: dict = {}
-        self._start = time.perf_counter()
+        self._start = self._now()
 
     # -- what subclasses decide --------------------------------------------------------------------------------
     def _rule(self, iteration: int, best_cost: float, solved: bool) -> bool:
@@ -58,10 +83,14 @@ class Condition:
     def _children(self) -> tuple[Condition, ...]:
         return ()
 
+    def _time_rule(self) -> bool:
+        """Whether the condition's own time budget is spent (the rule :meth:`expired` checks)."""
+        return False
+
     # -- the clock -----------------------------------------------------------------------------------------------
     def start(self) -> None:
         """Start the clock (of this condition and every condition it combines) and clear a previous ``terminate``."""
-        self._start = time.perf_counter()
+        self._start = self._now()
         self._event.clear()
         for child in self._children():
             child.start()
@@ -69,7 +98,7 @@ class Condition:
     @property
     def elapsed(self) -> float:
         """Seconds since :meth:`start`."""
-        return time.perf_counter() - self._start
+        return self._now() - self._start
 
     # -- stopping ----------------------------------------------------------------------------------------------
     def terminate(self) -> None:
@@ -104,6 +133,27 @@ class Condition:
 
     def _holds(self, iteration: int, best_cost: float, solved: bool) -> bool:
         return self._event.is_set() or self._rule(iteration, best_cost, solved)
+
+    def expired(self) -> bool:
+        """Whether the condition holds whatever the loop's progress: :meth:`terminate` was called (or the executor
+        cancelled the task), or its time budget is spent.  What long inner work checks (:func:`checkpoint`)."""
+        if _task_cancel is not None and _task_cancel.is_set():
+            self._event.set()
+        return self._event.is_set() or self._time_rule()
+
+    @contextmanager
+    def interruptible(self) -> Iterator[Condition]:
+        """Let long work inside the block stop early: there :func:`checkpoint` raises :class:`BudgetExpired` once
+        this condition has :meth:`expired`.  The caller catches it and drops the unfinished work (see the module
+        docstring); blocks nest, and every condition of the enclosing blocks (in this thread) is checked."""
+        stack = getattr(_active, "conditions", None)
+        if stack is None:
+            stack = _active.conditions = []
+        stack.append(self)
+        try:
+            yield self
+        finally:
+            stack.pop()
 
     # -- progress ----------------------------------------------------------------------------------------------
     def publish(self, **values) -> None:
@@ -156,6 +206,8 @@ class Termination(Condition):
     callback: called as ``callback(iteration, best_cost)``; returning True stops the run.
     stop_on_first: stop as soon as a first solution is found.
     cost_reached: stop once the best cost is at most this value (``None``: never; NaN costs never reach it).
+    clock: the clock the time budget is measured on (seconds; default ``time.perf_counter``); tests inject a fake
+    one so that a budget expires at a chosen point.
 
     Use :meth:`watch` around the loop so that Ctrl-C calls :meth:`terminate` (:attr:`interrupted` becomes True)
     instead of raising; the planner then returns its best result so far.  Combine with other conditions by
@@ -167,9 +219,10 @@ class Termination(Condition):
     callback: Callable[[int, float], bool] | None = None
     stop_on_first: bool = False
     cost_reached: float | None = None
+    clock: Callable[[], float] | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
-        self._init_condition()
+        self._init_condition(self.clock)
         for name in ("max_time", "max_iterations", "cost_reached"):
             value = getattr(self, name)
             if value is None:
@@ -190,6 +243,9 @@ class Termination(Condition):
             return True
         return bool(self.callback and self.callback(iteration, best_cost))
 
+    def _time_rule(self) -> bool:
+        return self.max_time is not None and self.elapsed >= self.max_time
+
 
 class _Combined(Condition):
     def __init__(self, conditions: tuple[Condition, ...], kind: str) -> None:
@@ -205,6 +261,10 @@ class _Combined(Condition):
     def _children(self) -> tuple[Condition, ...]:
         return self.conditions
 
+    def expired(self) -> bool:
+        """Terminated itself, or (any of / all of) its conditions expired."""
+        return super().expired() or self._join(c.expired() for c in self.conditions)
+
     def publish(self, **values) -> None:
         """Publish on this condition and on every condition it combines (so each one's :meth:`progress` shows it)."""
         super().publish(**values)
@@ -218,6 +278,8 @@ class _Combined(Condition):
 
 class AnyOf(_Combined):
     """Stops when any of its conditions holds (OMPL's ``plannerOrTerminationCondition``); made by :func:`any_of`."""
+
+    _join = staticmethod(any)
 
     def _rule(self, iteration: int, best_cost: float, solved: bool) -> bool:
         return any(c._holds(iteration, best_cost, solved) for c in self.conditions)
@@ -235,6 +297,8 @@ class AnyOf(_Combined):
 class AllOf(_Combined):
     """Stops when all of its conditions hold (OMPL's ``plannerAndTerminationCondition``); made by :func:`all_of`.
     Its own :meth:`terminate` stops it at once."""
+
+    _join = staticmethod(all)
 
     def _rule(self, iteration: int, best_cost: float, solved: bool) -> bool:
         return all(c._holds(iteration, best_cost, solved) for c in self.conditions)
@@ -287,6 +351,51 @@ def when(callback: Callable[[int, float], bool]) -> Termination:
 def never() -> Termination:
     """A condition that holds only when terminated (Ctrl-C inside :meth:`Condition.watch`, or :meth:`terminate`)."""
     return Termination()
+
+
+def time_left(max_time: float | None, started: float) -> float | None:
+    """What is left of a budget of ``max_time`` s (``None``: no limit) since ``started`` (a ``time.perf_counter()``
+    value), at least 0: planners build their :class:`Termination` from it after their setup (models, grids, caches),
+    so that ``max_time`` bounds the whole ``plan`` call and not only the loop that :meth:`Condition.watch` times."""
+    if max_time is None:
+        return None
+    return max(0.0, max_time - (time.perf_counter() - started))
+
+
+def budget(condition: Condition | None) -> dict:
+    """``{"max_time": s or None, "max_iterations": n or None}``: the budgets that stop ``condition`` (of any of its
+    conditions, the tightest; of all of them, the loosest -- ``None`` when one of them has none)."""
+    if condition is None:
+        return {"max_time": None, "max_iterations": None}
+    if isinstance(condition, _Combined):
+        parts = [budget(c) for c in condition.conditions]
+        out = {}
+        for key in ("max_time", "max_iterations"):
+            values = [p[key] for p in parts]
+            if isinstance(condition, AnyOf):
+                values = [v for v in values if v is not None]
+                out[key] = min(values) if values else None
+            else:
+                out[key] = None if None in values else max(values)
+        return out
+    return {"max_time": getattr(condition, "max_time", None), "max_iterations": getattr(condition, "max_iterations",
+                                                                                          None)}
+
+
+def checkpoint() -> None:
+    """Raise :class:`BudgetExpired` if a condition whose :meth:`Condition.interruptible` block encloses this call (in
+    this thread) has expired; otherwise do nothing.  Long inner work (a simulator's control steps, a search's chunks)
+    calls it so that a planner's time budget holds inside one extension.  Outside such blocks it only reads a
+    thread-local list."""
+    stack = getattr(_active, "conditions", None)
+    if not stack:
+        return
+    for condition in stack:
+        if condition.expired():
+            limit = budget(condition)["max_time"]
+            raise BudgetExpired("the planning budget expired inside an extension" if not condition.interrupted
+                                else "planning was interrupted inside an extension",
+                                field="termination.max_time", value=limit, condition=condition)
 
 
 @contextmanager

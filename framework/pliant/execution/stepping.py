@@ -19,6 +19,7 @@ from pliant.execution.actuation import actuator_limits, angular_mask, limit_velo
 from pliant.execution.noise import NOISE_MODELS, ActuationNoise
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
 from pliant.options import option
+from pliant.termination import checkpoint
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,7 @@ class SteppedSimulator(Simulator):
             if record:
                 trajectories[a, 0] = q
             for k in range(steps):
+                checkpoint()         # a planner's time budget may end inside a long simulation
                 command = self.options.kp * self.space.difference(targets[a], q) / self.dt
                 command = self.limit(command[None])[0]
                 before = q

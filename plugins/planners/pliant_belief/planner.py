@@ -33,7 +33,7 @@ from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
-from pliant.termination import Termination
+from pliant.termination import BudgetExpired, Termination, time_left
 from scipy.special import erf
 
 from pliant_belief.belief import BeliefNode, BeliefTree
@@ -91,7 +91,11 @@ class BeliefPlanner(Planner):
     The result's ``policy`` is a :class:`pliant_belief.policy.PartialPolicy` over every solution; its
     ``path`` is the expected configurations of the most probable solution.  Statistics (thesis 5.4):
     ``iterations``, ``nodes``, ``particles_stored``, ``particles_simulated``, ``solutions``,
-    ``time_to_first``, ``best_probability``, ``time``, ``interrupted``.
+    ``time_to_first``, ``best_probability``, ``time``, ``interrupted``, ``extension_cut`` (the budget ran out inside
+    an extension, whose unfinished simulations were dropped).
+
+    ``max_time`` bounds the whole ``plan`` call: the setup comes off the loop's budget, and the simulator checks the
+    budget every control step of an extension's simulations (docs/architecture.md, "Budgets").
     """
 
     SPECS = PlannerSpecs(needs_simulator=True, returns_policy=True, anytime=True)
@@ -134,12 +138,14 @@ class BeliefPlanner(Planner):
                             goal_fraction=goal_fraction(problem, root)))
         counters = {"particles_simulated": 0, "extensions": 0, "splits": 0}
         first = None
-        termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations,
+        # max_time bounds the whole call: the setup above (grids, clustering context) is taken off the loop's budget
+        termination = termination or Termination(max_time=time_left(o.max_time, t0), max_iterations=o.max_iterations,
                                                  stop_on_first=o.stop_on_first)
         progress = ProgressLine("belief", enabled=o.progress)
+        cut = False
         with termination.watch():
             iteration = 0
-            while not termination.should_stop(iteration, solved=bool(tree.solutions)):
+            while not cut and not termination.should_stop(iteration, solved=bool(tree.solutions)):
                 iteration += 1
                 target = goal if rng.random() < o.goal_bias else self._sample(space, goal, rng)
                 near = self._nearest(tree, target)
@@ -148,7 +154,14 @@ class BeliefPlanner(Planner):
                 connecting = o.connect and not tree.solutions
                 while True:
                     before = float(space.distance(tree.nodes[near].expected, target)) if connecting else 0.0
-                    new = self._extend(tree, near, target, problem, cluster, settings, rng, counters)
+                    try:
+                        # the simulator checks the budget every control step (pliant.termination.checkpoint): an
+                        # extension's forward and reverse simulations of many particles can outlast the budget
+                        with termination.interruptible():
+                            new = self._extend(tree, near, target, problem, cluster, settings, rng, counters)
+                    except BudgetExpired:
+                        cut = True              # nodes are added only once an extension is complete: the tree
+                        break                   # is as it was before this one
                     counters["extensions"] += 1
                     counters["splits"] += len(new) > 1
                     for index in new:
@@ -170,7 +183,8 @@ class BeliefPlanner(Planner):
                  "particles_stored": int(sum(len(nd.particles) for nd in tree.nodes)),
                  "particles_simulated": counters["particles_simulated"], "extensions": counters["extensions"],
                  "splits": counters["splits"], "solutions": len(tree.solutions), "time_to_first": first,
-                 "time": time.perf_counter() - t0, "interrupted": termination.interrupted, "mode": o.mode}
+                 "time": time.perf_counter() - t0, "interrupted": termination.interrupted, "mode": o.mode,
+                 "extension_cut": cut}
         self.tree = tree
         if not tree.solutions:
             return PlanResult(Status.TIMEOUT, planner="belief", statistics=stats, options=dict(vars(o)),

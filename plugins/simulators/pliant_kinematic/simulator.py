@@ -33,6 +33,7 @@ from pliant.execution.noise import NOISE_MODELS, ActuationNoise
 from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
 from pliant.options import option
+from pliant.termination import checkpoint
 
 from pliant_kinematic.contact import FACE_NORMALS, ContactModel
 from pliant_kinematic.rigid_kernel import (
@@ -201,6 +202,7 @@ class KinematicSimulator(Simulator):
         trajectory = [q.copy()] if record else None
         total_micro = 0
         for _ in range(steps):
+            checkpoint()             # a planner's time budget may end inside a long simulation
             error = self.space.difference(targets, q)
             command = self.options.kp * error
             if self.options.kd and previous_error is not None:
