@@ -13,15 +13,22 @@ driver is the CANopen master (CiA 301) of the drives its joint map lists:
 * **the cycle**: every :meth:`~CanopenDriver.write` sends each drive's RPDO1 and then one SYNC, so the drives
   take the new targets together and answer with their TPDOs; while the core is not writing (before it starts,
   after it stopped: no write for 1.5 ``sync_period``) a keep-alive SYNC repeats the held targets, with a zero
-  velocity offset.  The TPDOs answering one
-  SYNC make one :class:`~pliant.hardware.state.JointState`, stamped with that SYNC's time.
+  velocity offset.  The keep-alive is serialised with the core's writes (one lock around every RPDO set + SYNC)
+  and never contradicts the core's stream: while the stream's last command moved (a non-zero velocity, or a
+  target other than the one before), a late write is waited for -- repeating its target would be a one-cycle
+  stand-still at the drives, far beyond the acceleration limit -- and the keep-alive resumes once the stream
+  holds (its last command at rest), has ended (:meth:`~CanopenDriver.shutdown`) or stayed silent for
+  ``stream_timeout`` (then it is gone, and holding its last target is the stop a CSP drive makes anyway).
+  The TPDOs answering one SYNC make one :class:`~pliant.hardware.state.JointState`, stamped with that SYNC's time.
 * **enable** (:meth:`~CanopenDriver.enable`): the CiA 402 state machine through the controlword 0x6040 (fault
   reset from Fault, Shutdown, Switch on, Enable operation) while reading the statusword 0x6041, with each drive's
   target first set to its actual position.
 * **supervision**: a heartbeat consumer per drive (no heartbeat for ``heartbeat_timeout``, a boot-up or an NMT
   state other than operational is a fault, and joint states stop), EMCY messages (their error codes in words),
   the statusword's Fault and Quick stop states, and every received frame's length: a TPDO, heartbeat or EMCY of
-  the wrong length is a fault and is never decoded.  :meth:`~CanopenDriver.robot_status` reports them.
+  the wrong length is a fault and is never decoded.  :meth:`~CanopenDriver.robot_status` reports them.  Each
+  fault is one entry (and one ERROR log line) however long it lasts: a lost heartbeat's entry keeps its age
+  current ("none for 0.401 s") without adding entries.
 """
 
 from __future__ import annotations
@@ -77,6 +84,10 @@ class CanopenDriverOptions(DriverOptions):
                                         "feed-forward); off: RPDO1 holds only the target position 0x607A")
     master_node_id: int = option(127, "node id of the master's heartbeat (COB-ID 0x700 + id) that the drives "
                                  "consume through 0x1016; 0: no master heartbeat", minimum=0, maximum=127)
+    stream_timeout: float = option(0.5, "a moving command stream (its last command moved) silent this long has "
+                                   "ended: the keep-alive SYNC then holds its last target; a shorter silence is a "
+                                   "late command, waited for (repeating a moving target is a one-cycle stand-still)",
+                                   minimum=0.001)
     reset_faults: bool = option(False, "on open, reset drive faults left from an earlier session (controlword "
                                 "fault reset); off: a faulted drive refuses to connect")
 
@@ -162,18 +173,24 @@ class CanopenDriver(Driver):
         self._last_master_heartbeat = 0.0
         self._hold: np.ndarray | None = None            # counts, per drive
         self._hold_velocity: np.ndarray | None = None   # velocity units, per drive
-        self._comm_faults: list[str] = []
+        self._comm_faults: dict[str, str] = {}          # what the fault is -> its text (latched until open)
+        self._stream_moving = False                     # the core's last write moved (see _keep_alive)
         self._syncing = False
         self._operational = False
         self._period = 0.01
         self._heartbeat_period = 0.05
 
-    def _comm_fault(self, text: str) -> None:
-        """Latch a communication fault (until the next open): joint states stop, robot_status reports it."""
+    def _comm_fault(self, text: str, key: str | None = None) -> None:
+        """Latch a communication fault (until the next open): joint states stop, robot_status reports it.
+
+        ``key`` is the fault's identity (default the text): a fault already latched under it only has its text
+        updated (a lost heartbeat's age), so one fault is one entry and one ERROR line however often it is seen.
+        """
+        key = text if key is None else key
         with self._lock:
-            if text not in self._comm_faults:
-                self._comm_faults.append(text)
+            if key not in self._comm_faults:
                 log.error("canopen: %s", text)
+            self._comm_faults[key] = text
 
     @property
     def _where(self) -> str:
@@ -350,7 +367,8 @@ class CanopenDriver(Driver):
         while time.monotonic() < deadline:
             with self._lock:
                 if self._comm_faults:
-                    raise ConnectionLost(f"CANopen bring-up failed: {self._comm_faults[0]}", field="joint_map")
+                    first = next(iter(self._comm_faults.values()))
+                    raise ConnectionLost(f"CANopen bring-up failed: {first}", field="joint_map")
                 if self._state is not None and all(d.nmt == cia402.NMT_OPERATIONAL for d in self._drives):
                     self._operational = True
                     return
@@ -441,24 +459,46 @@ class CanopenDriver(Driver):
 
     def _cycle(self) -> None:
         """Send every drive's RPDO1 with the held target, then one SYNC (CiA 301: RPDO data applies on SYNC)."""
+        with self._send_lock:
+            self._send_held()
+
+    def _send_held(self, still: bool = False) -> None:
+        """The body of :meth:`_cycle` (the caller holds ``_send_lock``); ``still``: a zero velocity offset."""
         network = self._network
         if network is None:
             return
+        with self._lock:
+            hold = None if self._hold is None else \
+                (self._hold.copy(), np.zeros_like(self._hold_velocity) if still else self._hold_velocity.copy())
+            drives = list(self._drives)
+        if hold is not None:
+            for drive, target, velocity in zip(drives, *hold):
+                data = (RPDO_POSITION_VELOCITY.pack(int(target), int(velocity)) if self.options.velocity_feedforward
+                        else RPDO_POSITION.pack(int(target)))
+                network.send_message(cia402.RPDO1_BASE + drive.id, data)
+        with self._lock:
+            self._sync_index += 1
+            self._sync_time = self._last_sync = time.monotonic()
+            for d in drives:
+                d.received = 0
+        network.send_message(cia402.SYNC_COB_ID, b"")
+
+    def _keep_alive(self) -> bool:
+        """One keep-alive cycle (the held targets, zero velocity offset) if the core's stream is late *and* holds.
+
+        Under the same lock as :meth:`write`'s cycle, so the two never interleave; and never while the stream's
+        last command moved: repeating a moving target would make the drives stand still for one cycle between two
+        moving targets (a deceleration of velocity / period, tens of times the limit) -- unless the stream has been
+        silent for ``stream_timeout`` (it is gone; holding is the stop).  Returns whether it sent.
+        """
         with self._send_lock:
             with self._lock:
-                hold = None if self._hold is None else (self._hold.copy(), self._hold_velocity.copy())
-                drives = list(self._drives)
-            if hold is not None:
-                for drive, target, velocity in zip(drives, *hold):
-                    data = (RPDO_POSITION_VELOCITY.pack(int(target), int(velocity)) if self.options.velocity_feedforward
-                            else RPDO_POSITION.pack(int(target)))
-                    network.send_message(cia402.RPDO1_BASE + drive.id, data)
-            with self._lock:
-                self._sync_index += 1
-                self._sync_time = self._last_sync = time.monotonic()
-                for d in drives:
-                    d.received = 0
-            network.send_message(cia402.SYNC_COB_ID, b"")
+                silent = time.monotonic() - self._last_sync
+                if not self._syncing or silent < 1.5 * self._period \
+                        or (self._stream_moving and silent < self.options.stream_timeout):
+                    return False
+            self._send_held(still=True)
+            return True
 
     def _run(self) -> None:
         """Keep-alive SYNC, the master's heartbeat and the heartbeat consumer, until shutdown."""
@@ -471,10 +511,7 @@ class CanopenDriver(Driver):
                     self._last_master_heartbeat = now
                     self._network.send_message(cia402.HEARTBEAT_BASE + master, bytes([cia402.NMT_OPERATIONAL]))
                 if self._syncing and now - self._last_sync >= 1.5 * self._period:
-                    with self._lock:
-                        if self._hold_velocity is not None:
-                            self._hold_velocity[:] = 0       # a held target carries no feed-forward
-                    self._cycle()
+                    self._keep_alive()
             except Exception as exc:  # the bus is gone
                 if not self._stop.is_set():
                     self._comm_fault(f"sending on {self._where} failed: {type(exc).__name__}: {exc}")
@@ -489,7 +526,9 @@ class CanopenDriver(Driver):
             for drive in self._drives:
                 if drive.heartbeat is None or now - drive.heartbeat > timeout:
                     age = "none received" if drive.heartbeat is None else f"none for {now - drive.heartbeat:.3f} s"
-                    self._comm_fault(f"{drive.label}: heartbeat lost ({age}, consumer timeout {timeout:g} s)")
+                    # the age is not part of the fault's identity: one entry per lost heartbeat, its age kept current
+                    self._comm_fault(f"{drive.label}: heartbeat lost ({age}, consumer timeout {timeout:g} s)",
+                                     key=f"{drive.label}: heartbeat lost")
 
     # --- the transport -----------------------------------------------------------------------------------------
 
@@ -501,18 +540,22 @@ class CanopenDriver(Driver):
 
     def write(self, positions: np.ndarray, velocities: np.ndarray) -> None:
         """Send positions ``(d,)`` rad as target position 0x607A (counts) and velocities ``(d,)`` rad/s as velocity
-        offset 0x60B1 (velocity units) in each drive's RPDO1, then one SYNC."""
+        offset 0x60B1 (velocity units) in each drive's RPDO1, then one SYNC (one cycle, never interleaved with a
+        keep-alive cycle)."""
         jm = self.joint_map
         counts = jm.to_counts(positions)
         units = jm.to_velocity_units(velocities)
-        with self._lock:
-            if self._network is None or self._closing:
-                raise ConnectionLost("the CANopen driver is not open", field="driver")
-            self._hold, self._hold_velocity = counts, units
-        try:
-            self._cycle()
-        except Exception as exc:
-            raise ConnectionLost(f"sending on {self._where} failed: {type(exc).__name__}: {exc}") from None
+        with self._send_lock:
+            with self._lock:
+                if self._network is None or self._closing:
+                    raise ConnectionLost("the CANopen driver is not open", field="driver")
+                previous = self._hold
+                self._stream_moving = bool(np.any(units != 0) or previous is None or np.any(counts != previous))
+                self._hold, self._hold_velocity = counts, units
+            try:
+                self._send_held()
+            except Exception as exc:
+                raise ConnectionLost(f"sending on {self._where} failed: {type(exc).__name__}: {exc}") from None
 
     def robot_status(self) -> RobotStatus:
         """Enabled: every drive's statusword shows Operation enabled.  Estop: a drive is in Quick stop active.
@@ -522,7 +565,7 @@ class CanopenDriver(Driver):
         with self._lock:
             if self._network is None:
                 return RobotStatus(enabled=False, detail="not connected")
-            lost = list(self._comm_faults)
+            lost = list(self._comm_faults.values())
             faults: list[str] = []
             details = []
             for d in self._drives:
@@ -628,6 +671,7 @@ class CanopenDriver(Driver):
                 return
             self._closing = True
             self._operational = False
+            self._stream_moving = False     # the stream has ended: the keep-alive holds its last target
             drives = list(self._drives)
         try:
             self._settle()

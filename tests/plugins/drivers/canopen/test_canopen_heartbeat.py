@@ -1,0 +1,107 @@
+"""A drive's heartbeat stops (issue 31): one fault entry (and one ERROR line) per fault however many watchdog
+ticks see it, and no stand-still cycle injected between the braking commands when the core's writes come late.
+
+Both tests count, they do not time: the watchdog ticks are made explicitly, the late writes are made late by
+holding them until the driver has latched the fault (however long that takes), and the acceleration at the drives
+is computed from the targets the peer recorded, one per SYNC."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+
+import numpy as np
+import pytest
+from pliant.errors import ConnectionLost
+
+Q = np.array([0.3, -0.25, 0.2, -0.4, 0.15, 0.3, -0.2])
+
+
+def _wait(condition, timeout=30.0, period=0.005):
+    """Poll ``condition`` (a generous deadline that only a broken driver reaches)."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(period)
+    return True
+
+
+def _heartbeat_entries(driver, label="") -> list[str]:
+    return [text for text in driver.robot_status().lost.split("; ") if text.startswith(label)
+            and "heartbeat lost" in text]
+
+
+def test_a_lost_heartbeat_is_one_fault_entry_and_one_error_line_however_many_ticks(arm3, make_peer, make_driver,
+                                                                                    caplog):
+    """Counted per lost drive (node 12): on a loaded machine another drive's heartbeat may come late too, which
+    is then its own fault, with its own one entry."""
+    peer = make_peer(str(arm3))
+    driver = make_driver(joint_map=str(arm3), heartbeat_timeout=0.1)
+    driver.open()
+    driver.enable()
+    assert _wait(lambda: driver.robot_status().enabled)
+    caplog.set_level(logging.ERROR, logger="pliant_canopen.driver")
+    peer.drop_heartbeat(12)
+    node = "node 12 (elbow): "
+    assert _wait(lambda: _heartbeat_entries(driver, node))
+    # watchdog ticks (robot_status runs one, the sync thread its own) until the age has been seen with 25 values:
+    # the old driver made each age a new entry ("none for 0.401 s", "none for 0.402 s", ...)
+    ages = set()
+    assert _wait(lambda: len(ages.update(_heartbeat_entries(driver, node)) or ages) >= 25, period=0.002)
+    entries = _heartbeat_entries(driver, node)
+    assert len(entries) == 1 and entries[0].startswith(node + "heartbeat lost (none for ")
+    assert entries[0].endswith("consumer timeout 0.1 s)")
+    assert sum(key.startswith(node) for key in driver._comm_faults) == 1
+    errors = [r.getMessage() for r in caplog.records if r.levelno == logging.ERROR and node in r.getMessage()]
+    assert len(errors) == 1 and "heartbeat lost" in errors[0]
+
+
+def test_braking_with_late_writes_after_a_lost_heartbeat_injects_no_stand_still_cycle(make_peer, make_driver):
+    """The stream moves the arm; its 10th moving write drops node 6's heartbeat and is then held back until the
+    driver has latched the loss, and every later moving write (the braking ones) comes 3 periods late: the old
+    keep-alive repeated the held target between them (velocity offset 0), a one-cycle stand-still."""
+    peer = make_peer()
+    # stream_timeout: however long the held write waits, the stream counts as late, never as gone
+    driver = make_driver(heartbeat_timeout=0.1, stream_timeout=600.0)
+    period = driver.limits.period
+    write = driver.write
+    moving_writes = []
+    late_braking_writes = []
+    dropped = threading.Event()
+
+    def late_write(positions, velocities):
+        if np.any(velocities):
+            moving_writes.append(1)
+            if len(moving_writes) == 10:
+                peer.drop_heartbeat(6)
+                dropped.set()
+                assert _wait(lambda: driver._comm_faults), "the driver never noticed the lost heartbeat"
+            elif dropped.is_set():
+                late_braking_writes.append(1)
+                time.sleep(3 * period)           # a loaded machine: the sync thread's keep-alive is due meanwhile
+        write(positions, velocities)
+
+    driver.write = late_write
+    with driver:
+        driver.move_to(Q, wait=False)
+        with pytest.raises(ConnectionLost) as info:
+            driver.move_to(Q)
+        assert "node 6 (lbr_iiwa_joint_6): heartbeat lost" in str(info.value)
+        driver.stop()
+        assert len(_heartbeat_entries(driver, "node 6 ")) == 1
+    assert dropped.is_set() and len(late_braking_writes) >= 3          # it was braking from a motion, late
+
+    # one target per drive per SYNC: the drives see the second difference of successive targets as acceleration
+    limits = driver.limits
+    _, joints, positions = peer.targets_in_radians()
+    counts_per_radian = np.array([j.counts_per_radian for j in peer.joint_map.joints])
+    for j in range(limits.dof):
+        q = positions[joints == j]
+        assert len(q) > 50
+        acceleration = np.abs(np.diff(q, 2)) / period ** 2
+        allowed = 1.05 * limits.acceleration[j] + 4.0 / counts_per_radian[j] / period ** 2   # + count rounding
+        k = int(np.argmax(acceleration))
+        assert acceleration[k] <= allowed, (f"joint {limits.names[j]}: |a| {acceleration[k]:.3g} rad/s^2 at the "
+                                            f"drive (limit {limits.acceleration[j]:g}), targets {q[k:k + 3]}")
