@@ -109,6 +109,104 @@ def obstacles(scene, names: list[str], table, inflate: float = 0.0) -> tuple[Foo
     return Footprints(fp.kind, half), np.array([scene_pose(scene, n) for n in picked]), picked
 
 
+#: overlaps and excursions beyond the table up to this depth (m) count as touching, not as bad input
+SCENE_TOLERANCE = 1e-6
+
+
+def penetration(pa: np.ndarray, ka: int, ha: np.ndarray, pb: np.ndarray, kb: int, hb: np.ndarray) -> float:
+    """How deep two footprints overlap (m; <= 0: they do not): the least translation that separates them.  Poses
+    ``(3,)`` (x, y, theta), kinds :data:`~pliant_tsrrt.geometry.BOX` / ``CIRCLE``, half extents ``(2,)``.  Two boxes:
+    the least overlap along their four face normals (the separating-axis theorem, exact for rectangles); a box and a
+    circle: the circle's reach past the box's nearest point (or, centre inside, past its nearest face); two circles:
+    the sum of the radii less the centres' distance."""
+    from pliant_tsrrt.geometry import BOX, CIRCLE
+
+    if ka == CIRCLE and kb == CIRCLE:
+        return float(ha[0] + hb[0] - np.hypot(*(pa[:2] - pb[:2])))
+    if ka == CIRCLE and kb == BOX:
+        pa, ka, ha, pb, kb, hb = pb, kb, hb, pa, ka, ha
+    if kb == CIRCLE:                                   # a box, b circle
+        d = pb[:2] - pa[:2]
+        c, s = np.cos(pa[2]), np.sin(pa[2])
+        local = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+        if np.all(np.abs(local) <= ha):
+            return float(hb[0] + np.min(ha - np.abs(local)))
+        return float(hb[0] - np.linalg.norm(local - np.clip(local, -ha, ha)))
+    depth = np.inf
+    d = pb[:2] - pa[:2]
+    for axis_pose in (pa, pb):
+        c, s = np.cos(axis_pose[2]), np.sin(axis_pose[2])
+        for n in (np.array([c, s]), np.array([-s, c])):
+            reach = 0.0
+            for pose, half in ((pa, ha), (pb, hb)):
+                u = np.array([np.cos(pose[2]), np.sin(pose[2])])
+                v = np.array([-np.sin(pose[2]), np.cos(pose[2])])
+                reach += half[0] * abs(n @ u) + half[1] * abs(n @ v)
+            depth = min(depth, reach - abs(n @ d))
+    return float(depth)
+
+
+def check_scene(scene, options: PushOptions) -> None:
+    """Refuse a scene TS-RRT cannot read as a planar table, with a :class:`ConfigError` naming the object (field
+    ``objects[i].orientation`` or ``objects[i].position``): an object on the table (every movable object, and every
+    fixed one whose centre lies on the table) rotated out of the plane (a quaternion that is not a turn about z: its
+    footprint would not be the box or circle TS-RRT plans with); a movable object that reaches off the table at its
+    scene pose; two such objects that overlap at their scene poses (by more than :data:`SCENE_TOLERANCE`).  The
+    simulator starts from the scene's poses (learning, execution), so such a start is bad input, not a planning
+    failure; it is refused before any model is learned."""
+    table = table_rect(scene, options.table)
+    x0, y0, x1, y1 = table
+    index = {obj.name: k for k, obj in enumerate(scene.objects)}
+    movable = [o.name for o in scene.objects if o.movable]
+    on_table = movable + [o.name for o in scene.objects if not o.movable
+                          and x0 <= o.part.pose.position[0] <= x1 and y0 <= o.part.pose.position[1] <= y1]
+    for name in on_table:
+        q = scene.object(name).part.pose.orientation
+        if abs(q[0]) > 1e-9 or abs(q[1]) > 1e-9:
+            raise ConfigError(f"object '{name}' is rotated out of the table's plane: TS-RRT's objects turn about z "
+                              "only (orientation [0, 0, sin(yaw/2), cos(yaw/2)])", source=scene.source,
+                              field=f"objects[{index[name]}].orientation", value=[float(v) for v in q])
+    fp = footprints_from_scene(scene, on_table)
+    poses = np.array([scene_pose(scene, n) for n in on_table])
+    from pliant_tsrrt.geometry import extents
+
+    lo, hi = extents(poses, fp)
+    for j, name in enumerate(movable):
+        beyond = max(x0 - lo[j, 0], y0 - lo[j, 1], hi[j, 0] - x1, hi[j, 1] - y1)
+        if beyond > SCENE_TOLERANCE:
+            raise ConfigError(f"object '{name}' reaches {1000 * beyond:.1f} mm off the table ({x0:g}, {y0:g}) .. "
+                              f"({x1:g}, {y1:g}) m at the start: its footprint spans x {lo[j, 0]:.4g} .. "
+                              f"{hi[j, 0]:.4g}, y {lo[j, 1]:.4g} .. {hi[j, 1]:.4g} m", source=scene.source,
+                              field=f"objects[{index[name]}].position",
+                              value=[float(v) for v in scene.object(name).part.pose.position])
+    for i in range(len(movable)):
+        for j in range(i + 1, len(on_table)):
+            depth = penetration(poses[i], int(fp.kind[i]), fp.half[i], poses[j], int(fp.kind[j]), fp.half[j])
+            if depth > SCENE_TOLERANCE:
+                a, b = on_table[i], on_table[j]
+                what = "objects" if j < len(movable) else "object and fixed obstacle"
+                raise ConfigError(f"{what} '{a}' and '{b}' overlap by {1000 * depth:.1f} mm at the start",
+                                  source=scene.source, field=f"objects[{index[b]}].position",
+                                  value=[float(v) for v in scene.object(b).part.pose.position])
+
+
+def start_conflicts(check: CollisionChecker, state: np.ndarray, names: list[str],
+                    obstacle_names: list[str] | None = None) -> str:
+    """In words, why arrangement ``state`` ``(k, 3)`` of the objects ``names`` fails ``check`` (its margin
+    included): the objects too close to the table's edge and the pairs too close (the fixed obstacles named by
+    ``obstacle_names``, in the checker's order), by name."""
+    state = np.asarray(state, dtype=np.float64)[None]
+    out = [f"'{names[k]}' too close to the table's edge" for k in np.nonzero(check.off_table(state)[0])[0]]
+    i, j = np.triu_indices(len(names), 1)
+    out += [f"'{names[a]}' and '{names[b]}' too close" for a, b, hit in
+            zip(i, j, check.object_pairs(state)[0]) if hit]
+    oi, mi = check._obs_pairs
+    out += [f"'{names[a]}' and '{obstacle_names[m]}' too close" if obstacle_names else
+            f"'{names[a]}' too close to a fixed obstacle"
+            for a, m, hit in zip(oi, mi, check.obstacle_pairs(state)[0]) if hit]
+    return "; ".join(dict.fromkeys(out))
+
+
 def parse_relations(relations: tuple[str, ...], names: list[str]) -> np.ndarray:
     """``"a b dx dy"`` strings (object a's centre at ``(dx, dy)`` m from object b's; b may be ``table``) as rows
     ``(index a, index b or -1, dx, dy)``; relations naming objects that are not planned are an error."""

@@ -43,8 +43,13 @@ class PushModelsLearner(Learner):
     example_data = ("can-1",)
 
     def bind(self, context) -> None:
+        """Attach to the pipeline; a scene whose objects are rotated out of the plane, off the table or overlapping
+        at the start (:func:`pliant_tsrrt.domain.check_scene`) is refused here, before any push."""
         super().bind(context)
         self.models = None
+        if context is not None and context.scene is not None:
+            domain.movable_names(context.scene, self.options.objects)
+            domain.check_scene(context.scene, self.options)
 
     def fit(self, data, rng: np.random.Generator) -> dict:
         """Learn the models by pushing in the simulator.  ``data``: ``None`` (the pipeline's case: the classes of the

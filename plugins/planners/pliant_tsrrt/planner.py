@@ -176,6 +176,15 @@ class TSRRTPlanner(Planner):
     # such chaotic pushes depend on the order of pymunk's contact pairs, which changes as bodies are placed
     example_component_options = {"simulator": {"max_force": 50.0, "table_friction": 0.5}}
 
+    def bind(self, context) -> None:
+        """Attach to the pipeline; a scene TS-RRT cannot plan on (:func:`pliant_tsrrt.domain.check_scene`: objects
+        rotated out of the plane, off the table or overlapping at the start; ``objects`` naming no movable object)
+        is refused here, before anything is learned or planned."""
+        super().bind(context)
+        if context is not None and context.scene is not None:
+            domain.movable_names(context.scene, self.options.objects)
+            domain.check_scene(context.scene, self.options)
+
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:
         o = self.options
@@ -184,18 +193,23 @@ class TSRRTPlanner(Planner):
             raise PlanningError("TS-RRT needs the scene (its objects and table)", field="scene")
         t0 = time.perf_counter()
         names = domain.movable_names(scene, o.objects)
+        domain.check_scene(scene, o)
+        options = self._option_dict()
+        if o.start == "scene":
+            # before learning: a start without the clearance margin is known at once
+            s0 = np.array([scene_pose(scene, n) for n in names])
+            table = domain.table_rect(scene, o.table)
+            obs_fp, obs_poses, obstacle_names = domain.obstacles(scene, names, table, scene.resolution)
+            check = domain.checker(footprints_from_scene(scene, names), obs_fp, obs_poses, table, o.margin)
+            if check.in_collision(s0)[0]:
+                why = domain.start_conflicts(check, s0, names, obstacle_names)
+                return PlanResult(Status.INVALID_START, planner=self.name, options=options,
+                                  message=f"the initial arrangement lacks the clearance margin ({o.margin} m): {why}")
         models, learn_time = self._models(problem, scene, names, rng)
         space = build_space(scene, o, models, names)
         space.warm_up()
         if o.start == "random":
             s0 = random_arrangements(space, rng, 1, clearance=o.start_clearance)[0]
-        else:
-            s0 = np.array([scene_pose(scene, n) for n in names])
-        options = self._option_dict()
-        if space.checker.in_collision(s0)[0]:
-            return PlanResult(Status.INVALID_START, planner=self.name, options=options,
-                              message="the initial arrangement overlaps, leaves the table or lacks the clearance "
-                                      f"margin ({o.margin} m)")
         termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations)
         found = grow(space, s0, rng, search_settings(o), termination)
         stats = dict(found.statistics, learn_time=learn_time,
