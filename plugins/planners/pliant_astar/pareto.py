@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import numpy as np
-from pliant.termination import Termination
+from pliant.termination import BudgetExpired, Termination
 
 from pliant_astar.search import path_deformation, path_length, search
 
@@ -33,12 +34,17 @@ class ParetoPoint:
 
 def sweep(costs: np.ndarray, start, goal, p_values, termination: Termination | None = None,
           progress=None) -> list[SweepRun]:
-    """Run A* for each p (the cost field is computed once by the caller); stops early on termination."""
+    """Run A* for each p (the cost field is computed once by the caller); stops early on termination, also inside a
+    search (whose p is then left out)."""
     runs = []
     for i, p in enumerate(p_values):
         if termination is not None and termination.should_stop(i):
             break
-        cells, expanded, _ = search(costs, start, goal, float(p))
+        try:
+            with termination.interruptible() if termination is not None else nullcontext():
+                cells, expanded, _ = search(costs, start, goal, float(p))
+        except BudgetExpired:
+            break
         if cells is None:
             runs.append(SweepRun(float(p), None, np.inf, np.inf, expanded))
         else:

@@ -11,7 +11,7 @@ from pliant.errors import ConfigError, PlanningError
 from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
 from pliant.results import Path, PlanResult, Status
-from pliant.termination import Termination
+from pliant.termination import BudgetExpired, Termination, time_left
 
 from pliant_astar.pareto import ParetoPoint, pareto_front, sweep
 from pliant_astar.search import path_deformation, path_length, search
@@ -25,6 +25,8 @@ class AStarOptions:
 
     p: float = option(0.5, "weight of deformation against path length in f = (1-p)(g+h) + p*DEFORM",
                       minimum=0.0, maximum=1.0)
+    max_time: float | None = option(None, "time budget of the whole plan call (s): the search stops within a "
+                                    "few milliseconds of it, status timeout; None for no limit", minimum=0.0)
 
 
 @dataclass(frozen=True)
@@ -35,6 +37,8 @@ class ParetoOptions:
     select: str = option("knee", "which Pareto path the result carries: knee (closest to the utopia point "
                          "after normalisation), shortest or least-deformation",
                          choices=("knee", "shortest", "least-deformation"))
+    max_time: float | None = option(None, "time budget of the whole sweep (s): the p values searched by then make "
+                                    "the front (status approximate); None for no limit", minimum=0.0)
 
 
 class LatticeProblem:
@@ -114,16 +118,28 @@ class AStarPlanner(Planner):
             return bad
         p = self.options.p
         t1 = time.perf_counter()
-        cells, expanded, objective = search(lattice.costs, lattice.start, lattice.goal, p)
+        termination = termination or Termination(max_time=time_left(self.options.max_time, t0))
+        with termination.watch():
+            try:
+                with termination.interruptible():       # the search checks the budget every CHUNK expansions
+                    cells, expanded, objective = search(lattice.costs, lattice.start, lattice.goal, p)
+            except BudgetExpired:
+                stats = {"p": p, "field_time": t_field, "search_time": time.perf_counter() - t1,
+                         "time": time.perf_counter() - t0, "interrupted": termination.interrupted}
+                return PlanResult(Status.TIMEOUT, planner="astar", statistics=stats, options=self._option_dict(),
+                                  message="the search did not reach the goal within the budget")
         stats = {"p": p, "expanded": expanded, "field_time": t_field, "search_time": time.perf_counter() - t1}
         if cells is None:
             stats["time"] = time.perf_counter() - t0
-            return PlanResult(Status.INFEASIBLE, planner="astar", statistics=stats, options={"p": p},
+            return PlanResult(Status.INFEASIBLE, planner="astar", statistics=stats, options=self._option_dict(),
                               message="the search exhausted the lattice without reaching the goal")
         stats.update(length_voxels=path_length(cells), deformation=path_deformation(lattice.costs, cells),
                      time=time.perf_counter() - t0)
         return PlanResult(Status.SOLVED, path=lattice.to_path(cells), cost=objective, planner="astar",
-                          statistics=stats, options={"p": p})
+                          statistics=stats, options=self._option_dict())
+
+    def _option_dict(self) -> dict:
+        return {"p": self.options.p, "max_time": self.options.max_time}
 
 
 class ParetoPlanner(Planner):
@@ -146,7 +162,7 @@ class ParetoPlanner(Planner):
         bad = _check_endpoints(lattice, t0, "astar-pareto")
         if bad is not None:
             return bad
-        termination = termination or Termination()
+        termination = termination or Termination(max_time=time_left(self.options.max_time, t0))
         with termination.watch():
             runs = sweep(lattice.costs, lattice.start, lattice.goal, np.linspace(0.0, 1.0, self.options.values),
                          termination)

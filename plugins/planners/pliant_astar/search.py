@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from pliant.termination import checkpoint
 
 _OFFSETS = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
                      if (dx, dy, dz) != (0, 0, 0)], dtype=np.int64)
@@ -65,35 +66,47 @@ def _pop(heap_f, heap_h, heap_i, size):
 
 
 @numba.njit(cache=True, nogil=True)
-def astar_kernel(costs, nx, ny, nz, start, goal, p, offsets, steps, parent):
-    """Search ``costs`` (flat C-order ``nx*ny*nz``, NaN impassable) from flat ``start`` to ``goal``.
-
-    Fills ``parent`` (-1 = none) and returns ``(found, expanded, objective)``.
-    """
+def astar_start(costs, nx, ny, nz, start, goal, p, parent, g, closed, heap_f, heap_h, heap_i, meta):
+    """Initialise a search's state (``g``, ``closed``, the heap arrays, ``parent``; ``meta = [heap size, expanded]``)
+    with the start on the open list."""
     n = nx * ny * nz
-    g = np.full(n, np.inf)
-    closed = np.zeros(n, dtype=np.bool_)
-    cap = 27 * n + 1
-    heap_f = np.empty(cap)
-    heap_h = np.empty(cap)
-    heap_i = np.empty(cap, dtype=np.int64)
     for k in range(n):
         parent[k] = -1
+        g[k] = np.inf
+        closed[k] = False
     gx, gy, gz = goal // (ny * nz), (goal // nz) % ny, goal % nz
     w_len = 1.0 - p
     g[start] = p * costs[start]
     sx, sy, sz = start // (ny * nz), (start // nz) % ny, start % nz
     h0 = w_len * np.sqrt((sx - gx) ** 2 + (sy - gy) ** 2 + (sz - gz) ** 2)
-    size = _push(heap_f, heap_h, heap_i, 0, g[start] + h0, h0, start)
-    expanded = 0
+    meta[0] = _push(heap_f, heap_h, heap_i, 0, g[start] + h0, h0, start)
+    meta[1] = 0
+
+
+@numba.njit(cache=True, nogil=True)
+def astar_expand(costs, nx, ny, nz, goal, p, offsets, steps, parent, g, closed, heap_f, heap_h, heap_i, meta,
+                 limit):
+    """Expand at most ``limit`` cells of a search started by :func:`astar_start`; returns ``(state, objective)``:
+    1 the goal was reached (``objective`` optimal), 0 the open list is exhausted, -1 the limit was reached (call
+    again to go on: the search continues exactly where it stopped)."""
+    gx, gy, gz = goal // (ny * nz), (goal // nz) % ny, goal % nz
+    w_len = 1.0 - p
+    size = meta[0]
+    expanded = meta[1]
+    done = 0
     while size > 0:
+        if done >= limit:
+            meta[0], meta[1] = size, expanded
+            return -1, np.inf
         s, size = _pop(heap_f, heap_h, heap_i, size)
         if closed[s]:
             continue
         closed[s] = True
         expanded += 1
+        done += 1
         if s == goal:
-            return True, expanded, g[s]
+            meta[0], meta[1] = size, expanded
+            return 1, g[s]
         x, y, z = s // (ny * nz), (s // nz) % ny, s % nz
         for k in range(offsets.shape[0]):
             u, v, w = x + offsets[k, 0], y + offsets[k, 1], z + offsets[k, 2]
@@ -109,17 +122,51 @@ def astar_kernel(costs, nx, ny, nz, start, goal, p, offsets, steps, parent):
                 parent[t] = s
                 h = w_len * np.sqrt((u - gx) ** 2 + (v - gy) ** 2 + (w - gz) ** 2)
                 size = _push(heap_f, heap_h, heap_i, size, cand + h, h, t)
-    return False, expanded, np.inf
+    meta[0], meta[1] = size, expanded
+    return 0, np.inf
 
 
-def search(costs: np.ndarray, start: tuple[int, int, int], goal: tuple[int, int, int], p: float):
-    """A* on a cost field ``(nx, ny, nz)``; returns ``(cells (k, 3) or None, expanded, objective)``."""
+#: cells expanded between two budget checks (a few milliseconds of search)
+CHUNK = 50_000
+
+
+def astar_kernel(costs, nx, ny, nz, start, goal, p, offsets, steps, parent, chunk: int = CHUNK):
+    """Search ``costs`` (flat C-order ``nx*ny*nz``, NaN impassable) from flat ``start`` to ``goal``.
+
+    Fills ``parent`` (-1 = none) and returns ``(found, expanded, objective)``.  The search runs in chunks of
+    ``chunk`` expansions with :func:`pliant.termination.checkpoint` between them, so that a planner's time budget
+    can stop a long search (:class:`~pliant.termination.BudgetExpired`); the result does not depend on ``chunk``.
+    """
+    n = nx * ny * nz
+    g = np.empty(n)
+    closed = np.empty(n, dtype=np.bool_)
+    cap = 27 * n + 1
+    heap_f = np.empty(cap)
+    heap_h = np.empty(cap)
+    heap_i = np.empty(cap, dtype=np.int64)
+    meta = np.zeros(2, dtype=np.int64)
+    astar_start(costs, nx, ny, nz, start, goal, p, parent, g, closed, heap_f, heap_h, heap_i, meta)
+    while True:
+        state, objective = astar_expand(costs, nx, ny, nz, goal, p, offsets, steps, parent, g, closed, heap_f,
+                                        heap_h, heap_i, meta, chunk)
+        if state >= 0:
+            return state == 1, int(meta[1]), objective
+        checkpoint()
+
+
+def search(costs: np.ndarray, start: tuple[int, int, int], goal: tuple[int, int, int], p: float,
+           chunk: int | None = None):
+    """A* on a cost field ``(nx, ny, nz)``; returns ``(cells (k, 3) or None, expanded, objective)``.  Inside a
+    :meth:`pliant.termination.Condition.interruptible` block it raises
+    :class:`~pliant.termination.BudgetExpired` when the budget ends mid-search (checked every ``chunk`` expansions,
+    default :data:`CHUNK`)."""
     nx, ny, nz = costs.shape
     flat = np.ascontiguousarray(costs, dtype=np.float64).reshape(-1)
     s = (start[0] * ny + start[1]) * nz + start[2]
     t = (goal[0] * ny + goal[1]) * nz + goal[2]
     parent = np.empty(flat.size, dtype=np.int64)
-    found, expanded, objective = astar_kernel(flat, nx, ny, nz, s, t, float(p), _OFFSETS, _STEPS, parent)
+    found, expanded, objective = astar_kernel(flat, nx, ny, nz, s, t, float(p), _OFFSETS, _STEPS, parent,
+                                              chunk or CHUNK)
     if not found:
         return None, int(expanded), float("inf")
     chain = [t]
