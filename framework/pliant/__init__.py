@@ -25,6 +25,7 @@ _LAZY = {
     "Pipeline": ("pliant.pipeline", "Pipeline"),
     "PlanResult": ("pliant.results", "PlanResult"),
     "Status": ("pliant.results", "Status"),
+    "Outcome": ("pliant.results", "Outcome"),
     "Path": ("pliant.results", "Path"),
     "PliantError": ("pliant.errors", "PliantError"),
     "Termination": ("pliant.termination", "Termination"),
@@ -36,7 +37,7 @@ if TYPE_CHECKING:
     from pliant.errors import PliantError
     from pliant.interfaces import PlanningProblem
     from pliant.pipeline import Pipeline
-    from pliant.results import Path, PlanResult, Status
+    from pliant.results import Outcome, Path, PlanResult, Status
     from pliant.scene import Scene, load_scene
     from pliant.termination import Termination
 
@@ -51,6 +52,6 @@ def __getattr__(name: str):
 
 
 __all__ = [
-    "Path", "PlanResult", "PlanningProblem", "PliantError", "Pipeline", "Scene", "Status", "Termination",
+    "Outcome", "Path", "PlanResult", "PlanningProblem", "PliantError", "Pipeline", "Scene", "Status", "Termination",
     "__version__", "load_scene", "registry",
 ]

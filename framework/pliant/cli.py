@@ -9,6 +9,9 @@
 
 Plugins add their own sub-commands through the ``pliant_add_commands`` hook.  Errors in input are
 reported as one line naming the file, field and value, with exit status 2.
+
+``pliant run`` exits with its run's outcome (docs/outcomes.md): 0 planned (and, if asked, executed to the goal),
+1 not planned, 2 bad input, 3 planned but the execution failed or got stuck, 130 interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
@@ -123,18 +126,31 @@ def cmd_scenes(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from pliant.pipeline import Pipeline
+    from pliant.pipeline import Pipeline, RunInterrupted
 
     overrides = list(args.set or [])
     if args.output is not None:
         overrides.append(f"output={json.dumps(args.output)}")     # a JSON string is a TOML basic string
     pipeline = Pipeline.from_file(args.pipeline, overrides=overrides)
-    record = pipeline.run(on_step=getattr(args, "on_step", None))     # a plugin's listener (pliant run --view)
-    width = max(len(k) for k, _ in record.summary_rows())
-    for key, value in record.summary_rows():
+    try:
+        record = pipeline.run(on_step=getattr(args, "on_step", None))     # a plugin's listener (pliant run --view)
+    except RunInterrupted as stopped:
+        print_run(stopped.record)
+        return stopped.record.exit_status                 # 130, with what was planned so far on file
+    print_run(record)
+    return record.exit_status
+
+
+def print_run(record) -> None:
+    """Print a run's summary table, where its report is, and (unless it planned / reached) one line on stderr saying
+    why (``record``: a :class:`~pliant.pipeline.RunRecord`)."""
+    rows = record.summary_rows()
+    width = max(len(k) for k, _ in rows)
+    for key, value in rows:
         print(f"{key:<{width}}  {value}")
-    print(f"\nreport: {record.output / 'report.md'}")
-    return 0 if record.result is None or record.result.solved else 1
+    print(f"\nreport: {record.output / 'report.md'}", flush=True)
+    if not record.outcome.success:
+        print(f"{record.outcome.value}: {record.error} (exit status {record.exit_status})", file=sys.stderr)
 
 
 def cmd_driver(args) -> int:

@@ -13,13 +13,21 @@ Components are given as a name (``planner = "straight"``) or a table with ``name
 Overrides such as ``planner.max_time=5``, ``simulator=pybullet`` or ``scene.variant=soft`` change one
 value without editing the file (``pliant run FILE --set ...``).  :meth:`Pipeline.run` plans,
 scores and writes a report (``result.json``, ``report.md`` and figures) under ``output``.
+
+Every run ends with a typed :class:`~pliant.results.Outcome` (planned, reached, not planned, stuck, failed, error,
+interrupted) and each outcome has one exit status (docs/outcomes.md).  The run folder holds one run only: a run
+first removes the files the previous run into it wrote (listed in its ``.pliant-files.json``; nothing else), writes
+``run.json`` at once, ``result.json`` as soon as planning ends, and ``execution.json`` and ``report.md`` at the end
+of every outcome -- including an execution that raised (its partial record) and Ctrl-C.
 """
 
 from __future__ import annotations
 
 import copy
+import json
 import logging
 import os
+import re
 import time
 import tomllib
 from contextlib import nullcontext
@@ -31,11 +39,11 @@ import numpy as np
 
 from pliant.contracts import check_planner
 from pliant.errors import ConfigError, PipelineError, PliantError
-from pliant.execution.loop import ExecutionRecord, StepListener, execute
+from pliant.execution.loop import ExecutionRecord, StepListener, capture, execute
 from pliant.files import write_json, write_text
 from pliant.interfaces import KINDS, Component, Context, Driver, Planner, PlanningProblem
 from pliant.registry import Registry, default_registry
-from pliant.results import PlanResult
+from pliant.results import Outcome, PlanResult
 from pliant.scene import Scene, load_scene
 from pliant.validation import check_number, read_toml, safe_name
 
@@ -49,6 +57,19 @@ EXECUTION_KEYS = {"period": 0.1, "time_limit": 60.0, "action_limit": 100}
 #: the older spelling of ``world``), and the scene variant a simulator simulates
 EXECUTION_WORLD_KEYS = ("world", "simulator", "variant")
 DEFAULT_ROBOT = {"rigid": "rigid", "urdf": "pinocchio"}
+#: the run folder's list of the files its run wrote (relative names): what the next run into the folder removes
+MANIFEST = ".pliant-files.json"
+#: what pliant writes into a run folder under fixed names (a folder from before the manifest is cleared of these)
+RUN_FILES = ("run.json", "result.json", "execution.json", "learned.json", "report.md", "view-cache.npz")
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C (or a cancel) stopped a :meth:`Pipeline.run`; ``record`` is the run so far (outcome ``interrupted``),
+    already on file when written.  A :class:`KeyboardInterrupt`, so a script stops as the user asked."""
+
+    def __init__(self, record: RunRecord) -> None:
+        self.record = record
+        super().__init__(record.error or "interrupted")
 
 
 @dataclass
@@ -63,14 +84,20 @@ class ComponentSpec:
 class RunRecord:
     """Everything one :meth:`Pipeline.run` produced; handed to report hooks.
 
+    context: the built components (``None`` when building failed: outcome ``error``).
     result: the planner's result (``None`` if the pipeline has no planner).
     metrics: the metric's named scores of the path.
     files: every file the run wrote.
+    execution: the execution's record; for an execution that raised, its partial record (outcome ``failed`` or
+        ``interrupted``, with ``error``).
     learned: what the learner fitted (``None`` without a learner).
+    outcome: how the run ended (:class:`~pliant.results.Outcome`); ``exit_status`` is ``pliant run``'s for it.
+    error: what failed or stopped the run, in words (empty when it planned / reached).
+    stage: the stage running when the run ended (``build``, ``learn``, ``plan``, ``metric``, ``execute``, ``done``).
     """
 
     pipeline: Pipeline
-    context: Context
+    context: Context | None
     result: PlanResult | None
     problem: PlanningProblem | None
     metrics: dict[str, float]
@@ -79,18 +106,34 @@ class RunRecord:
     files: list[Path] = field(default_factory=list)
     execution: ExecutionRecord | None = None
     learned: dict | None = None
+    outcome: Outcome = Outcome.PLANNED
+    error: str = ""
+    stage: str = "build"
+
+    @property
+    def exit_status(self) -> int:
+        """The exit status of ``pliant run`` for this run: 0 planned / reached, 1 not planned, 2 error, 3 stuck /
+        failed, 130 interrupted (:attr:`Outcome.exit_status <pliant.results.Outcome.exit_status>`)."""
+        return self.outcome.exit_status
 
     def summary_rows(self) -> list[tuple[str, str]]:
         """``(quantity, value)`` rows for the report table."""
-        rows = [("pipeline", self.pipeline.name), ("scene", self.context.scene.name +
-                (f" ({self.context.scene.variant})" if self.context.scene.variant else ""))]
+        rows = [("pipeline", self.pipeline.name), ("outcome", self.outcome.value)]
+        if self.error:
+            rows.append(("what failed" if self.outcome is not Outcome.INTERRUPTED else "interrupted", self.error))
+        if self.context is None:
+            scene = self.pipeline.scene_spec
+            rows.append(("scene", str(scene.name if isinstance(scene, Scene) else scene)))
+        else:
+            rows.append(("scene", self.context.scene.name +
+                         (f" ({self.context.scene.variant})" if self.context.scene.variant else "")))
         for kind in BUILD_ORDER:
             if kind in self.pipeline.components:
                 rows.append((kind, self.pipeline.components[kind].name))
         if self.result is not None:
             r = self.result
             rows += [("status", r.status.value), ("result cost", f"{r.cost:.6g}"), ("seed", str(r.seed))]
-            if r.path is not None:
+            if r.path is not None and self.context is not None:
                 rows.append(("waypoints", str(len(r.path))))
                 rows.append(("path length", f"{self.context.space.path_length(r.path.configurations):.6g}"))
             limits, used = r.statistics.get("budget"), r.statistics.get("planning_time")
@@ -111,12 +154,12 @@ class RunRecord:
         if self.execution is not None:
             e = self.execution
             rows += [("execution", e.outcome), ("execution world", e.world),
-                     ("execution time (s)", f"{e.times[-1]:.2f}")]
+                     ("execution time (s)", f"{e.times[-1] if len(e.times) else 0.0:.2f}")]
             if self.result is not None and self.result.policy is not None:
                 rows.append(("actions executed", str(len(e.actions))))
             else:
                 rows.append(("waypoints reached", str(e.waypoints_reached)))
-            rows.append(("steps in contact", f"{int(e.contacts.sum())} of {len(e.contacts) - 1}"))
+            rows.append(("steps in contact", f"{int(e.contacts.sum())} of {max(len(e.contacts) - 1, 0)}"))
         for key, value in self.timings.items():
             rows.append((f"time {key} (s)", f"{value:.3f}"))
         return rows
@@ -288,60 +331,219 @@ class Pipeline:
         a wrong name or option fails at once; a driver connects only after planning and disconnects (stopping the
         robot within its limits) when the execution ends for any reason.  ``on_step`` receives every control step
         of the execution (:class:`~pliant.execution.loop.ExecutionStep`).
+
+        Every run ends with a typed ``record.outcome`` (docs/outcomes.md).  An execution that fails (a watchdog, a
+        driver fault, a simulator error: any exception) does not raise: the record comes back with outcome
+        ``failed``, ``error`` saying what failed and ``execution`` holding the steps executed up to the failure;
+        ``stuck`` and ``not planned`` come back the same way.  Two things raise, after the run's files are written:
+        an error before execution (bad input, a component refusing the problem: outcome ``error``, the
+        :class:`~pliant.errors.PliantError` itself), and Ctrl-C (:class:`RunInterrupted`, a
+        :class:`KeyboardInterrupt` carrying the record; also when an anytime planner returned early on Ctrl-C).
+        With ``write``, the output folder is first cleared of the previous run's files (:meth:`prepare_output`).
         """
-        timings: dict[str, float] = {}
+        record = RunRecord(self, None, None, None, {}, self.output, {})
         if write:
             self.prepare_output()
+            self._write_run_json(record, "running")
+        try:
+            self._run_stages(record, on_step, write)
+        except KeyboardInterrupt as exc:
+            record.outcome = Outcome.INTERRUPTED
+            record.error = record.error or f"Ctrl-C during {record.stage}"
+            if write:
+                self._write_report_after(record)
+            raise (exc if isinstance(exc, RunInterrupted) else RunInterrupted(record)) from None
+        except Exception as exc:
+            record.outcome = Outcome.ERROR
+            record.error = f"{type(exc).__name__}: {exc}"
+            if write:
+                self._write_report_after(record)
+            raise
+        if write:
+            self.write_report(record)
+        if record.outcome is Outcome.INTERRUPTED:     # an anytime planner returned its best result on Ctrl-C
+            raise RunInterrupted(record)
+        return record
+
+    def _run_stages(self, record: RunRecord, on_step: StepListener | None, write: bool) -> None:
+        """The stages of :meth:`run`, filling ``record`` as they go (and writing ``result.json`` as soon as planning
+        ends); sets ``record.outcome`` unless a stage raises."""
+        timings = record.timings
         t0 = time.perf_counter()
-        context = self.build()
+        context = record.context = self.build()
         world = None
         if context.controller is not None and (context.simulator is not None or self.world_settings.get("world")):
             world = self.execution_world(context)
         timings["build"] = time.perf_counter() - t0
         rng = np.random.default_rng(self.seed)
-        result, problem, metrics, learned = None, None, {}, None
         learner = context.extras.get("learner")
         if learner is not None:
+            record.stage = "learn"
             t0 = time.perf_counter()
             log.info("learning with %s on %s", self.components["learner"].name, context.scene.name)
-            learned = learner.fit(None, rng)        # the learner's own options say where its data come from
+            record.learned = learner.fit(None, rng)   # the learner's own options say where its data come from
             timings["learn"] = time.perf_counter() - t0
+            if write:
+                self._write_file(record, "learned.json", lambda path: write_json(path, record.learned, default=str))
         planner = context.extras.get("planner")
+        result = None
         if planner is not None:
-            problem = PlanningProblem.from_context(context)
+            record.stage = "plan"
+            problem = record.problem = PlanningProblem.from_context(context)
             t0 = time.perf_counter()
             log.info("planning with %s on %s", self.components["planner"].name, context.scene.name)
-            result = planner.plan(problem, rng)
+            result = record.result = planner.plan(problem, rng)
             timings["plan"] = time.perf_counter() - t0
             if result.seed is None:
                 result.seed = self.seed
+            if write:                                # the plan is on file before anything else can go wrong
+                self._write_file(record, "result.json", result.save)
+            if result.statistics.get("interrupted") is True:
+                record.stage, record.outcome = "plan", Outcome.INTERRUPTED
+                record.error = f"Ctrl-C during planning; the planner's best result so far ({result.status.value}) " \
+                               "is kept, nothing was executed"
+                return
             metric = context.extras.get("metric")
             if metric is not None and result.path is not None:
+                record.stage = "metric"
                 t0 = time.perf_counter()
-                metrics = dict(metric.evaluate(result.path, problem, rng))
+                record.metrics = dict(metric.evaluate(result.path, problem, rng))
                 timings["metric"] = time.perf_counter() - t0
-        execution = None
+            if not result.solved:
+                record.stage, record.outcome = "done", Outcome.NOT_PLANNED
+                record.error = f"the planner returned status '{result.status.value}'" + \
+                               (f": {result.message}" if result.message else "")
+                return
         if result is not None and (result.path is not None or result.policy is not None) and world is not None:
-            t0 = time.perf_counter()
-            settings = self.execution
-            name = self.world_spec().name
-            with world if isinstance(world, Driver) else nullcontext():
-                if result.policy is not None:
-                    execution = result.policy.execute(world, context.controller, rng, context=context,
-                                                      on_step=on_step, world_name=name, **settings)
-                else:
-                    execution = execute(world, context.controller, result.path, rng, period=settings["period"],
-                                        time_limit=settings["time_limit"], on_step=on_step, world_name=name)
-            timings["execute"] = time.perf_counter() - t0
-        record = RunRecord(self, context, result, problem, metrics, self.output, timings, execution=execution,
-                           learned=learned)
-        if write:
+            record.stage = "execute"
+            self._execute(record, world, rng, on_step)
+        record.stage = "done"
+        execution = record.execution
+        if execution is None:
+            record.outcome = Outcome.PLANNED
+        elif execution.success:
+            record.outcome = Outcome.REACHED
+        elif execution.outcome == "failed":
+            record.outcome = Outcome.FAILED
+            record.error = f"the execution in {execution.world} failed: {execution.error}"
+        else:
+            record.outcome = Outcome.STUCK
+            last = execution.events[-1] if execution.events else ""
+            record.error = f"the execution in {execution.world} ended {execution.outcome}" + \
+                           (f" ({last})" if last else "") + " short of the goal"
+
+    def _execute(self, record: RunRecord, world, rng: np.random.Generator, on_step: StepListener | None) -> None:
+        """Execute the record's path or policy in ``world``; an exception becomes the partial record of what was
+        executed (outcome ``failed``; Ctrl-C: ``interrupted``, then re-raised)."""
+        context, result, settings = record.context, record.result, self.execution
+        name = self.world_spec().name
+        t0 = time.perf_counter()
+        with capture() as captured:
+            try:
+                with world if isinstance(world, Driver) else nullcontext():
+                    if result.policy is not None:
+                        record.execution = result.policy.execute(world, context.controller, rng, context=context,
+                                                                 on_step=on_step, world_name=name, **settings)
+                    else:
+                        record.execution = execute(world, context.controller, result.path, rng,
+                                                   period=settings["period"], time_limit=settings["time_limit"],
+                                                   on_step=on_step, world_name=name)
+            except KeyboardInterrupt:
+                record.execution = captured.partial("interrupted", "Ctrl-C", name, context.space.dim)
+                record.error = "Ctrl-C during the execution; execution.json holds the steps executed"
+                raise
+            except Exception as exc:
+                # any error of the world or the controller ends this execution, not the run: the plan and the steps
+                # executed so far are written with a report that names it (a bug's traceback goes to the log)
+                error = f"{type(exc).__name__}: {exc}"
+                record.execution = captured.partial("failed", error, name, context.space.dim)
+                log.error("execution in %s failed: %s", name, error, exc_info=not isinstance(exc, PliantError))
+            finally:
+                record.timings["execute"] = time.perf_counter() - t0
+
+    # --- the run folder -----------------------------------------------------------------------
+
+    def _track(self, record: RunRecord, *paths: Path) -> None:
+        """Add ``paths`` to the run's files and write the folder's manifest (before the files themselves, so that a
+        run killed half-way still names everything it may have written)."""
+        for path in paths:
+            if path not in record.files:
+                record.files.append(path)
+        out = record.output
+        names = set()
+        for path in record.files:
+            try:
+                names.add(Path(path).resolve().relative_to(out.resolve()).as_posix())
+            except ValueError:                       # a hook's file outside the folder is not the folder's
+                continue
+        write_json(out / MANIFEST, {"files": sorted(names)})
+
+    def _write_file(self, record: RunRecord, name: str, writer) -> None:
+        path = record.output / name
+        self._track(record, path)
+        writer(path)
+
+    def _write_run_json(self, record: RunRecord, outcome: str) -> None:
+        data = {"pipeline": self.to_dict(), "outcome": outcome, "error": record.error, "stage": record.stage,
+                "metrics": record.metrics, "timings": record.timings}
+        self._write_file(record, "run.json", lambda path: write_json(path, data, default=str))
+
+    def _write_report_after(self, record: RunRecord) -> None:
+        """:meth:`write_report` for a run that raised; a failure to write is logged, the run's error stays the one
+        raised."""
+        try:
             self.write_report(record)
-        return record
+        except Exception as exc:  # the disk, or a second Ctrl-C: never hide the run's own error behind it
+            log.error("the report of %s could not be written: %s: %s", self.name, type(exc).__name__, exc)
+        except KeyboardInterrupt:
+            log.error("the report of %s was interrupted", self.name)
+
+    def clear_previous_run(self, out: Path) -> list[Path]:
+        """Remove from ``out`` the files an earlier run into it wrote, so that the folder never mixes two runs; returns
+        them.  Only files pliant wrote go: those in the folder's manifest (``.pliant-files.json``, every file the
+        earlier run wrote, figures and hooks' files included); for a folder from before the manifest whose
+        ``run.json`` is a pliant run's, pliant's fixed names (:data:`RUN_FILES`) and the figures its ``report.md``
+        shows.  Anything else in the folder (a user's files) stays; so does a folder pliant never wrote."""
+        root = out.resolve()
+        names: list[str] = []
+        manifest = out / MANIFEST
+        if manifest.is_file():
+            try:
+                listed = json.loads(manifest.read_text()).get("files", [])
+                names = [n for n in listed if isinstance(n, str)]
+            except (OSError, ValueError, AttributeError):
+                names = []                           # a torn manifest: fall back to the fixed names below
+            names += list(RUN_FILES)
+        elif _is_pliant_run_json(out / "run.json"):
+            names = list(RUN_FILES)
+            try:
+                report = (out / "report.md").read_text()
+                names += re.findall(r"!\[[^\]]*\]\(([^)\s]+)\)", report)
+            except (OSError, UnicodeDecodeError):
+                pass
+        removed = []
+        for name in dict.fromkeys(names):
+            path = out / name
+            try:
+                inside = root in path.resolve().parents       # never a file outside the folder ("../x", a link)
+                regular = path.is_file() or path.is_symlink()
+            except (OSError, ValueError):
+                continue
+            if not inside or not regular:
+                continue
+            try:
+                path.unlink()
+                removed.append(path)
+            except OSError as exc:
+                raise PipelineError(f"holds a file of an earlier run that cannot be removed ({exc.strerror})",
+                                    source=self.source, field="output", value=str(path)) from None
+        manifest.unlink(missing_ok=True)
+        return removed
 
     def prepare_output(self) -> Path:
         """Create the report directory now, before any work, so that a directory that cannot be written (a file of
-        that name, no permission, a full disk) fails at once instead of after planning; returns it."""
+        that name, no permission, a full disk) fails at once instead of after planning, and clear it of the previous
+        run's files (:meth:`clear_previous_run`); returns it."""
         out = self.output
         try:
             if out.exists() and not out.is_dir():
@@ -351,6 +553,7 @@ class Pipeline:
             probe = out / f".pliant-write-test-{os.getpid()}"
             probe.write_bytes(b"")
             probe.unlink()
+            self.clear_previous_run(out)
         except PipelineError:
             raise
         except (OSError, ValueError) as exc:
@@ -410,34 +613,34 @@ class Pipeline:
                             field="execution.world", value=name)
 
     def write_report(self, record: RunRecord) -> None:
-        """Write ``result.json``, ``run.json``, figures from report hooks and ``report.md``."""
+        """Write ``run.json`` (with the outcome), ``result.json``, ``learned.json`` and ``execution.json`` (those not
+        written yet), figures from report hooks and ``report.md`` -- for every outcome; the folder's manifest lists
+        them all."""
         out = record.output
         out.mkdir(parents=True, exist_ok=True)
-        if record.result is not None:
-            record.result.save(out / "result.json")
-            record.files.append(out / "result.json")
-        write_json(out / "run.json", {"pipeline": self.to_dict(), "metrics": record.metrics,
-                                      "timings": record.timings}, default=str)
-        record.files.append(out / "run.json")
-        if record.learned is not None:
-            write_json(out / "learned.json", record.learned, default=str)
-            record.files.append(out / "learned.json")
+        written = {Path(p).name for p in record.files if Path(p).parent == out}
+        if record.result is not None and "result.json" not in written:
+            self._write_file(record, "result.json", record.result.save)
+        self._write_run_json(record, record.outcome.value)
+        if record.learned is not None and "learned.json" not in written:
+            self._write_file(record, "learned.json", lambda path: write_json(path, record.learned, default=str))
         if record.execution is not None:
-            write_json(out / "execution.json", record.execution.to_dict(), indent=None)
-            record.files.append(out / "execution.json")
+            self._write_file(record, "execution.json",
+                             lambda path: write_json(path, record.execution.to_dict(), indent=None))
         figures: list[Path] = []
-        for produced in self.registry.report_hook()(run=record, directory=out):
-            figures.extend(Path(p) for p in (produced or []))
-        record.files.extend(figures)
+        if record.context is not None:          # hooks draw a built run; a run that failed to build has none
+            for produced in self.registry.report_hook()(run=record, directory=out):
+                figures.extend(Path(p) for p in (produced or []))
+        self._track(record, *figures, out / "report.md")
         lines = [f"# {self.name}", ""]
         if self.description:
             lines += [self.description, ""]
+        lines += [_outcome_sentence(record), ""]
         lines += ["| quantity | value |", "| --- | --- |"]
-        lines += [f"| {k} | {v} |" for k, v in record.summary_rows()]
+        lines += [f"| {k} | {_cell(v)} |" for k, v in record.summary_rows()]
         if figures:
             lines += [""] + [f"![{p.stem}]({p.name})" for p in figures]
         write_text(out / "report.md", "\n".join(lines) + "\n")
-        record.files.append(out / "report.md")
 
     def to_dict(self) -> dict:
         """The pipeline as a table (what a file would contain)."""
@@ -455,6 +658,44 @@ class Pipeline:
         for kind, spec in self.components.items():
             out[kind] = {"name": spec.name, **spec.options} if spec.name else dict(spec.options)
         return out
+
+
+def _cell(text: str) -> str:
+    """``text`` as one markdown table cell (a ``|`` or a line break in an error message would break the table)."""
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def _outcome_sentence(record: RunRecord) -> str:
+    """The report's first line: the outcome, its exit status, what failed, and what is on file."""
+    outcome = record.outcome
+    head = f"**Outcome: {outcome.value}** (exit status {outcome.exit_status})"
+    what = {Outcome.PLANNED: "planned; nothing was asked to execute the plan" if record.result is not None
+            else "every stage ran",
+            Outcome.REACHED: "planned, and the execution reached the goal"}.get(outcome, record.error)
+    on_file = []
+    if record.result is not None:
+        on_file.append("the plan in result.json")
+    if record.execution is not None:
+        steps = max(len(record.execution.times) - 1, 0)
+        on_file.append(f"the execution ({steps} control steps"
+                       + (", up to the failure" if record.execution.outcome in ("failed", "interrupted") else "")
+                       + ") in execution.json")
+    text = f"{head}: {_cell(what)}."
+    if outcome not in (Outcome.PLANNED, Outcome.REACHED):
+        text += f" Stopped during {record.stage}." if record.stage not in ("done",) else ""
+        text += (" On file: " + "; ".join(on_file) + ".") if on_file else " No plan was made."
+    return text
+
+
+def _is_pliant_run_json(path: Path) -> bool:
+    """Whether ``path`` is the ``run.json`` of a pliant run (a table with the pipeline's name, scene and seed)."""
+    try:
+        if not path.is_file() or path.stat().st_size > 10_000_000:
+            return False
+        pipeline = json.loads(path.read_text()).get("pipeline")
+    except (OSError, ValueError, AttributeError, UnicodeDecodeError):
+        return False
+    return isinstance(pipeline, dict) and {"name", "scene", "seed"} <= set(pipeline)
 
 
 def check_scene(spec: str | Path, registry: Registry | None = None) -> Scene:
@@ -651,6 +892,7 @@ def _resolve_pipeline_path(path: str | Path) -> Path:
                         value=str(path))
 
 
-__all__ = ["Pipeline", "ComponentSpec", "RunRecord", "apply_overrides", "check_scene", "parse_override",
+__all__ = ["Pipeline", "ComponentSpec", "RunRecord", "RunInterrupted", "Outcome", "apply_overrides", "check_scene",
+           "parse_override",
            "ConfigError",
            "PliantError"]

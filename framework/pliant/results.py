@@ -33,6 +33,38 @@ class Status(enum.Enum):
         return self in (Status.SOLVED, Status.APPROXIMATE)
 
 
+class Outcome(enum.StrEnum):
+    """How a pipeline run ended (DESIGN rule 13), each with one exit status of ``pliant run`` (docs/outcomes.md).
+
+    A ``str`` enum: ``Outcome.STUCK == "stuck"``, and it is written to ``run.json`` and ``report.md`` by value.
+    """
+
+    PLANNED = "planned"            #: every stage ran; the plan reached the goal; nothing was asked to execute it
+    REACHED = "reached"            #: planned, and executed to the goal
+    NOT_PLANNED = "not planned"    #: the planner returned no solution (its status says why); nothing was executed
+    STUCK = "stuck"                #: planned; the execution ended short of the goal (controller stuck, time or action
+    #:                                limit, a policy ending off the goal)
+    FAILED = "failed"              #: planned; the execution raised (a watchdog, a driver fault, a simulator error)
+    ERROR = "error"                #: stopped by an error before executing: bad input, or a component refused it
+    INTERRUPTED = "interrupted"    #: stopped by Ctrl-C (or a cancel); what was planned so far is on file
+
+    @property
+    def exit_status(self) -> int:
+        """The exit status of ``pliant run`` for this outcome: 0 planned / reached, 1 not planned, 3 stuck /
+        failed, 2 error (bad input), 130 interrupted."""
+        return EXIT_STATUS[self]
+
+    @property
+    def success(self) -> bool:
+        """Planned, and executed to the goal where an execution was asked for."""
+        return self in (Outcome.PLANNED, Outcome.REACHED)
+
+
+#: the exit status of each outcome (``pliant run``, ``python -m pliant_ros1.demo``)
+EXIT_STATUS = {Outcome.PLANNED: 0, Outcome.REACHED: 0, Outcome.NOT_PLANNED: 1, Outcome.ERROR: 2,
+               Outcome.STUCK: 3, Outcome.FAILED: 3, Outcome.INTERRUPTED: 130}
+
+
 @dataclass
 class Path:
     """A sequence of configurations ``(k, d)`` with optional times ``(k,)`` in seconds.

@@ -11,11 +11,19 @@ until the controller reports the waypoint reached, gives up (stuck), or the time
 one such motion toward one target without a reset, the primitive that policy execution (thesis 5.3.5) builds on.
 Everything is recorded in one typed :class:`ExecutionRecord`, and an ``on_step`` callback receives every step as
 it happens (:class:`ExecutionStep`), for viewers, learners and logs.
+
+An execution that raises (a driver's watchdog, a drive fault, a simulator error, Ctrl-C) still has a record of what
+happened up to there: inside :func:`capture`, every :class:`Recorder` (the one :func:`execute` uses, and the ones a
+policy's own execution builds on :func:`drive`) is kept, and :meth:`Capture.partial` turns the last one into an
+:class:`ExecutionRecord` whose outcome is ``failed`` or ``interrupted`` and whose ``error`` says what failed.  The
+pipeline runs every execution inside one (docs/outcomes.md).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -74,13 +82,16 @@ class ExecutionRecord:
     configurations: ``(k, d)`` states after every control step (the first is the start).
     times: ``(k,)`` seconds.  contacts: ``(k,)`` whether the robot touched anything in that step.
     outcome: for a path ``reached`` (the last waypoint), ``stuck`` (the controller gave up) or ``timeout``; for a
-    policy ``success``, ``failure``, ``timeout`` or ``action limit``.
+    policy ``success``, ``failure``, ``timeout`` or ``action limit``; for an execution that raised (a partial record,
+    :meth:`Capture.partial`) ``failed`` or ``interrupted`` (Ctrl-C).
     waypoints_reached: how many waypoints (after the start) were reached (paths).
     objects: the movable objects' poses ``(k, p)`` by name (:meth:`Simulator.object_poses`: ``(x, y, theta)`` in
     planar scenes, else position and quaternion); empty for worlds that hold objects fixed.
     actions / adaptations / final_node: a policy's actions performed, its probability changes and the last node
     reached (empty / ``None`` for paths; the policy's plugin documents the entries).
     world: the name of the world executed in (``pybullet``, ``baxter-ros``...).
+    error: what failed, for an execution that raised (``"StaleState: ... the newest joint state is 0.109 s old"``);
+    empty otherwise.
     """
 
     configurations: np.ndarray
@@ -94,6 +105,7 @@ class ExecutionRecord:
     adaptations: list[dict] = field(default_factory=list)
     final_node: int | None = None
     world: str = ""
+    error: str = ""
 
     @property
     def success(self) -> bool:
@@ -107,12 +119,20 @@ class ExecutionRecord:
                 "waypoints_reached": self.waypoints_reached, "events": list(self.events),
                 "objects": {name: poses.tolist() for name, poses in self.objects.items()},
                 "actions": actions, "adaptations": list(self.adaptations), "final_node": self.final_node,
-                "world": self.world}
+                "world": self.world, "error": self.error}
+
+
+#: the recorders of the executions running inside :func:`capture` (``None`` outside one)
+_CAPTURED: ContextVar[list[Recorder] | None] = ContextVar("pliant_captured_recorders", default=None)
 
 
 class Recorder:
     """Collects the steps of one execution (states, times, contacts, object poses) and forwards them to
-    ``on_step``; :meth:`record` turns them into an :class:`ExecutionRecord`."""
+    ``on_step``; :meth:`record` turns them into an :class:`ExecutionRecord`.
+
+    ``waypoints_reached`` and ``events`` are kept up to date by :func:`execute` as it goes, so that a partial record
+    (:meth:`Capture.partial`) says how far an execution that raised had come.
+    """
 
     def __init__(self, world: ExecutionWorld, on_step: StepListener | None = None) -> None:
         q = world.configuration()
@@ -121,6 +141,11 @@ class Recorder:
         self.contacts = [False]
         self.objects = [world.object_poses()]
         self.on_step = on_step
+        self.waypoints_reached = 0
+        self.events: list[str] = []
+        captured = _CAPTURED.get()
+        if captured is not None:
+            captured.append(self)
 
     @property
     def time(self) -> float:
@@ -144,10 +169,44 @@ class Recorder:
             self.add(world, q, self.time, np.zeros_like(q), q)
 
     def record(self, outcome: str, **fields) -> ExecutionRecord:
+        # a step that raised half-way may have left one list a step longer than the others: keep whole steps
+        k = min(len(self.states), len(self.times), len(self.contacts), len(self.objects))
         names = self.objects[0]
-        poses = {name: np.array([step[name] for step in self.objects], dtype=np.float64) for name in names}
-        return ExecutionRecord(np.array(self.states), np.array(self.times), np.array(self.contacts, dtype=bool),
-                               outcome, objects=poses, **fields)
+        poses = {name: np.array([step[name] for step in self.objects[:k]], dtype=np.float64) for name in names}
+        return ExecutionRecord(np.array(self.states[:k]), np.array(self.times[:k]),
+                               np.array(self.contacts[:k], dtype=bool), outcome, objects=poses, **fields)
+
+
+class Capture:
+    """The recorders of the executions run inside one :func:`capture` block (in the order they began)."""
+
+    def __init__(self) -> None:
+        self.recorders: list[Recorder] = []
+
+    def partial(self, outcome: str, error: str, world_name: str = "", dim: int = 0) -> ExecutionRecord:
+        """The record of an execution that raised: the steps of the last recorder begun (the execution running when
+        it raised), with ``outcome`` (``failed`` / ``interrupted``), ``error`` (what failed) and an event saying
+        when.  With no recorder (the world failed before the first state was read: ``reset``, connecting) the record
+        has no steps: arrays of length 0 (configurations ``(0, dim)``)."""
+        if not self.recorders:
+            return ExecutionRecord(np.zeros((0, dim)), np.zeros(0), np.zeros(0, dtype=bool), outcome,
+                                   events=[f"t=0.00s: {error}"], world=world_name, error=error)
+        recorder = self.recorders[-1]
+        events = [*recorder.events, f"t={recorder.time:.2f}s: {error}"]
+        return recorder.record(outcome, waypoints_reached=recorder.waypoints_reached, events=events,
+                               world=world_name, error=error)
+
+
+@contextmanager
+def capture() -> Iterator[Capture]:
+    """Keep every :class:`Recorder` begun inside the block (in this thread or task), so that an execution that raises
+    still leaves a record: ``with capture() as run: ...`` then ``run.partial("failed", str(exc))``."""
+    collected = Capture()
+    token = _CAPTURED.set(collected.recorders)
+    try:
+        yield collected
+    finally:
+        _CAPTURED.reset(token)
 
 
 def drive(world: ExecutionWorld, controller: Controller, target: np.ndarray, rng: np.random.Generator,
@@ -193,14 +252,14 @@ def execute(world: ExecutionWorld, controller: Controller, path: Path, rng: np.r
     waypoints = np.atleast_2d(path.configurations)
     world.reset(waypoints[0])
     recorder = Recorder(world, on_step)
-    events: list[str] = []
+    events = recorder.events
     reached = 0
     outcome = "timeout"
     for index, target in enumerate(waypoints[1:], start=1):
         result = drive(world, controller, target, rng, recorder, period=period,
                        time_limit=max(0.0, time_limit - recorder.time))
         if result == "reached":
-            reached = index
+            reached = recorder.waypoints_reached = index
             continue
         if result == "stuck":
             outcome = "stuck"
@@ -211,4 +270,4 @@ def execute(world: ExecutionWorld, controller: Controller, path: Path, rng: np.r
     if outcome == "timeout" and reached != len(waypoints) - 1:
         events.append(f"t={recorder.time:.2f}s: time limit before waypoint {reached + 1}")
     recorder.settle(world)
-    return recorder.record(outcome, waypoints_reached=reached, events=events, world=world_name)
+    return recorder.record(outcome, waypoints_reached=reached, events=list(events), world=world_name)

@@ -36,9 +36,12 @@ def _toml(value) -> str:
 
 
 def run(pipeline_name: str, seed: int = 0, overrides: list[str] | None = None) -> int:
-    """Run ``pipeline_name`` on its robot's peer; returns the exit status (0: the execution succeeded and every
-    command the peer received was within the limits)."""
+    """Run ``pipeline_name`` on its robot's peer; returns the exit status of ``pliant run`` (docs/outcomes.md): 0 the
+    execution reached the goal and every command the peer received was within the limits, 1 not planned, 3 the
+    execution failed (the report says what: a watchdog, a fault), got stuck, or sent a command outside the limits,
+    130 interrupted.  The pipeline writes its plan, the execution so far and the report in every case."""
     import pliant
+    from pliant.pipeline import RunInterrupted
 
     from pliant_ros1.master import RosMaster
     from pliant_ros1.peer import PeerProcess, command_violations, read_record
@@ -67,15 +70,22 @@ def run(pipeline_name: str, seed: int = 0, overrides: list[str] | None = None) -
         pipeline = pliant.Pipeline.from_file(pipeline_name, overrides=[
             f"seed={seed}", *(overrides or []), f"execution.world={driver}", *arm,
             f'execution.world.master_uri="{master.uri}"', f'output="{output}"'])
-        run_record = pipeline.run()
-        limits = pipeline.execution_world(run_record.context).limits
+        try:
+            run_record = pipeline.run()
+        except RunInterrupted as stopped:
+            run_record = stopped.record
+        limits = None if run_record.context is None else pipeline.execution_world(run_record.context).limits
     for key, value in run_record.summary_rows():
         print(f"{key:<22}  {value}")
-    bad = command_violations(read_record(record), limits)
+    bad = [] if limits is None else command_violations(read_record(record), limits)
     commands = sum(1 for r in read_record(record) if r.get("kind") == "command")
     print(f"\ncommands received by the peer: {commands}; outside the limits: {len(bad)}")
     print(f"report: {output / 'report.md'}")
-    return 0 if run_record.execution is not None and run_record.execution.success and not bad else 1
+    if not run_record.outcome.success:
+        print(f"{run_record.outcome.value}: {run_record.error}", file=sys.stderr)
+    if bad and run_record.exit_status in (0, 3):
+        return 3                                # planned, but the execution broke the limits
+    return run_record.exit_status
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -91,6 +101,9 @@ def main(argv: list[str] | None = None) -> int:
     except PliantError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":
