@@ -9,6 +9,9 @@
 * :func:`append_jsonl` appends one record to a JSON-lines log and ``fsync`` s it, so a finished task survives a
   crash that follows; :func:`read_jsonl` reads such a log back, skipping a torn *last* line (the crash happened
   while writing it) and refusing a corrupt line elsewhere with an error naming the file and line.
+* :func:`read_json` reads a JSON file a user may hand over damaged (cut off by a crash or a full disk, not text,
+  the wrong kind of document): every such file is one :class:`~pliant.errors.ConfigError` naming the file, the line
+  and the text where reading stopped -- never a ``JSONDecodeError`` traceback.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import IO, Any
@@ -47,6 +51,42 @@ def strict(data: Any) -> Any:
 def dumps(data: Any, **kwargs: Any) -> str:
     """Strict JSON text of ``data`` (see :func:`strict`); ``kwargs`` go to :func:`json.dumps`."""
     return json.dumps(strict(data), allow_nan=False, **kwargs)
+
+
+def read_json(path: str | Path, *, expect: type | tuple[type, ...] | None = dict) -> Any:
+    """The JSON document in the file at ``path``.
+
+    A file that cannot be read, is not UTF-8, is not JSON (for instance cut off by a crash while it was written) or
+    whose top level is not ``expect`` (default: an object; None accepts any) is a
+    :class:`~pliant.errors.ConfigError` naming the file, where reading stopped (``line L column C``) and the text
+    there."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"is not UTF-8 text (byte {exc.start})", source=str(path), field="<file>",
+                          value=exc.object[max(0, exc.start - 20):exc.start + 20]) from None
+    except OSError as exc:
+        raise ConfigError(f"cannot be read ({exc.strerror or exc})", source=str(path), field="<file>") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        # reading stopped in the text's last token (a number, a word, an escape) or in a string never closed: the
+        # file is cut off (a crash or a full disk)
+        cut = (not text.strip() or exc.msg.startswith("Unterminated string")
+               or (exc.msg != "Extra data" and re.fullmatch(r"[\w.+\-\\]*\s*", text[exc.pos:]) is not None))
+        why = "the file is empty or ends early: cut off while it was written?" if cut else exc.msg
+        raise ConfigError(f"is not valid JSON ({why})", source=str(path),
+                          field=f"line {exc.lineno} column {exc.colno}",
+                          value=text[max(0, exc.pos - 40):exc.pos + 20]) from None
+    except RecursionError:
+        raise ConfigError("is nested too deeply to read", source=str(path), field="<file>") from None
+    if expect is not None and not isinstance(data, expect):
+        names = {dict: "an object", list: "an array", str: "a string"}
+        wanted = " or ".join(names.get(t, t.__name__) for t in (expect if isinstance(expect, tuple) else (expect,)))
+        raise ConfigError(f"must hold {wanted} at its top level", source=str(path), field="<top level>",
+                          value=type(data).__name__)
+    return data
 
 
 def write_text(path: str | Path, text: str) -> Path:

@@ -11,7 +11,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pliant.errors import ConfigError
-from pliant.files import append_jsonl, dumps, read_jsonl, rewrite_jsonl, strict, write_json, write_text
+from pliant.files import (
+    append_jsonl,
+    dumps,
+    read_json,
+    read_jsonl,
+    rewrite_jsonl,
+    strict,
+    write_json,
+    write_text,
+)
 
 
 def test_strict_json_has_no_bare_nan_and_reads_back_with_any_json_reader():
@@ -72,3 +81,39 @@ def test_a_log_reads_back_what_was_appended_and_skips_only_a_torn_last_line(tmp_
     log.write_text('{"k": 0}\n{"k": \n{"k": 2}\n')
     with pytest.raises(ConfigError, match="line 2: line 2 is not JSON"):
         read_jsonl(log)
+
+
+def test_read_json_reads_what_write_json_wrote(tmp_path):
+    data = {"a": [1.5, None, "x"], "b": {"c": True}}
+    assert read_json(write_json(tmp_path / "d.json", data)) == data
+    assert read_json(write_json(tmp_path / "l.json", [1, 2]), expect=list) == [1, 2]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(min_value=0, max_value=10_000))
+def test_a_json_file_cut_anywhere_is_one_error_naming_the_file_and_line(tmp_path_factory, cut):
+    path = tmp_path_factory.mktemp("cut") / "result.json"
+    text = dumps({"status": "solved", "path": {"configurations": [[0.25, 1.0, 2.0]] * 40}, "note": "a b c"},
+                 indent=1)
+    path.write_text(text[:cut % len(text)])
+    with pytest.raises(ConfigError) as caught:
+        read_json(path)
+    message = str(caught.value)
+    assert message.startswith(f"{path}:") and "\n" not in message and "cut off" in message
+
+
+@pytest.mark.parametrize("content, expected", [
+    (b"\xff\xfe\x00garbage", "not UTF-8"), (b"{\"a\": 1} trailing", "Extra data"), (b"[1, 2]", "an object"),
+    (b"\"text\"", "an object"), (b"[" * 100_000, "nested too deeply|cut off"), (b"{\"a\": NaN", "cut off")])
+def test_a_damaged_or_wrong_kind_of_json_file_is_one_config_error(tmp_path, content, expected):
+    path = tmp_path / "f.json"
+    path.write_bytes(content)
+    with pytest.raises(ConfigError, match=expected) as caught:
+        read_json(path)
+    assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value).strip()
+
+
+def test_read_json_of_a_directory_or_missing_file_names_it(tmp_path):
+    for path in (tmp_path, tmp_path / "missing.json"):
+        with pytest.raises(ConfigError, match="cannot be read"):
+            read_json(path)

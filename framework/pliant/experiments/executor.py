@@ -24,6 +24,7 @@ the ``pliant`` command installs the chosen executor for the command's duration (
 
 from __future__ import annotations
 
+import math
 import os
 import socket
 import threading
@@ -41,6 +42,80 @@ from pliant.termination import Condition, snapshot, task_progress
 #: how often a waiting executor checks its stop condition and cancel requests (s)
 POLL = 0.1
 EXECUTORS = ("local", "ray")
+#: how long reaching a Ray head may take before ``--address`` is refused (s): connecting and its first answer
+CONNECT_TIMEOUT = 5.0
+#: the client's first bytes of an HTTP/2 connection (RFC 9113, 3.4): the preface, then an empty SETTINGS frame
+_HTTP2_HELLO = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + bytes([0, 0, 0, 4, 0, 0, 0, 0, 0])
+_ADDRESS_FORM = "must be HOST:PORT (port 1-65535), ray://HOST:PORT, auto, or left out (Ray on this machine alone)"
+
+
+def parse_address(address: str | None) -> tuple[str, int] | None:
+    """``(host, port)`` of a Ray head's ``address`` (``host:port``, ``[v6]:port`` or ``ray://host:port``), or None
+    for the addresses Ray resolves itself (None: a Ray instance of this process's own; ``auto``: the cluster this
+    machine belongs to).  Anything else is a :class:`ConfigError` naming ``--address``; nothing is looked up."""
+    if address is None or address == "auto":
+        return None
+    text = address[len("ray://"):] if isinstance(address, str) and address.startswith("ray://") else address
+    if not isinstance(text, str) or ":" not in text:
+        raise ConfigError(_ADDRESS_FORM, field="--address", value=address)
+    host, _, port = text.rpartition(":")
+    if host.startswith("[") and host.endswith("]"):
+        host = host[1:-1]
+    if (not host or any(c.isspace() or c in "/[]@" for c in host) or not port.isascii() or not port.isdigit()
+            or not 1 <= int(port) <= 65535):
+        raise ConfigError(_ADDRESS_FORM, field="--address", value=address)
+    return host, int(port)
+
+
+def check_head(address: str | None, timeout: float = CONNECT_TIMEOUT) -> None:
+    """Refuse, within about ``timeout`` seconds, an ``address`` where no Ray head answers -- a refused or timed-out
+    connection, an unknown host, or a server that does not speak gRPC (Ray's protocol: HTTP/2; e.g. the dashboard's
+    port) -- with a :class:`ConfigError` naming ``--address``.  ``ray.init`` itself retries such an address for many
+    minutes.  With ``RAY_USE_TLS`` set only the connection is checked."""
+    parsed = parse_address(address)
+    if parsed is None:
+        return
+    host, port = parsed
+    try:
+        connection = socket.create_connection((host, port), timeout=timeout)
+    except socket.gaierror as exc:
+        raise ConfigError(f"unknown host ({exc.strerror or exc})", field="--address", value=address) from None
+    except TimeoutError:
+        raise ConfigError(f"no Ray head answers within {timeout:g} s", field="--address", value=address) from None
+    except OSError as exc:
+        raise ConfigError(f"cannot reach the Ray head ({exc.strerror or exc})", field="--address",
+                          value=address) from None
+    with connection:
+        if os.environ.get("RAY_USE_TLS", "0").lower() in ("1", "true"):
+            return
+        try:
+            connection.settimeout(timeout)
+            connection.sendall(_HTTP2_HELLO)
+            answer = b""
+            while len(answer) < 9:
+                chunk = connection.recv(9 - len(answer))
+                if not chunk:
+                    break
+                answer += chunk
+        except TimeoutError:
+            raise ConfigError(f"something listens there but does not answer as a Ray head within {timeout:g} s",
+                              field="--address", value=address) from None
+        except OSError as exc:
+            raise ConfigError(f"the connection to the Ray head failed ({exc.strerror or exc})", field="--address",
+                              value=address) from None
+    if len(answer) < 9 or answer[3] != 4:          # a gRPC server's first frame is SETTINGS (type 4)
+        raise ConfigError("something listens there but it is not a Ray head (no gRPC answer; the head's address "
+                          "is the one `ray start --head` prints, port 6379 by default)", field="--address",
+                          value=address)
+
+
+def _positive(value, name: str, *, zero: bool = False) -> float:
+    """``value`` as a float if it is a finite number > 0 (>= 0 with ``zero``); else a ConfigError naming it."""
+    ok = (not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+          and (value >= 0 if zero else value > 0))
+    if not ok:
+        raise ConfigError(f"must be a finite number {'>= 0' if zero else '> 0'}", field=name, value=value)
+    return float(value)
 
 
 class ExecutorError(PliantError):
@@ -304,8 +379,8 @@ class LocalExecutor(Executor):
         if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
             raise ConfigError("must be a positive integer", field="--jobs", value=jobs)
         self.jobs = jobs
-        self.grace = grace
-        self.interval = interval
+        self.grace = _positive(grace, "grace", zero=True)
+        self.interval = _positive(interval, "interval")
 
     def describe(self) -> str:
         """``local pool of N``."""
@@ -383,11 +458,12 @@ class RayExecutor(Executor):
         super().__init__()
         if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
             raise ConfigError("must be a non-negative integer", field="retries", value=retries)
+        parse_address(address)                      # the form now; whether a head answers: check_head
         self.address = address
         self.retries = retries
-        self.grace = grace
-        self.cpus = cpus
-        self.interval = interval
+        self.grace = _positive(grace, "grace", zero=True)
+        self.cpus = _positive(cpus, "cpus")
+        self.interval = _positive(interval, "interval")
         self.ray_options = dict(ray_options or {})
         self._ray = None
         self._remote = None
@@ -403,6 +479,7 @@ class RayExecutor(Executor):
             raise ConfigError("Ray is not installed (pip install 'pliant[ray]')", field="--executor",
                               value="ray") from None
         if not ray.is_initialized():
+            check_head(self.address)                # ray.init retries an address where nothing answers for minutes
             try:
                 ray.init(address=self.address, log_to_driver=False, configure_logging=False,
                          include_dashboard=False, **self.ray_options)
@@ -668,12 +745,16 @@ def add_executor_arguments(parser) -> None:
                              "default: start Ray on this machine)")
 
 
-def from_args(args) -> Executor | None:
+def from_args(args, *, check: bool = True) -> Executor | None:
     """The executor a command's ``--executor`` / ``--address`` ask for; None for the default local pool (which each
-    experiment sizes by its own ``--jobs``)."""
+    experiment sizes by its own ``--jobs``).  ``check``: a Ray head's address must answer now (:func:`check_head`,
+    seconds at most), so a wrong one fails before the command writes anything."""
     name = getattr(args, "executor", "local")
     address = getattr(args, "address", None)
     if name == "local":
         create("local", address=address, jobs=1)            # checks --address
         return None
-    return create(name, address=address)
+    executor = create(name, address=address)
+    if check and isinstance(executor, RayExecutor):
+        check_head(executor.address)
+    return executor

@@ -25,6 +25,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import math
+import os
 import platform
 import subprocess
 import sys
@@ -263,6 +264,26 @@ def render(reproduction: Reproduction, mode: str, outcome: Outcome, versions: di
     return "\n".join(lines) + "\n"
 
 
+def check_output(output: str | Path, flag: str = "--output") -> Path:
+    """``output`` as a directory path a run may write into: an empty name (which would mean the current
+    directory), a path holding a NUL, or an existing file is a :class:`ConfigError` naming ``flag``.  Whether it can
+    be created and written is checked when it is."""
+    text = str(output) if isinstance(output, Path) else output
+    if not isinstance(text, str) or not text.strip():
+        raise ConfigError("must name a directory (to write into the current one, say .)", field=flag, value=output)
+    if "\x00" in text:
+        raise ConfigError("must not hold a NUL character", field=flag, value=output)
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise ConfigError("is a file, not a directory", field=flag, value=text)
+    for parent in path.parents:                 # the first one that exists must be a directory
+        if parent.exists():
+            if not parent.is_dir():
+                raise ConfigError(f"cannot be created: {parent} is a file", field=flag, value=text)
+            break
+    return path
+
+
 def run_reproduction(name: str, *, mode: str = "quick", output: Path = Path("out/reproduce"),
                      echo: Callable[[str], object] = print, fresh: bool = False) -> tuple[Outcome, Path]:
     """Run one reproduction; writes ``report.md`` and ``outcome.json`` into ``output/<name>/<mode>/``; returns the
@@ -280,11 +301,13 @@ def run_reproduction(name: str, *, mode: str = "quick", output: Path = Path("out
     if mode not in reproduction.modes:
         raise ConfigError(f"{name} has no {mode} mode (modes: {', '.join(reproduction.modes)})",
                           field=f"--{mode}", value=True)
-    directory = Path(output) / name / mode
+    directory = Path(check_output(output)) / name / mode
     try:
         directory.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ConfigError(f"cannot be created ({exc.strerror or exc})", field="--output", value=str(output)) from None
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise ConfigError("is not writable", field="--output", value=str(output))
     runner = _load(reproduction.runner)
     echo(f"{name} ({mode}): {reproduction.modes[mode]}")
     t0 = time.perf_counter()
@@ -313,7 +336,7 @@ def command(args) -> int:
                 print(f"{r['name']:<{width}}  waiting    {r['title']}  [waits for {r['waits_for']}]")
         return 0
     mode = "ci" if args.ci else "quick" if args.quick else "full"
-    outcome, directory = run_reproduction(args.name, mode=mode, output=Path(args.output), fresh=args.fresh)
+    outcome, directory = run_reproduction(args.name, mode=mode, output=check_output(args.output), fresh=args.fresh)
     failed = [h for h in outcome.headlines if not h.ok]
     for h in outcome.headlines:
         print(f"  {h.name}: {_fmt(h.ours)} (within [{_fmt(h.low)}, {_fmt(h.high)}]: {'ok' if h.ok else 'NO'}; "

@@ -11,13 +11,12 @@ differ from the run's ``settings.json`` is refused (:func:`check_settings`).
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from pliant.errors import ConfigError
 from pliant.experiments.executor import Executor, LocalExecutor, current, stop_pool, worker_init
-from pliant.files import append_jsonl, read_jsonl, rewrite_jsonl, write_json
+from pliant.files import append_jsonl, read_json, read_jsonl, rewrite_jsonl, write_json
 from pliant.progress import ProgressLine
 from pliant.termination import Condition
 
@@ -30,10 +29,7 @@ def check_settings(directory: Path, settings: dict, keys: Sequence[str], *, repl
     log) writes the new ones."""
     path = directory / "settings.json"
     if path.exists() and not replace:
-        try:
-            stored = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"cannot read the run's settings: {exc}", source=str(path), field="<file>") from None
+        stored = read_json(path)          # a damaged file is one error naming it (remove it, or --fresh)
         for key in keys:
             if key in stored and stored[key] != settings[key]:
                 flag = "--" + key.replace("_", "-")

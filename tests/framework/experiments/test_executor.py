@@ -22,6 +22,48 @@ from pliant.files import read_jsonl
 from pliant.termination import Termination, iteration_limit
 
 
+class Listener:
+    """A TCP server on loopback that answers a connection as ``kind`` says: ``grpc`` (an HTTP/2 SETTINGS frame, as a
+    Ray head's gRPC server does), ``http1`` (an HTTP/1.1 error, as the dashboard's port), ``silent`` (nothing)."""
+
+    def __init__(self, kind: str) -> None:
+        import socket
+
+        self.kind = kind
+        self.server = socket.create_server(("127.0.0.1", 0))
+        self.address = f"127.0.0.1:{self.server.getsockname()[1]}"
+        self.connections = []
+
+    def _serve(self) -> None:
+        while True:
+            try:
+                connection, _ = self.server.accept()
+            except OSError:
+                return
+            self.connections.append(connection)
+            if self.kind == "grpc":
+                connection.sendall(bytes([0, 0, 6, 4, 0, 0, 0, 0, 0, 0, 3, 0, 0, 0, 100]))   # SETTINGS
+            elif self.kind == "http1":
+                connection.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+
+    def __enter__(self) -> "Listener":
+        threading.Thread(target=self._serve, daemon=True).start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.server.close()
+        for connection in self.connections:
+            connection.close()
+
+
+def _closed_port() -> int:
+    import socket
+
+    with socket.socket() as s:                  # bound, never listening: a connection is refused
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 def square(x: int, pause: float = 0.0) -> dict:
     """A seeded, idempotent task that also runs a planner-like loop publishing progress values."""
     stop = Termination(max_iterations=x + 1)
@@ -92,8 +134,9 @@ def test_executor_flags_and_errors_name_the_flag():
     parser = argparse.ArgumentParser()
     add_executor_arguments(parser)
     assert from_args(parser.parse_args([])) is None                          # the default local pool
-    ray = from_args(parser.parse_args(["--executor", "ray", "--address", "10.0.0.1:6379"]))
-    assert isinstance(ray, RayExecutor) and ray.address == "10.0.0.1:6379"
+    with Listener("grpc") as head:                                         # answers as a Ray head (gRPC) would
+        ray = from_args(parser.parse_args(["--executor", "ray", "--address", head.address]))
+    assert isinstance(ray, RayExecutor) and ray.address == head.address
     with pytest.raises(ConfigError, match="--address"):
         from_args(SimpleNamespace(executor="local", address="10.0.0.1:6379"))
     with pytest.raises(ConfigError, match="--executor"):
@@ -181,3 +224,69 @@ def test_pool_workers_pin_blas_to_one_thread_unless_the_user_chose(monkeypatch):
     assert chosen["env"]["OPENBLAS_NUM_THREADS"] == "2" and chosen["env"]["OMP_NUM_THREADS"] is None
     with pytest.raises(ConfigError, match="threads"):
         LocalExecutor(1, threads=0)
+
+
+@pytest.mark.parametrize("address", ["not-a-host:port", "127.0.0.1", "127.0.0.1:", ":6379", "127.0.0.1:0",
+                                     "127.0.0.1:65536", "127.0.0.1:-1", "127.0.0.1: 6379", "ray://", "a b:6379",
+                                     "user@host:6379", "http://host:6379", ""])
+def test_an_address_of_the_wrong_form_is_refused_naming_it_without_any_lookup(address, monkeypatch):
+    import socket
+
+    def no_lookup(*args, **kwargs):
+        raise AssertionError("looked up")
+
+    monkeypatch.setattr(socket, "getaddrinfo", no_lookup)
+    monkeypatch.setattr(socket, "create_connection", no_lookup)
+    with pytest.raises(ConfigError, match="--address") as caught:
+        from_args(SimpleNamespace(executor="ray", address=address))
+    assert repr(address) in str(caught.value)
+    with pytest.raises(ConfigError, match="--address"):
+        RayExecutor(address)
+
+
+def test_parse_address_reads_the_forms_ray_accepts():
+    assert executor_module.parse_address(None) is None and executor_module.parse_address("auto") is None
+    assert executor_module.parse_address("10.0.0.1:6379") == ("10.0.0.1", 6379)
+    assert executor_module.parse_address("ray://head.example:10001") == ("head.example", 10001)
+    assert executor_module.parse_address("[::1]:6379") == ("::1", 6379)
+
+
+def test_a_head_that_does_not_answer_as_ray_is_refused_within_the_connect_timeout():
+    """ray.init retries such an address for minutes; check_head refuses it in seconds, naming --address."""
+    refused = f"127.0.0.1:{_closed_port()}"
+    with pytest.raises(ConfigError, match=r"--address: cannot reach the Ray head \(Connection refused\)"):
+        executor_module.check_head(refused)
+    with Listener("http1") as web, pytest.raises(ConfigError, match=r"--address: .*not a Ray head"):
+        executor_module.check_head(web.address)
+    with Listener("silent") as mute, pytest.raises(ConfigError, match=r"--address: .*does not answer"):
+        executor_module.check_head(mute.address, timeout=0.5)
+    with Listener("grpc") as head:
+        executor_module.check_head(head.address)
+        executor_module.check_head("ray://" + head.address)
+    executor_module.check_head(None)                        # Ray on this machine alone: nothing to reach
+
+
+def test_connecting_to_an_unreachable_head_fails_before_ray_init(monkeypatch):
+    """``RayExecutor.run`` through the API: the same bounded check, so it never hangs in ``ray.init``."""
+    pytest.importorskip("ray")
+    import ray
+
+    def init(*args, **kwargs):
+        raise AssertionError("ray.init was called")
+
+    monkeypatch.setattr(ray, "init", init)
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    executor = RayExecutor(f"127.0.0.1:{_closed_port()}")
+    with pytest.raises(ConfigError, match="--address"):
+        list(executor.run(square, [(1,)]))
+
+
+@pytest.mark.parametrize("options", [{"grace": -1.0}, {"grace": float("nan")}, {"interval": 0.0},
+                                     {"interval": float("inf")}, {"cpus": 0}, {"cpus": True}, {"grace": "5"}])
+def test_executor_times_and_cpus_must_be_finite_and_positive(options):
+    name = next(iter(options))
+    with pytest.raises(ConfigError, match=name):
+        RayExecutor(None, **options)
+    if name != "cpus":
+        with pytest.raises(ConfigError, match=name):
+            LocalExecutor(1, **options)

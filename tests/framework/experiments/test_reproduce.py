@@ -85,3 +85,16 @@ def test_the_command_lists_and_exits_3_when_a_headline_is_out_of_range(tmp_path,
     monkeypatch.setattr(module, "figure_35", broken)
     assert main(["reproduce", "figure-3.5", "--ci", "--output", str(tmp_path)]) == 3
     assert "out of range" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("output", ["", "  ", "file", "file/below", "nul\x00byte"])
+def test_an_output_that_is_no_directory_is_refused_before_anything_is_written(tmp_path, monkeypatch, capsys, output):
+    """``--output ""`` once wrote the report into the current directory and exited 0."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "file").write_text("kept")
+    assert main(["reproduce", "figure-3.5", "--ci", "--output", output]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: --output:") and "\n" not in err and repr(output) in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"] and (tmp_path / "file").read_text() == "kept"
+    with pytest.raises(ConfigError, match="--output"):
+        run_reproduction("figure-3.5", mode="ci", output=tmp_path / "file")
