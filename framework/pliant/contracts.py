@@ -71,7 +71,9 @@ def _space_of(component) -> Any:
 
 def checked_plan(method):
     """Wrap a planner's ``plan(problem, rng, termination=None)``: the problem must be a
-    :class:`~pliant.interfaces.PlanningProblem` and ``rng`` a Generator."""
+    :class:`~pliant.interfaces.PlanningProblem` and ``rng`` a Generator; a problem with a scene and a robot gets
+    their collision checker (:class:`pliant.planning.validity.ValidityChecker`) when it has none, and a successful
+    result's path is re-checked (:func:`validated_result`)."""
     if getattr(method, WRAPPED, False):
         return method
 
@@ -84,12 +86,62 @@ def checked_plan(method):
                                 field="problem", value=type(problem).__name__)
         check_rng(rng)
         started = time.perf_counter()
-        result = method(self, problem, rng, *args, **kwargs)
+        if problem.checker is None and problem.scene is not None and problem.robot is not None:
+            import dataclasses
+
+            from pliant.planning.validity import ValidityChecker
+
+            problem = dataclasses.replace(problem, checker=ValidityChecker(problem.scene, problem.robot))
+        result = validated_result(problem, method(self, problem, rng, *args, **kwargs))
         _record_budget(self, result, args[0] if args else kwargs.get("termination"), time.perf_counter() - started)
         return result
 
     setattr(plan, WRAPPED, True)
     return plan
+
+
+def validated_result(problem, result):
+    """``result`` unchanged unless it reports success (solved or approximate) with a path the problem's validity
+    does not accept; then a copy with status ``invalid path``, no path and no policy, the reason in ``message``
+    and ``statistics["validity"]`` (DESIGN rule 11: "solved" means valid).  Every state is checked, and every
+    motion between consecutive states unless the result carries a policy (a policy's motions are its actions,
+    executed -- and simulated while planning -- with contact; its path lists their outcomes).  Results without a
+    path, or of a problem without a collision checker, pass unchanged."""
+    import dataclasses
+
+    from pliant.results import PlanResult, Status
+
+    if not isinstance(result, PlanResult) or not result.status.success or result.path is None:
+        return result
+    if problem.checker is None:
+        return result
+    configurations = result.path.configurations
+    if result.policy is not None:
+        if configurations.ndim != 2 or configurations.shape[1] != problem.space.dim:
+            return result               # a policy's path in another space (e.g. objects): the policy's own checks
+        ok = problem.is_valid(configurations)
+        if ok.all():
+            result.statistics.setdefault("validity", {"valid": True, "checked_states": len(configurations)})
+            return result
+        i = int(np.argmin(ok))
+        reason = (f"state {i} {np.round(configurations[i], 6).tolist()} is not valid: "
+                  f"{problem.checker.explain(configurations[i]) or 'infeasible'}")
+        verdict = {"valid": False, "index": i, "kind": "state", "reason": reason}
+    else:
+        found = problem.path_verdict(configurations)
+        if found.valid:
+            result.statistics.setdefault("validity", {"valid": True, "checked_states": found.checked_states})
+            return result
+        reason = found.reason
+        verdict = {"valid": False, "index": found.index, "kind": found.kind, "reason": reason,
+                   "checked_states": found.checked_states}
+    statistics = dict(result.statistics)
+    statistics["validity"] = verdict
+    statistics["reported_status"] = result.status.value
+    return dataclasses.replace(result, status=Status.INVALID_PATH, path=None, policy=None, cost=math.nan,
+                               statistics=statistics,
+                               message=f"the planner reported {result.status.value}, but its path is not valid: "
+                                       f"{reason}")
 
 
 def _record_budget(planner, result, termination, seconds: float) -> None:
@@ -110,9 +162,49 @@ def _record_budget(planner, result, termination, seconds: float) -> None:
     result.statistics["planning_time"] = seconds
 
 
+#: set on a simulator once its stepping state is known to be a free start (a checked ``reset``, or a checked first
+#: ``step`` from the state ``bind`` left)
+START_CHECKED = "_pliant_start_checked"
+
+#: at most this many offending indices are listed in the error of a batch
+LISTED_STARTS = 8
+
+
+def check_starts(simulator, starts: np.ndarray, *, field: str, single: bool = False) -> None:
+    """Refuse configurations ``starts`` ``(n, d)`` that put the robot inside a rigid obstacle.
+
+    The simulator measures (:meth:`~pliant.interfaces.Simulator.start_penetration`, m per configuration; ``None``:
+    it cannot tell, nothing is refused) and tolerates :attr:`~pliant.interfaces.Simulator.start_tolerance` (m, the
+    contact slop of its own states).  Deeper (or NaN) is a :class:`~pliant.errors.SimulationError` naming the field
+    (``field`` for one configuration, ``field[k]`` for the first offending one of a batch, with the others' indices
+    listed), the configuration and, where the simulator can say, the obstacle.  Nothing is simulated then.
+    """
+    if len(starts) == 0:
+        return
+    depth = simulator.start_penetration(starts)
+    if depth is None:
+        return
+    depth = np.asarray(depth, dtype=np.float64).reshape(-1)
+    tolerance = float(simulator.start_tolerance)
+    bad = np.nonzero(~(depth <= tolerance))[0]
+    if len(bad) == 0:
+        return
+    k = int(bad[0])
+    name = field if single else f"{field}[{k}]"
+    what = simulator.describe_obstacle(starts[k]) or "an obstacle"
+    amount = "at an unknown depth" if not math.isfinite(depth[k]) else f"{depth[k]:.4g} m"
+    message = (f"places the robot {amount} inside {what} (this simulator tolerates {tolerance:.4g} m of contact); "
+               "start it in free space")
+    if len(bad) > 1:
+        listed = ", ".join(str(int(i)) for i in bad[:LISTED_STARTS]) + (", ..." if len(bad) > LISTED_STARTS else "")
+        message += f"; {len(bad)} of the {len(starts)} {field} are inside: indices {listed}"
+    raise SimulationError(message, field=name, value=np.asarray(starts[k]).tolist())
+
+
 def checked_reset(method):
     """Wrap a simulator's ``reset(q)``: ``q`` must be a finite configuration inside the space's bounds (a robot placed
-    outside the workspace would jump back in one step)."""
+    outside the workspace would jump back in one step) that does not put the robot inside an obstacle
+    (:func:`check_starts`).  A refused reset changes nothing."""
     if getattr(method, WRAPPED, False):
         return method
 
@@ -123,15 +215,41 @@ def checked_reset(method):
             q = space.check(q, field="reset")
             if q.ndim != 1:
                 raise DimensionError("must be one configuration", field="reset", value=list(q.shape))
-        return method(self, q, *args, **kwargs)
+            check_starts(self, q[None], field="reset", single=True)
+        out = method(self, q, *args, **kwargs)
+        if space is not None:
+            self.__dict__[START_CHECKED] = True
+        return out
 
     setattr(reset, WRAPPED, True)
     return reset
 
 
+def checked_simulate(method):
+    """Wrap a simulator's ``simulate(starts, targets, rng, duration, record=False)``: ``starts`` must be finite
+    configurations of the space (``(n, d)`` or ``(d,)``), none of them inside an obstacle (:func:`check_starts`,
+    naming ``starts[k]``); a refused batch simulates no particle."""
+    if getattr(method, WRAPPED, False):
+        return method
+
+    @functools.wraps(method)
+    def simulate(self, starts, *args, **kwargs):
+        space = _space_of(self)
+        if space is not None:
+            from pliant.interfaces import check_batch
+
+            checked, single = check_batch(starts, space, "starts")
+            check_starts(self, checked, field="starts", single=single)
+        return method(self, starts, *args, **kwargs)
+
+    setattr(simulate, WRAPPED, True)
+    return simulate
+
+
 def checked_step(method):
     """Wrap a simulator's ``step(velocity, dt, rng)``: a finite velocity per tangent direction, a finite positive
-    ``dt`` (s)."""
+    ``dt`` (s).  The first step from a state no checked ``reset`` placed (the one ``bind`` left) checks that state
+    as a start (:func:`check_starts`, field ``step``)."""
     if getattr(method, WRAPPED, False):
         return method
 
@@ -144,6 +262,10 @@ def checked_step(method):
         space = _space_of(self)
         if space is not None:
             velocity = check_vector(velocity, space.tangent_dim, field="velocity")
+            if not self.__dict__.get(START_CHECKED, False):
+                current = np.asarray(self.configuration(), dtype=np.float64).reshape(1, -1)
+                check_starts(self, current, field="step", single=True)
+                self.__dict__[START_CHECKED] = True
         return method(self, velocity, dt, *args, **kwargs)
 
     setattr(step, WRAPPED, True)

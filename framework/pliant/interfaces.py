@@ -220,6 +220,16 @@ class RobotModel(Component):
         """
         return None
 
+    def collisions(self, q: np.ndarray) -> np.ndarray:
+        """Bool ``(n,)``: whether the robot's own collision model (its geometry, not its body points) collides at
+        configurations ``(n, d)`` with the scene's obstacles or with itself.
+
+        The core's validity checker (:mod:`pliant.planning.validity`) checks every robot's body points against the
+        scene's voxels, and calls this too when a robot overrides it (URDF robots: their collision meshes and
+        self-collision).  The default, never, is for robots whose body points are their whole geometry.
+        """
+        return np.zeros(len(np.atleast_2d(q)), dtype=bool)
+
     def urdf_description(self) -> UrdfDescription | None:
         """The URDF, joint order and fixed posture of an articulated robot; ``None`` (the default) otherwise.
 
@@ -413,6 +423,10 @@ class PlanningProblem:
     goal_tolerance: distance (in the space's metric) within which the goal counts as reached.
     validity: optional extra check ``(n, d) -> bool (n,)``; the cost's NaN also marks infeasible states.
     goal_region: optional ``(n, d) -> bool (n,)`` replacing the goal configuration (task-space goals).
+    checker: the scene's and robot's collision checker (:class:`pliant.planning.validity.ValidityChecker`);
+    :meth:`from_context` sets it whenever the context has a scene and a robot, so :meth:`is_valid`,
+    :meth:`motions_valid` and :meth:`path_verdict` check collisions with or without a cost model.  The core
+    re-checks every successful result's path with it (:func:`pliant.contracts.checked_plan`).
     """
 
     space: Space
@@ -426,27 +440,79 @@ class PlanningProblem:
     scene: Any = None
     validity: Callable[[np.ndarray], np.ndarray] | None = None
     goal_region: Callable[[np.ndarray], np.ndarray] | None = None
+    checker: Any = None
 
     @classmethod
     def from_context(cls, context: Context, start=None, goal=None) -> PlanningProblem:
-        """The scene's task (or the given start/goal) with the context's components."""
+        """The scene's task (or the given start/goal) with the context's components and the scene's and robot's
+        collision checker."""
+        from pliant.planning.validity import ValidityChecker
+
         scene = context.scene
         space = context.space
         start = scene.start if start is None else start
         goal = scene.goal if goal is None else goal
         return cls(space=space, start=np.asarray(start, dtype=np.float64), goal=np.asarray(goal, dtype=np.float64),
                    goal_tolerance=scene.goal_tolerance if scene is not None else 0.0, cost=context.cost,
-                   robot=context.robot, simulator=context.simulator, controller=context.controller, scene=scene)
+                   robot=context.robot, simulator=context.simulator, controller=context.controller, scene=scene,
+                   checker=ValidityChecker.from_context(context))
 
     def is_valid(self, q: np.ndarray) -> np.ndarray:
-        """Bool ``(n,)``: in the space's bounds, feasible for the cost, and passing ``validity``."""
+        """Bool ``(n,)``: in the space's bounds, collision-free (:attr:`checker`), feasible for the cost, and
+        passing ``validity``."""
         q = np.atleast_2d(q)
         ok = np.asarray(self.space.is_valid(q), dtype=bool)
+        if self.checker is not None and ok.any():
+            ok &= self.checker.states_valid(q)
         if self.cost is not None and ok.any():
             ok &= self.cost.is_valid(q)
         if self.validity is not None and ok.any():
             ok &= np.asarray(self.validity(q), dtype=bool)
         return ok
+
+    def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Bool ``(m,)``: every instant of each motion ``a[i] -> b[i]`` (the space's interpolation; ``(m, d)`` or
+        ``(d,)``, broadcast) is collision-free, at the resolution of the scene's voxels (conservative advancement,
+        :mod:`pliant.planning.validity`).  All true without a :attr:`checker`; the states at both ends are also
+        checked with :meth:`is_valid`'s other checks (cost, ``validity``)."""
+        a, b = np.broadcast_arrays(np.atleast_2d(np.asarray(a, dtype=np.float64)),
+                                   np.atleast_2d(np.asarray(b, dtype=np.float64)))
+        ok = self.is_valid(a) & self.is_valid(b)
+        if self.checker is not None and ok.any():
+            idx = np.nonzero(ok)[0]
+            ok[idx] = self.checker.motions_valid(a[idx], b[idx])
+        return ok
+
+    def motion_is_valid(self, a: np.ndarray, b: np.ndarray) -> bool:
+        """Whether the single motion ``a -> b`` (``(d,)`` each) is valid (:meth:`motions_valid`)."""
+        return bool(self.motions_valid(a, b)[0])
+
+    def path_verdict(self, configurations: np.ndarray):
+        """The :class:`pliant.planning.validity.Verdict` of a path ``(k, d)``: every state (bounds, collisions,
+        cost feasibility, ``validity``) and every motion between consecutive states (collisions at voxel
+        resolution)."""
+        from pliant.planning.validity import Verdict
+
+        path = np.atleast_2d(np.asarray(configurations, dtype=np.float64))
+        if path.ndim != 2 or path.shape[1] != self.space.dim or not np.all(np.isfinite(path)):
+            return Verdict(False, 0, "state", f"the path is not a sequence of finite {self.space.dim}-coordinate "
+                                              "configurations")
+        states = self.is_valid(path)
+        if not states.all():
+            i = int(np.argmin(states))
+            why = self.checker.explain(path[i]) if self.checker is not None else None
+            if why is None:
+                why = ("outside the space's bounds" if not self.space.is_valid(path[i])
+                       else "infeasible for the cost model or the problem's validity check")
+            return Verdict(False, i, "state", f"state {i} {np.round(path[i], 6).tolist()} is not valid: {why}",
+                           len(path))
+        if self.checker is None:
+            return Verdict(True, checked_states=len(path))
+        return self.checker.path_verdict(path)
+
+    def path_is_valid(self, configurations: np.ndarray) -> bool:
+        """Whether every state and every motion of the path ``(k, d)`` is valid (:meth:`path_verdict`)."""
+        return self.path_verdict(configurations).valid
 
     def checked_endpoints(self) -> tuple[np.ndarray, np.ndarray, Status | None]:
         """Start and goal as ``(d,)`` arrays, and ``invalid start`` / ``invalid goal`` if one is infeasible.

@@ -27,6 +27,7 @@ class Status(enum.Enum):
     INVALID_START = "invalid start"    #: the start is out of bounds or infeasible
     INVALID_GOAL = "invalid goal"      #: the goal is out of bounds or infeasible
     INFEASIBLE = "infeasible"          #: the planner proved (or its search exhausted) no solution
+    INVALID_PATH = "invalid path"      #: the planner's path failed the core's validity check (pliant.planning.validity)
 
     @property
     def success(self) -> bool:

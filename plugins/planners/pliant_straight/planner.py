@@ -1,7 +1,9 @@
 """The straight-line planner: the simplest complete baseline of every pipeline.
 
 It discretises the straight motion from start to goal in the space's metric and checks each
-configuration with the problem's validity (bounds, the cost model's feasibility, extra checks).
+configuration with the problem's validity (bounds, collisions, the cost model's feasibility, extra checks)
+and each motion between them with the core's collision checker at the resolution of the scene's voxels
+(:meth:`PlanningProblem.motions_valid`), so a straight line through a wall is ``infeasible``, never solved.
 The path cost is the discrete integral of the state cost along the motion (thesis Table 3.1's
 "integral of costs incurred at each state"): ``sum_k c(q_k) * |q_k - q_{k-1}|``.
 """
@@ -30,8 +32,8 @@ class StraightLinePlanner(Planner):
     """Plan the straight motion start -> goal if every step along it is valid.
 
     Statuses: ``invalid start`` / ``invalid goal`` when an endpoint fails validity, ``infeasible``
-    when an intermediate configuration does (the message gives the fraction travelled), else
-    ``solved``.
+    when an intermediate configuration or the motion between two does (the message gives the fraction
+    travelled), else ``solved``.
     """
 
     SPECS = PlannerSpecs()
@@ -54,6 +56,8 @@ class StraightLinePlanner(Planner):
                                                {"checked": 0, "time": time.perf_counter() - t0})
         configs = space.discretize(start, goal, self.options.step)
         valid = problem.is_valid(configs)
+        if valid.all():     # the motions between the checked states, at voxel resolution (index i: the motion's end)
+            valid = np.concatenate([[True], problem.motions_valid(configs[:-1], configs[1:])])
         if not valid.all():
             first = int(np.argmin(valid))
             return result(Status.INFEASIBLE, checked=len(configs),
@@ -76,8 +80,9 @@ class WaypointPlanner(Planner):
     """A given motion: start, the ``waypoints`` option, goal — checked for validity, not searched.
 
     For scripted motions: executing a known path through a simulator, or replaying a demonstration.
-    Statuses as :class:`StraightLinePlanner`, checking every waypoint (not the segments between them,
-    which a simulator may resolve through contact).
+    Statuses as :class:`StraightLinePlanner`, checking every waypoint and every straight motion between
+    consecutive ones (:meth:`PlanningProblem.motions_valid`): a scripted motion may touch an obstacle and slide
+    along it, not pass through it.
     """
 
     SPECS = PlannerSpecs()
@@ -99,6 +104,11 @@ class WaypointPlanner(Planner):
         if not valid.all():
             return PlanResult(Status.INFEASIBLE, planner="waypoints", statistics=stats,
                               message=f"waypoint {int(np.argmin(valid))} is not valid")
+        motions = problem.motions_valid(configs[:-1], configs[1:])
+        if not motions.all():
+            i = int(np.argmin(motions))
+            return PlanResult(Status.INFEASIBLE, planner="waypoints", statistics=stats,
+                              message=f"the motion from waypoint {i} to waypoint {i + 1} collides")
         cost = float(np.sum(problem.cost.cost(configs))) if problem.cost is not None else 0.0
         return PlanResult(Status.SOLVED, path=Path(configs, space_kind=space.kind), cost=cost, planner="waypoints",
                           statistics=stats)
