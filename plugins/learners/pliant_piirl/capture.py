@@ -58,7 +58,8 @@ class CaptureSession:
         if self.robot.rigid_placement(task.start[None]) is None:
             raise ConfigError("the capture tool drives a rigid probe", field="robot", value=features.scene.robot.kind)
         if not self._allowed(task.start):
-            raise ConfigError("the task's start leaves its collision planes or is infeasible", field="task.start",
+            raise ConfigError("the task's start leaves the workspace or its collision planes, or is infeasible",
+                              field="task.start",
                               value=task.start.tolist())
         self.path = [task.start.copy()]
         self.refused = 0
@@ -123,6 +124,8 @@ class CaptureSession:
         return q
 
     def _allowed(self, q: np.ndarray) -> bool:
+        if not bool(np.asarray(self.features.space.is_valid(q[None])).reshape(-1)[0]):
+            return False                                      # out of the workspace: no step leaves it
         points = self.robot.body_points(q[None])[0]
         return bool(self.task.allows(points).all()) and bool(np.all(np.isfinite(self.features.cost.breakdown(q[None]))))
 

@@ -18,7 +18,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import PliantError
+from pliant.errors import ConfigError, PliantError
 
 from pliant_piirl.capture import KEYS, CaptureSession
 from pliant_piirl.demonstration import load_demonstrations, save_demonstrations
@@ -158,7 +158,8 @@ class CaptureServer:
         if self.output.exists():
             scene, existing = load_demonstrations(self.output)
             if scene != self.scene_name:
-                raise ValueError(f"{self.output} holds demonstrations of scene {scene!r}, not {self.scene_name!r}")
+                raise ConfigError(f"holds demonstrations of scene {scene!r}, not {self.scene_name!r}",
+                                  field="--output", value=str(self.output))
         save_demonstrations(self.output, [*existing, demonstration], self.scene_name)
         self.saved = self.output
         return self.output

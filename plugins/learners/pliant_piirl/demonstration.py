@@ -121,6 +121,85 @@ class Demonstration:
         return cls(task, path, who)
 
 
+def check_demonstrations(demonstrations, scene, space, *, source: str | None = None,
+                         field_name: str = "demonstrations") -> list[Demonstration]:
+    """``demonstrations`` checked against the scene they are to be learned in, before any array is built from them:
+    a non-empty list of :class:`Demonstration` whose paths are ``(k, d)`` with ``2 <= k <=`` :data:`MAX_WAYPOINTS`
+    and ``d`` the ``space``'s dimension, finite, and inside the space (its bounds: the workspace of a rigid robot,
+    the joint limits of a URDF robot; unit quaternions); the task's start and goal likewise, its target and edge
+    point (m) inside the scene's bounds, its planes finite and its objects the scene's.  A
+    :class:`~pliant.errors.ConfigError` names the demonstration, the waypoint or field, and the bounds.  (A waypoint
+    1e6 m away would otherwise make the sampler allocate hundreds of GiB.)"""
+    if isinstance(demonstrations, (str, bytes)) or not isinstance(demonstrations, (list, tuple)) or \
+            not demonstrations:
+        raise ConfigError("must be a non-empty list of demonstrations", source=source, field=field_name,
+                          value=type(demonstrations).__name__)
+    if len(demonstrations) > MAX_DEMONSTRATIONS:
+        raise ConfigError(f"more than {MAX_DEMONSTRATIONS} demonstrations", source=source, field=field_name,
+                          value=len(demonstrations))
+    names = [o.name for o in scene.objects]
+    lower, upper = np.asarray(scene.lower, dtype=np.float64), np.asarray(scene.upper, dtype=np.float64)
+    space_lower, space_upper = getattr(space, "lower", None), getattr(space, "upper", None)
+    rigid = space.kind in ("se2", "se3")
+    bounds = (f"{np.round(space_lower, 6).tolist()} .. {np.round(space_upper, 6).tolist()}" + (" m" if rigid else "")
+              if space_lower is not None and space_upper is not None else "")
+    where_bounds = "the workspace bounds" if rigid else f"the {space.kind} space's bounds"
+
+    def configurations(value, what: str, at_least: int) -> np.ndarray:
+        try:
+            q = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ConfigError("must be numbers", source=source, field=what, value=repr(value)[:80]) from None
+        if q.ndim == 1 and at_least == 1:
+            q = q[None]
+        if q.ndim != 2 or q.shape[1] != space.dim:
+            raise ConfigError(f"must have {space.dim} coordinates per configuration (a {space.kind} space)",
+                              source=source, field=what, value=list(np.shape(value)))
+        if len(q) < at_least or len(q) > MAX_WAYPOINTS:
+            raise ConfigError(f"needs {at_least} to {MAX_WAYPOINTS} configurations", source=source, field=what,
+                              value=len(q))
+        finite = np.all(np.isfinite(q), axis=1)
+        valid = np.zeros(len(q), dtype=bool)
+        valid[finite] = np.asarray(space.is_valid(q[finite]), dtype=bool).reshape(-1)
+        if not valid.all():
+            j = int(np.argmin(valid))
+            at = f"{what}[{j}]" if at_least > 1 else what
+            reason = space.explain_invalid(q[j:j + 1]) if finite[j] else "is not finite"
+            why = f"lies outside {where_bounds} {bounds}" if "bounds" in (reason or "bounds") else reason
+            raise ConfigError(f"{'waypoint ' + str(j) + ' ' if at_least > 1 else ''}{why}", source=source,
+                              field=at, value=q[j].tolist())
+        return q
+
+    def point(value, what: str) -> None:
+        p = np.asarray(value, dtype=np.float64).reshape(-1)
+        if p.shape != (3,) or not np.all(np.isfinite(p)) or np.any(p < lower - 1e-9) or np.any(p > upper + 1e-9):
+            raise ConfigError(f"must be a point (m) inside the scene's bounds {lower.tolist()} .. {upper.tolist()}",
+                              source=source, field=what, value=p.tolist())
+
+    for i, demonstration in enumerate(demonstrations):
+        at = f"{field_name}[{i}]"
+        if not isinstance(demonstration, Demonstration):
+            raise ConfigError("must be a Demonstration", source=source, field=at, value=type(demonstration).__name__)
+        task = demonstration.task
+        configurations(demonstration.path, f"{at}.path", 2)
+        configurations(task.start, f"{at}.task.start", 1)
+        if task.goal is not None:
+            configurations(task.goal, f"{at}.task.goal", 1)
+        point(task.target, f"{at}.task.target")
+        if task.edge is not None:
+            point(task.edge, f"{at}.task.edge")
+        planes = np.asarray(task.planes, dtype=np.float64)
+        if planes.ndim != 2 or planes.shape[1] != 4 or not np.all(np.isfinite(planes)):
+            raise ConfigError("must be rows (nx, ny, nz, offset) of finite numbers", source=source,
+                              field=f"{at}.task.planes", value=list(planes.shape))
+        for m, name in enumerate(task.objects):
+            if name not in names:
+                raise ConfigError(f"names an object the scene {scene.name!r} lacks (its objects: "
+                                  f"{', '.join(names) or 'none'})", source=source, field=f"{at}.task.objects[{m}]",
+                                  value=name)
+    return list(demonstrations)
+
+
 def save_demonstrations(path: str | Path, demonstrations: list[Demonstration], scene: str) -> Path:
     """Write ``demonstrations`` (atomically) as a demonstrations file of ``scene``."""
     return write_json(path, {"format": FORMAT, "version": VERSION, "scene": scene,

@@ -25,7 +25,7 @@ from pliant.errors import ConfigError
 from pliant.interfaces import Learner
 from pliant.options import option
 
-from pliant_piirl.demonstration import Demonstration, load_demonstrations
+from pliant_piirl.demonstration import Demonstration, check_demonstrations, load_demonstrations
 from pliant_piirl.expert import ExpertOptions, SimulatedExpert, funnel_frame
 from pliant_piirl.piirl import RecoveryOptions, recover
 from pliant_piirl.sampling import PathSampler, SampleOptions
@@ -39,7 +39,14 @@ def _merged(name: str, doc: str, *parts: type, extra: list | None = None) -> typ
             if f.name not in seen:
                 seen.add(f.name)
                 fields.append((f.name, f.type, dataclasses.field(default=f.default, metadata=f.metadata)))
-    cls = dataclasses.make_dataclass(name, (extra or []) + fields, frozen=True)
+    def validate(self) -> None:
+        # the parts' cross-field checks (e.g. RecoveryOptions: lower <= initial <= upper), on the merged options
+        for part in parts:
+            check = getattr(part, "validate", None)
+            if check is not None:
+                check(_part(self, part))
+
+    cls = dataclasses.make_dataclass(name, (extra or []) + fields, frozen=True, namespace={"validate": validate})
     cls.__doc__ = doc
     cls.__module__ = __name__
     return cls
@@ -117,17 +124,22 @@ class PiirlLearner(Learner):
                 "features": {"names": names, "demonstrations": np.array(demo_features).tolist()}}
 
     def _demonstrations(self, data) -> list[Demonstration]:
+        """The demonstrations to learn from (a list, or a file), checked against the scene and the robot's space
+        (:func:`~pliant_piirl.demonstration.check_demonstrations`) before anything is computed from them."""
+        source, field_name = None, "learner.data"
         if data is None and self.options.demonstrations is not None:
-            data = self.options.demonstrations
+            data, field_name = self.options.demonstrations, "learner.demonstrations"
         if isinstance(data, (str, bytes)) or hasattr(data, "__fspath__"):
+            source, field_name = str(data), "demonstrations"
             scene, data = load_demonstrations(data, dim=len(self.scene.start))
             if scene != self.scene.name:
                 raise ConfigError(f"the demonstrations were shown in scene {scene!r}, not {self.scene.name!r}",
-                                  field="scene", value=scene)
+                                  source=source, field="scene", value=scene)
         if not isinstance(data, (list, tuple)) or not data or not all(isinstance(d, Demonstration) for d in data):
             raise ConfigError("must be a non-empty list of demonstrations or a demonstrations file",
-                              field="learner.data", value=type(data).__name__)
-        return list(data)
+                              source=source, field=field_name, value=type(data).__name__)
+        return check_demonstrations(data, self.scene, self.require("robot").space, source=source,
+                                    field_name=field_name)
 
 
 def example_demonstrations(pairs=(("L1", "M1"), ("M1", "H1")), seed: int = 0) -> list[Demonstration]:

@@ -98,6 +98,15 @@ class RecoveryOptions:
     restarts: int | None = option(None, "extra L-BFGS-B runs from the best screened points (None: 2 for ratio, 4 for "
                                   "likelihood and ranking)", minimum=0)
 
+    def validate(self) -> None:
+        """``lower <= initial <= upper``, checked when the options are built (before any sample is drawn)."""
+        if self.lower > self.upper:
+            raise ConfigError(f"lower ({self.lower:g}) is above upper ({self.upper:g}): the sensitivities' box is "
+                              "empty", field="lower", value=self.lower)
+        if not self.lower <= self.initial <= self.upper:
+            raise ConfigError(f"initial must lie within lower .. upper ({self.lower:g} .. {self.upper:g}); set it "
+                              "with the bounds", field="initial", value=self.initial)
+
 
 def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: RecoveryOptions | None = None) -> dict:
     """Recover the sensitivities.  ``demonstrations`` ``(K, n)``; ``samples[k]`` ``(L_k, n)``.  Returns

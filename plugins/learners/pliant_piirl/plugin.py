@@ -132,9 +132,17 @@ def _import_command(args) -> int:
     from pathlib import Path
 
     import numpy as np
+    import pliant
     from pliant.errors import ConfigError
+    from pliant.interfaces import Context
+    from pliant.pipeline import DEFAULT_ROBOT
 
-    from pliant_piirl.demonstration import DemonstrationTask, load_demonstrations, save_demonstrations
+    from pliant_piirl.demonstration import (
+        DemonstrationTask,
+        check_demonstrations,
+        load_demonstrations,
+        save_demonstrations,
+    )
     from pliant_piirl.rosbag import import_demonstration
 
     planes = np.array(args.plane, dtype=np.float64).reshape(-1, 4)
@@ -147,8 +155,14 @@ def _import_command(args) -> int:
         if scene != args.scene:
             raise ConfigError(f"holds demonstrations of scene {scene!r}, not {args.scene!r}", field="--output",
                               value=str(output))
+    scene_model = pliant.load_scene(args.scene)
+    context = Context(scene=scene_model)
+    context.robot = pliant.registry.create("robot", DEFAULT_ROBOT[scene_model.robot.kind], context)
     demonstration = import_demonstration(args.bag, args.topic, args.target, planes=planes, joints=args.joints,
                                          min_step=args.min_step)
+    # the recording against the scene's workspace (and the robot's dimension) before anything is written
+    check_demonstrations([demonstration], scene_model, context.space, source=f"{args.bag}:{args.topic}",
+                         field_name="recording")
     save_demonstrations(output, [*existing, demonstration], args.scene)
     print(f"{output}: {len(existing) + 1} demonstration(s); added {len(demonstration.path)} configurations from "
           f"{args.bag} {args.topic}")
@@ -199,6 +213,14 @@ def _capture_command(args) -> int:
         _, demonstrations = load_demonstrations(args.task, dim=len(scene.start))
         if not demonstrations:
             raise ConfigError("holds no task", field="--task", value=args.task)
+        from pliant.interfaces import Context
+        from pliant.pipeline import DEFAULT_ROBOT
+
+        from pliant_piirl.demonstration import check_demonstrations
+
+        context = Context(scene=scene)
+        context.robot = pliant.registry.create("robot", DEFAULT_ROBOT[scene.robot.kind], context)
+        check_demonstrations(demonstrations[:1], scene, context.space, source=args.task)
         task = demonstrations[0].task
     else:
         task = TaskSpace(scene).generate_task(*args.pair, np.random.default_rng(args.seed), tip, rotation_onto)
