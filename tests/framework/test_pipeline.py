@@ -85,3 +85,52 @@ def test_bundled_pipelines_build():
 
     for name in available_pipelines():
         assert Pipeline.from_file(name).build().scene is not None
+
+
+def test_every_outcome_has_its_documented_exit_status():
+    from pliant import Outcome
+
+    assert {o.value: o.exit_status for o in Outcome} == {
+        "planned": 0, "reached": 0, "not planned": 1, "stuck": 3, "failed": 3, "error": 2, "interrupted": 130}
+    assert [o.value for o in Outcome if o.success] == ["planned", "reached"]
+    assert Outcome.STUCK == "stuck"                      # a str enum: compares and serialises by value
+
+
+def test_a_run_without_execution_is_planned_and_writes_its_manifest(tmp_path):
+    from pliant import Outcome
+    from pliant.pipeline import MANIFEST
+
+    record = Pipeline("triple-wall", planner={"name": "straight", "step": 0.01}, cost="voxel",
+                      output=tmp_path).run()
+    assert record.outcome is Outcome.PLANNED and record.exit_status == 0 and record.error == ""
+    listed = json.loads((tmp_path / MANIFEST).read_text())["files"]
+    assert listed == ["path.png", "report.md", "result.json", "run.json"]
+    assert json.loads((tmp_path / "run.json").read_text())["outcome"] == "planned"
+    assert "**Outcome: planned** (exit status 0)" in (tmp_path / "report.md").read_text()
+
+
+def test_clearing_a_folder_removes_only_files_the_earlier_run_wrote(tmp_path):
+    from pliant.pipeline import MANIFEST
+
+    outside = tmp_path / "outside.txt"
+    outside.write_text("not the run's")
+    out = tmp_path / "run"
+    (out / "figs").mkdir(parents=True)
+    (out / "keep").mkdir()
+    for name in ("report.md", "figs/a.png", "user.csv"):
+        (out / name).write_text("x")
+    (out / "link.png").symlink_to(outside)
+    # a manifest that names files outside the folder, a directory, a link out, a missing file and a non-string
+    (out / MANIFEST).write_text(json.dumps({"files": ["report.md", "figs/a.png", "../outside.txt", str(outside),
+                                                      "keep", "link.png", "gone.json", 7]}))
+    removed = Pipeline("triple-wall", planner="straight", output=out).clear_previous_run(out)
+    assert sorted(p.relative_to(out).as_posix() for p in removed) == ["figs/a.png", "report.md"]
+    assert outside.read_text() == "not the run's" and (out / "keep").is_dir() and (out / "user.csv").is_file()
+    assert (out / "link.png").is_symlink() and not (out / MANIFEST).exists()
+
+
+def test_a_folder_pliant_never_wrote_is_left_alone(tmp_path):
+    (tmp_path / "report.md").write_text("the user's own notes")
+    (tmp_path / "result.json").write_text("{}")
+    assert Pipeline("triple-wall", planner="straight", output=tmp_path).clear_previous_run(tmp_path) == []
+    assert (tmp_path / "result.json").read_text() == "{}"
