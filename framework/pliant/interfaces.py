@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pliant.contracts import checked_command, checked_plan, checked_reset, checked_step
+from pliant.contracts import checked_command, checked_plan, checked_reset, checked_simulate, checked_step
 from pliant.errors import DimensionError, DriverError, JointMismatch, LimitViolation, PlanningError, SimulationError
 from pliant.hardware.limits import JointLimits
 from pliant.hardware.state import JointState, RobotStatus
@@ -319,12 +319,35 @@ class Simulator(Component):
     kind = "simulator"
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
-        # the core checks reset's configuration and step's velocity, dt and rng before the plugin's code runs
+        # the core checks reset's configuration, simulate's starts and step's velocity, dt and rng (and the state a
+        # first step starts from) before the plugin's code runs; starts inside an obstacle are refused
         super().__init_subclass__(**kwargs)
         if "reset" in cls.__dict__:
             cls.reset = checked_reset(cls.__dict__["reset"])
+        if "simulate" in cls.__dict__:
+            cls.simulate = checked_simulate(cls.__dict__["simulate"])
         if "step" in cls.__dict__:
             cls.step = checked_step(cls.__dict__["step"])
+
+    #: penetration (m) of a start that still counts as contact, not as inside (:meth:`start_penetration`)
+    start_tolerance: float = 0.0
+
+    def start_penetration(self, configurations: np.ndarray) -> np.ndarray | None:
+        """How deep (m) the robot would start inside a rigid obstacle at each configuration ``(n, d)``: ``(n,)``,
+        0 where it is free.  The core refuses every start deeper than :attr:`start_tolerance` -- in ``reset``,
+        in ``simulate`` (naming ``starts[k]``) and in a first ``step`` from the state ``bind`` left -- before the
+        plugin's code runs (:func:`pliant.contracts.check_starts`), so that no entry point lets a robot placed
+        inside a wall pass through it.  Each simulator measures with its own geometry; it must not change its
+        state doing so.
+
+        The default ``None`` means the simulator cannot tell (nothing is refused).
+        """
+        return None
+
+    def describe_obstacle(self, q: np.ndarray) -> str:
+        """Words naming what the robot at configuration ``(d,)`` is inside (e.g. ``"object 'wall-3'"``), for the
+        error of a refused start; ``""`` (the default) says "an obstacle"."""
+        return ""
 
     @abstractmethod
     def simulate(self, starts: np.ndarray, targets: np.ndarray, rng: np.random.Generator,

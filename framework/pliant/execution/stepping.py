@@ -2,9 +2,10 @@
 
 A backend implements ``reset``, ``step`` (one control period under a velocity command) and
 ``configuration``; :class:`SteppedSimulator` supplies the actuator model (velocity limits and noise,
-:mod:`pliant.execution.actuation`, :mod:`pliant.execution.noise`) and ``simulate``, which runs the particles one
+:mod:`pliant.execution.actuation`, :mod:`pliant.execution.noise`), ``simulate``, which runs the particles one
 after the other with the kinematic simulator's P law (thesis eq. 8.1-8.2), so that backends agree on what a
-command means and can be swapped by name.
+command means and can be swapped by name, and the start check (:meth:`SteppedSimulator.setup_start_check`: the core
+refuses every start inside an obstacle, :func:`pliant.contracts.check_starts`).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import numpy as np
 from pliant.errors import DimensionError
 from pliant.execution.actuation import actuator_limits, angular_mask, limit_velocity
 from pliant.execution.noise import NOISE_MODELS, ActuationNoise
+from pliant.execution.starts import VoxelStartCheck
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
 from pliant.options import option
 from pliant.termination import checkpoint
@@ -41,6 +43,9 @@ class SteppedOptions:
                                            "tolerance, else one voxel")
     stuck_fraction: float = option(0.05, "stuck when a control step moves less than this fraction of what it "
                                    "commanded", minimum=0.0, maximum=1.0)
+    start_tolerance: float = option(0.25, "deepest a start's surface points may lie inside an obstacle, in voxels "
+                                    "(contact and the solver's slop); a deeper start is refused by reset, simulate "
+                                    "and step", minimum=0.0, maximum=0.5)
 
 
 class SteppedSimulator(Simulator):
@@ -63,6 +68,23 @@ class SteppedSimulator(Simulator):
         self.substeps = max(1, round(o.physics_rate / o.frequency))
         self.reach = o.reach_tolerance if o.reach_tolerance is not None else (
             scene.goal_tolerance if scene.goal_tolerance > 0 else scene.resolution)
+
+    def setup_start_check(self, grid, *, outside_solid: bool) -> None:
+        """Measure starts against ``grid``'s occupied voxels (the obstacles the backend builds its walls from) with
+        the robot model's surface points (:class:`pliant.execution.starts.VoxelStartCheck`); ``outside_solid``: the
+        backend closes the scene's bounds with walls.  Call before the first ``reset``."""
+        self.starts = VoxelStartCheck(grid, self.robot, outside_solid=outside_solid)
+        self.start_tolerance = self.options.start_tolerance * grid.resolution
+
+    def start_penetration(self, configurations):
+        """Depth (m) of the robot's deepest surface point inside the obstacles at each configuration ``(n, d)`` (see
+        :meth:`setup_start_check`); ``None`` (nothing refused) for a backend that did not set the check up."""
+        starts = getattr(self, "starts", None)
+        return None if starts is None else starts.penetration(configurations)
+
+    def describe_obstacle(self, q) -> str:
+        starts = getattr(self, "starts", None)
+        return "" if starts is None else starts.describe(q)
 
     def limit(self, velocity: np.ndarray) -> np.ndarray:
         """Velocities ``(n, t)`` scaled into the actuators' limits, keeping their direction."""

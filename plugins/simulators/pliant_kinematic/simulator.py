@@ -27,9 +27,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import DimensionError, SimulationError
+from pliant.errors import DimensionError
 from pliant.execution.actuation import ControlLaw, actuator_limits, angular_mask, limit_velocity
 from pliant.execution.noise import NOISE_MODELS, ActuationNoise
+from pliant.execution.starts import VoxelStartCheck
 from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import SimulationBatch, Simulator, check_batch
 from pliant.options import option
@@ -88,6 +89,9 @@ class KinematicOptions:
                                   "momentum model); robots without links ignore it")
     damping: float = option(1e-6, "Levenberg-Marquardt damping of eq. 8.5, relative to the mean diagonal of "
                             "J^T J (keeps redundant robots from moving in their null space)", minimum=0.0)
+    start_tolerance: float = option(0.25, "deepest a start's surface points may lie inside an obstacle (or outside "
+                                    "the grid), in voxels: contact, which the first step resolves; a deeper start is "
+                                    "refused by reset, simulate and step", minimum=0.0, maximum=0.5)
 
 
 class KinematicSimulator(Simulator):
@@ -142,6 +146,8 @@ class KinematicSimulator(Simulator):
             scene.goal_tolerance if scene.goal_tolerance > 0 else scene.resolution)
         self._q = np.array(scene.start, dtype=np.float64)[None]
         self._contact = False
+        self.starts = VoxelStartCheck(self.grid, self.robot, outside_solid=True)
+        self.start_tolerance = o.start_tolerance * self.grid.resolution
 
     def _effort_metric(self, placement):
         """Groups of the tangent coordinates and their weights for the effort solver (:mod:`.rigid_kernel`).
@@ -223,17 +229,22 @@ class KinematicSimulator(Simulator):
                                trajectories=np.stack(trajectory, axis=1) if record else None, steps=total_micro)
 
     def reset(self, q):
-        """Place the robot at ``q`` ``(d,)`` at rest.  A configuration whose surface points lie inside an obstacle
-        (or outside the grid) is a :class:`~pliant.errors.SimulationError`: collision resolution only ever pushes
-        a robot back out along its motion, so one placed inside a wall would report no contact and pass through."""
-        q = check_batch(q, self.space, "configuration")[0][:1].copy()
-        inside = self.contact.colliding(self.robot.body_points(q, self.surface))[0]
-        if inside.any():
-            raise SimulationError(f"places the robot inside an obstacle or outside the grid ({int(inside.sum())} of "
-                                  f"its {inside.size} surface points); start it in free space", field="reset",
-                                  value=q[0].tolist())
-        self._q = q
+        """Place the robot at ``q`` ``(d,)`` at rest.  The core refuses a configuration whose surface points lie
+        deeper than ``start_tolerance`` inside an obstacle or outside the grid (:meth:`start_penetration`) before
+        this runs: collision resolution only ever pushes a robot back out along its motion, so one placed inside a
+        wall would report no contact and pass through."""
+        self._q = check_batch(q, self.space, "configuration")[0][:1].copy()
         self._contact = False
+
+    def start_penetration(self, configurations):
+        """How deep (m) the deepest surface point of the robot at each configuration ``(n, d)`` lies inside an
+        occupied voxel or outside the grid (which the simulator treats as solid): its distance to the nearest free
+        voxel (:class:`pliant.execution.starts.VoxelStartCheck`).  Every occupied voxel counts, deformable material
+        and movable objects included: this simulator holds every object fixed and rigid."""
+        return self.starts.penetration(configurations)
+
+    def describe_obstacle(self, q):
+        return self.starts.describe(q)
 
     def configuration(self):
         return self._q[0].copy()

@@ -82,6 +82,9 @@ class PybulletSimulator(SteppedSimulator):
 
         self.objects = MovableObjects(self.pb, scene, o.friction, o.object_damping)
         self._contact = False
+        # starts are measured against every object's voxels: the static walls are built from them, and every reset
+        # puts the movable objects back at their scene poses; no walls close the bounds here
+        self.setup_start_check(VoxelGrid.from_scene(scene), outside_solid=False)
         self.reset(scene.start)
 
     def _articulated(self, scene):
@@ -101,23 +104,25 @@ class PybulletSimulator(SteppedSimulator):
         return self.body.configuration()
 
     def reset(self, q):
-        """Place the robot at ``q`` ``(d,)`` at rest, and every movable object back at its scene pose."""
+        """Place the robot at ``q`` ``(d,)`` at rest, and every movable object back at its scene pose.  The core
+        refuses, before this runs, a start deeper than ``start_tolerance`` voxels inside an object
+        (:meth:`start_penetration`)."""
         q = check_batch(q, self.space, "configuration")[0][0]
         self.objects.reset()
         self.body.reset(q)
-        depth = self._penetration()
-        if depth > 0.25 * self.context.scene.resolution:
-            raise SimulationError(f"places the robot {depth:.4g} m inside an obstacle; start it in free space",
-                                  field="reset", value=q.tolist())
         self._contact = False
 
-    def _penetration(self) -> float:
-        """The deepest overlap (m) of the robot with another body right after a reset, 0 if none (self-contacts
-        count only with ``self_collision``)."""
-        self.pb.performCollisionDetection()
-        depths = [-c[8] for c in self.pb.getContactPoints(bodyA=self.body.body)
-                  if c[2] != self.body.body or self.options.self_collision]
-        return max(depths, default=0.0)
+    def start_penetration(self, configurations):
+        """Depth (m) of the robot's deepest surface point inside an object (static or movable, at its scene pose) at
+        each configuration ``(n, d)``; with ``self_collision``, also the deepest contact between the robot's own
+        links (the robot model's :meth:`~pliant.interfaces.RobotModel.self_contacts`)."""
+        depth = super().start_penetration(configurations)
+        if self.options.self_collision:
+            for k, q in enumerate(np.atleast_2d(configurations)):
+                contacts = self.robot.self_contacts(q)
+                if contacts is not None and len(contacts):
+                    depth[k] = max(depth[k], float(np.max(contacts.depth)))
+        return depth
 
     def contact_points(self) -> np.ndarray:
         """Contacts of the robot after the last physics step, ``(k, 7)``: point on the robot (m), unit normal

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from pliant.errors import SimulationError
 from pliant.execution.stepping import SteppedOptions, SteppedSimulator
+from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import check_batch
 from pliant.options import option
 
@@ -70,6 +71,9 @@ class PymunkSimulator(SteppedSimulator):
         self._object_parts: list[tuple] = []
         self._robot_objects = ()
         self._contact = False
+        # starts are measured against the static walls' voxels and the walls closing the bounds (the movable objects
+        # are bodies the robot pushes; a reset puts them back at their scene poses, where the next placement moves them)
+        self.setup_start_check(VoxelGrid.from_scene(scene, static_only=True), outside_solid=True)
         self.reset(scene.start)
 
     def _add_robot(self, q) -> None:
@@ -107,30 +111,14 @@ class PymunkSimulator(SteppedSimulator):
                               for spec in self.objects]
 
     def reset(self, q):
-        """Place the robot at ``q`` ``(d,)`` at rest and the movable objects at their scene poses.  A robot placed
-        more than a quarter voxel into a wall is a :class:`~pliant.errors.SimulationError` (the solver would push
-        it out at an arbitrary side, or let it pass through)."""
+        """Place the robot at ``q`` ``(d,)`` at rest and the movable objects at their scene poses.  The core refuses,
+        before this runs, a robot whose surface points lie more than ``start_tolerance`` voxels inside a static
+        wall or outside the scene's bounds (:meth:`setup_start_check`): the solver would push it out at an arbitrary
+        side, or let it pass through."""
         q = check_batch(q, self.space, "configuration")[0][0]
         self._add_objects()
         self._add_robot(q)
-        depth = self._wall_penetration()
-        if depth > 0.25 * self.context.scene.resolution:
-            raise SimulationError(f"places the robot {depth:.4g} m inside a wall; start it in free space",
-                                  field="reset", value=q.tolist())
         self._contact = False
-
-    def _wall_penetration(self) -> float:
-        """The deepest overlap (m) of the robot's shapes with the static walls, 0 if none."""
-        deepest = 0.0
-        for shape in self._robot_objects:
-            if not isinstance(shape, self.pymunk.Shape):
-                continue
-            for info in self.world.shape_query(shape):
-                if info.shape is None or info.shape.body.body_type != self.pymunk.Body.STATIC:
-                    continue
-                for point in info.contact_point_set.points:
-                    deepest = max(deepest, -point.distance)
-        return deepest
 
     def object_poses(self) -> dict[str, np.ndarray]:
         """The movable objects' current poses ``(x, y, theta)`` (m, rad; theta in [-pi, pi)), by name."""

@@ -41,6 +41,8 @@ def test_simulation_is_bit_identical_without_the_broad_phase(scene):
     fast = _simulator(scene)
     slow = _simulator(scene)
     _without_broad_phase(slow)
+    starts = starts[fast.start_penetration(starts) <= fast.start_tolerance]     # the simulators refuse the rest
+    assert len(starts) >= 12
     a = fast.simulate(starts, np.asarray(goal), np.random.default_rng(11), 2.0, record=True)
     b = slow.simulate(starts, np.asarray(goal), np.random.default_rng(11), 2.0, record=True)
     assert a.in_contact.any()                                   # the batch does meet the walls
