@@ -404,7 +404,7 @@ class Pipeline:
                                "is kept, nothing was executed"
                 return
             metric = context.extras.get("metric")
-            if metric is not None and result.path is not None:
+            if metric is not None and result.path is not None and result.solved:   # a refused path is not scored
                 record.stage = "metric"
                 t0 = time.perf_counter()
                 record.metrics = dict(metric.evaluate(result.path, problem, rng))
