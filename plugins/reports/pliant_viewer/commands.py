@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import errno
+import ipaddress
 import json
+import math
+import os
+import re
+import socket
 import sys
 import time
 from pathlib import Path
@@ -10,14 +16,16 @@ from pathlib import Path
 from pliant.errors import ConfigError
 
 LOOPBACK = "127.0.0.1"
+#: the most poses of the timeline an export records (each adds the robot's pose updates to the page)
+MAX_FRAMES = 10_000
 
 
 def _address_arguments(p, prefix: str = "") -> None:
     p.add_argument(f"--{prefix}host", default=LOOPBACK,
                    help="address to serve the page on (default 127.0.0.1, loopback only; 0.0.0.0 exposes it)")
-    p.add_argument(f"--{prefix}port", type=int, default=0, help="port (default: a free one)")
+    p.add_argument(f"--{prefix}port", type=int, default=0, help="port, 1-65535 (default: a free one)")
     p.add_argument(f"--{prefix}hold", type=float, default=None, metavar="SECONDS",
-                   help="keep serving this long, then exit (default: until Ctrl-C)")
+                   help="keep serving this long (>= 0), then exit (default: until Ctrl-C)")
     p.add_argument(f"--{prefix}robot-meshes", choices=("collision", "visual"), default="collision",
                    help="a URDF robot's meshes: collision (light, the default) or visual (detailed, slow to draw)")
 
@@ -34,7 +42,8 @@ def add_commands(subparsers) -> None:
     _address_arguments(p)
     p.add_argument("--export", metavar="FILE.html",
                    help="write a self-contained HTML page of the view (plays the timeline back) and exit")
-    p.add_argument("--frames", type=int, default=60, help="poses of the timeline in an export (default 60)")
+    p.add_argument("--frames", type=int, default=60,
+                   help=f"poses of the timeline in an export, 2-{MAX_FRAMES} (default 60)")
     p.add_argument("--open", action="store_true", help="open the page in the default browser")
     p.add_argument("--no-cache", action="store_true",
                    help="neither read nor write the run folder's view-cache.npz (kept for articulated robots) nor "
@@ -47,9 +56,11 @@ def add_commands(subparsers) -> None:
         group.add_argument("--view", action="store_true",
                            help="stream the execution into a 3-D page as it happens (prints its address)")
         group.add_argument("--view-host", default=LOOPBACK, help="address of the live page (default 127.0.0.1)")
-        group.add_argument("--view-port", type=int, default=0, help="port of the live page (default: a free one)")
+        group.add_argument("--view-port", type=int, default=0,
+                           help="port of the live page, 1-65535 (default: a free one)")
         group.add_argument("--view-hold", type=float, default=None, metavar="SECONDS",
-                           help="after the run, keep serving the finished run this long (default: until Ctrl-C)")
+                           help="after the run, keep serving the finished run this long (>= 0; default: until "
+                                "Ctrl-C)")
         group.add_argument("--view-robot-meshes", choices=("collision", "visual"), default="collision",
                            help="a URDF robot's meshes in the live page (default collision)")
         original = run.get_default("handler")
@@ -60,7 +71,7 @@ def resolve(target: str, scene_name: str | None):
     """``(scene, run data or None, policy JSON or None)`` for a view target (see the command's help)."""
     import pliant
 
-    from pliant_viewer.content import RunData, read_json, read_run
+    from pliant_viewer.content import RunData, check_policy, check_result, read_json, read_run
 
     path = Path(target)
     if path.is_dir():
@@ -77,9 +88,9 @@ def resolve(target: str, scene_name: str | None):
             raise ConfigError("name the scene of this file with --scene", source=str(path), field="scene")
         variant = None if scene_name else sibling.scene_variant
         if "nodes" in data:                                    # a policy file
-            return _load_scene(pliant, name, path.parent, variant), sibling, data
+            return _load_scene(pliant, name, path.parent, variant), sibling, check_policy(data, path)
         if "status" in data:                                   # a result file
-            sibling.result = data
+            sibling.result = check_result(data, path)
             return _load_scene(pliant, name, path.parent, variant), sibling, None
         raise ConfigError("not a policy or result file (no 'nodes' or 'status')", source=str(path), field="target")
     return pliant.load_scene(target), None, None
@@ -92,17 +103,95 @@ def _load_scene(pliant, name: str, base: Path, variant: str | None = None):
     return pliant.load_scene(name, variant=variant)
 
 
+def check_address(host: str, port: int, prefix: str = "") -> None:
+    """Refuse at once a page address the server could not serve on (viser would retry or hang): ``port`` outside
+    0-65535 (0: a free one), ``host`` not an address of this machine or not a host at all, ``port`` in use.  Errors
+    name ``--{prefix}host`` / ``--{prefix}port`` and the value."""
+    host_flag, port_flag = f"--{prefix}host", f"--{prefix}port"
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+        raise ConfigError("must be a port number 1-65535 (leave it out for a free one)", field=port_flag, value=port)
+    if not isinstance(host, str) or not host.strip():
+        raise ConfigError("must name an address of this machine (127.0.0.1: this machine only)", field=host_flag,
+                          value=host)
+    if re.fullmatch(r"[0-9.]+", host):
+        try:
+            ipaddress.IPv4Address(host)
+        except ValueError:
+            raise ConfigError("is not an IPv4 address", field=host_flag, value=host) from None
+    try:
+        family, kind, proto, _, where = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0]
+    except (socket.gaierror, UnicodeError) as exc:
+        raise ConfigError(f"is not a known host ({getattr(exc, 'strerror', None) or exc})", field=host_flag,
+                          value=host) from None
+    with socket.socket(family, kind, proto) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)      # as the server binds
+        try:
+            probe.bind(where)
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise ConfigError("is in use (leave it out for a free one)", field=port_flag, value=port) from None
+            if exc.errno == errno.EACCES:
+                raise ConfigError("needs privileges (ports below 1024); pick one above", field=port_flag,
+                                  value=port) from None
+            if exc.errno == errno.EADDRNOTAVAIL:
+                raise ConfigError("is not an address of this machine", field=host_flag, value=host) from None
+            raise ConfigError(f"cannot serve there ({exc.strerror or exc})", field=host_flag, value=host) from None
+
+
+def check_hold(seconds: float | None, flag: str = "--hold") -> None:
+    """``--hold``: None (until Ctrl-C) or seconds >= 0."""
+    if seconds is not None and (math.isnan(seconds) or seconds < 0):
+        raise ConfigError("must be seconds >= 0 (leave it out to serve until Ctrl-C)", field=flag, value=seconds)
+
+
+def check_export(target: str, frames: int) -> Path:
+    """``--export FILE.html`` and ``--frames``: a file path whose directory exists or can be made and is writable
+    (not a directory, not a device or pipe), and 2-:data:`MAX_FRAMES` poses.  Checked before any work, so a bad
+    one writes nothing."""
+    if isinstance(frames, bool) or not isinstance(frames, int) or not 2 <= frames <= MAX_FRAMES:
+        raise ConfigError(f"must be 2-{MAX_FRAMES} poses of the timeline", field="--frames", value=frames)
+    if not target.strip() or "\x00" in target:
+        raise ConfigError("must name an HTML file to write", field="--export", value=target)
+    path = Path(target)
+    if path.is_dir():
+        raise ConfigError("is a directory; name a file in it (e.g. view.html)", field="--export", value=target)
+    if path.exists() and not path.is_file():
+        raise ConfigError("is not a regular file", field="--export", value=target)
+    parent = path.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise ConfigError(f"cannot be written: {parent} is not a directory", field="--export", value=target)
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ConfigError(f"cannot be written: {parent} is not writable", field="--export", value=target)
+    return path
+
+
+def open_viewer(host: str, port: int, prefix: str = "", **options):
+    """A started :class:`~pliant_viewer.viewer.Viewer` on ``host:port`` (0: a free port), the address checked first
+    (:func:`check_address`); another server taking the port meanwhile is the same error as a port in use."""
+    from pliant_viewer.viewer import Viewer
+
+    check_address(host, port, prefix)
+    _warn_if_exposed(host)
+    viewer = Viewer(host=host, port=port or None, **options)
+    if port and viewer.port != port:
+        viewer.stop()
+        raise ConfigError("is in use (leave it out for a free one)", field=f"--{prefix}port", value=port)
+    return viewer
+
+
 def cmd_view(args) -> int:
     t0 = time.perf_counter()
-    _warn_if_exposed(args.host)
+    check_address(args.host, args.port)
+    check_hold(args.hold)
+    if args.export is not None:
+        check_export(args.export, args.frames)
     viewer = None
     if not args.export:
         # serve the page first: the browser loads and starts viser's client (~1 s in software WebGL) while the
         # scene and the run are read; the scene's nodes reach it when they are ready
-        from pliant_viewer.viewer import Viewer
-
-        viewer = Viewer(host=args.host, port=args.port or None, robot_meshes=args.robot_meshes,
-                        use_cache=not args.no_cache)
+        viewer = open_viewer(args.host, args.port, robot_meshes=args.robot_meshes, use_cache=not args.no_cache)
         print(f"viewer: {viewer.url}  (loading {args.target})", flush=True)
         if args.open:
             import webbrowser
@@ -112,21 +201,28 @@ def cmd_view(args) -> int:
         from pliant.geometry.voxelgrid import VoxelGrid
 
         from pliant_viewer import cache
-        from pliant_viewer.content import voxel_objects
-        from pliant_viewer.viewer import Viewer, build_content
+        from pliant_viewer.content import check_dimension, voxel_objects
+        from pliant_viewer.viewer import build_content
 
         scene, run, policy = resolve(args.target, args.scene)
-        if viewer is None:
-            viewer = Viewer(host=args.host, port=args.port or None, robot_meshes=args.robot_meshes,
-                            use_cache=not args.no_cache)
         folder = Path(args.target) if run is not None and Path(args.target).is_dir() else None
+        policy_file = args.target if policy is not None else str((folder or Path(".")) / "result.json")
+        check_dimension(run, policy if policy is not None else run.policy if run else None, len(scene.start),
+                        policy_file)
+        if viewer is None:
+            viewer = open_viewer(args.host, args.port, robot_meshes=args.robot_meshes, use_cache=not args.no_cache)
         view = cache.load(folder, scene) if folder is not None and not args.no_cache else None
         if view is None:
             # the page can draw the scene's objects while the robot model and the rest are built
             grid = VoxelGrid.from_scene(scene)
             objects = voxel_objects(grid)
             viewer.show_objects(scene, objects)
-            view = build_content(scene, run=run, policy=policy, grid=grid, objects=objects)
+            try:
+                view = build_content(scene, run=run, policy=policy, grid=grid, objects=objects)
+            except (KeyError, TypeError, ValueError, IndexError) as exc:
+                # the files passed the checks of their form (content.read_run) but their content does not fit
+                raise ConfigError(f"its data does not fit the scene '{scene.name}' ({type(exc).__name__}: {exc})",
+                                  source=args.target, field="target") from None
             viewer.show(view)
             if folder is not None and view.articulated and not args.no_cache:
                 cache.save(view, folder)        # the next view of this run needs no robot model
@@ -168,8 +264,10 @@ def run_with_view(args, original) -> int:
     from pliant.pipeline import Pipeline
 
     from pliant_viewer.content import read_run
-    from pliant_viewer.viewer import Viewer, build_content, make_robot
+    from pliant_viewer.viewer import build_content, make_robot
 
+    check_address(args.view_host, args.view_port, "view-")
+    check_hold(args.view_hold, "--view-hold")
     overrides = list(args.set or [])
     if args.output is not None:
         overrides.append(f"output={json.dumps(args.output)}")
@@ -177,8 +275,7 @@ def run_with_view(args, original) -> int:
     scene = pipeline.load_scene()
     spec = pipeline.components.get("robot")
     robot = make_robot(scene, spec.name if spec and spec.name else None, spec.options if spec else None)
-    _warn_if_exposed(args.view_host)
-    viewer = Viewer(host=args.view_host, port=args.view_port or None, robot_meshes=args.view_robot_meshes)
+    viewer = open_viewer(args.view_host, args.view_port, "view-", robot_meshes=args.view_robot_meshes)
     try:
         viewer.show(build_content(scene, robot))
         print(f"viewer: {viewer.url}  (live; the execution streams in when it starts)", flush=True)

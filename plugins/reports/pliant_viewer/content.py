@@ -15,11 +15,12 @@ Colours (RGB, 0-255):
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path as FilePath
 
 import numpy as np
+from pliant import files
+from pliant.errors import ConfigError
 from pliant.geometry.voxelgrid import FREE, VoxelGrid
 
 RIGID = np.array([70, 90, 160], dtype=np.float64)        # deformability 0
@@ -326,18 +327,120 @@ class RunData:
 
 
 def read_json(path: FilePath) -> dict:
-    with open(path, encoding="utf-8") as f:
-        return json.load(f)
+    """The JSON object in the file at ``path``; a file cut off, not JSON or not an object is one ConfigError naming
+    it (:func:`pliant.files.read_json`)."""
+    return files.read_json(path)
+
+
+def _array(value, source: FilePath, name: str, ndim: int) -> np.ndarray:
+    """``value`` as a finite float64 array of ``ndim`` dimensions with at least one entry per axis, or a
+    ConfigError naming the file and field."""
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.ndim != ndim or 0 in a.shape or not np.isfinite(a).all():
+        shown = value if a is None else f"an array of shape {a.shape}" + ("" if a.size == 0 or np.isfinite(
+            a).all() else " with non-finite entries")
+        raise ConfigError(f"must be a {'list' if ndim == 1 else 'table'} of finite numbers", source=str(source),
+                          field=name, value=shown)
+    return a
+
+
+def _mapping(data: dict, key: str, source: FilePath) -> dict | None:
+    value = data.get(key)
+    if value is not None and not isinstance(value, dict):
+        raise ConfigError("must be an object", source=str(source), field=key, value=type(value).__name__)
+    return value
+
+
+def check_result(data: dict, source: FilePath) -> dict:
+    """A result's JSON (``result.json``) as the viewer reads it: ``path.configurations`` a table of finite numbers,
+    ``policy`` and ``statistics`` objects (each may be missing); anything else is a ConfigError naming the field."""
+    path = _mapping(data, "path", source)
+    if path:
+        _array(path.get("configurations"), source, "path.configurations", 2)
+    policy = _mapping(data, "policy", source)
+    if policy is not None:
+        check_policy(policy, source, "policy.")
+    _mapping(data, "statistics", source)
+    return data
+
+
+def check_policy(data: dict, source: FilePath, prefix: str = "") -> dict:
+    """A partial policy's JSON as the viewer reads it: ``nodes`` a list of objects, each node's ``particles`` a
+    table and ``expected`` a list of finite numbers, ``parent`` a node index or null."""
+    nodes = data.get("nodes")
+    if nodes is not None and not isinstance(nodes, list):
+        raise ConfigError("must be a list", source=str(source), field=f"{prefix}nodes", value=type(nodes).__name__)
+    for i, node in enumerate(nodes or []):
+        where = f"{prefix}nodes[{i}]"
+        if not isinstance(node, dict):
+            raise ConfigError("must be an object", source=str(source), field=where, value=type(node).__name__)
+        if node.get("particles"):
+            _array(node["particles"], source, f"{where}.particles", 2)
+        if node.get("expected") is not None:
+            _array(node["expected"], source, f"{where}.expected", 1)
+        elif not node.get("particles"):
+            raise ConfigError("needs its expected configuration or its particles", source=str(source), field=where)
+        parent = node.get("parent")
+        if parent is not None and (isinstance(parent, bool) or not isinstance(parent, int)):
+            raise ConfigError("must be a node index or null", source=str(source), field=f"{where}.parent",
+                              value=parent)
+    return data
+
+
+def check_execution(data: dict, source: FilePath) -> dict:
+    """An execution's JSON (``execution.json``): ``times`` a list and ``configurations`` a table of finite numbers,
+    one row per time (both may be missing)."""
+    if data.get("configurations"):
+        q = _array(data["configurations"], source, "configurations", 2)
+        t = _array(data.get("times"), source, "times", 1)
+        if len(t) != len(q):
+            raise ConfigError(f"must hold one time per configuration ({len(q)})", source=str(source), field="times",
+                              value=f"{len(t)} times")
+    return data
 
 
 def read_run(folder: FilePath) -> RunData:
-    """Read a run folder written by ``pliant run`` (missing files are left out)."""
+    """Read a run folder written by ``pliant run`` (missing files are left out).  A file cut off, not JSON, or
+    whose fields the viewer reads have the wrong form is one ConfigError naming the file and the field."""
     folder = FilePath(folder)
     data = RunData(folder)
     if (folder / "run.json").is_file():
-        data.pipeline = read_json(folder / "run.json").get("pipeline") or {}
+        source = folder / "run.json"
+        data.pipeline = _mapping(read_json(source), "pipeline", source) or {}
+        scene = data.pipeline.get("scene")
+        name = scene.get("name") if isinstance(scene, dict) else scene
+        if scene is not None and not (isinstance(name, str) and name):
+            raise ConfigError("must be a scene name or {name, variant}", source=str(source), field="pipeline.scene",
+                              value=scene)
+        robot = data.pipeline.get("robot")
+        if robot is not None and not isinstance(robot, (str, dict)):
+            raise ConfigError("must be a robot name or {name, options}", source=str(source), field="pipeline.robot",
+                              value=robot)
     if (folder / "result.json").is_file():
-        data.result = read_json(folder / "result.json")
+        data.result = check_result(read_json(folder / "result.json"), folder / "result.json")
     if (folder / "execution.json").is_file():
-        data.execution = read_json(folder / "execution.json")
+        data.execution = check_execution(read_json(folder / "execution.json"), folder / "execution.json")
     return data
+
+
+def check_dimension(run: RunData | None, policy: dict | None, dimension: int, source: str) -> None:
+    """The run's path and execution, and the policy's nodes, hold configurations of ``dimension`` coordinates (the
+    scene's robot's); else a ConfigError naming the file (``source``: the policy file) and the field."""
+    folder = run.folder if run is not None and run.folder is not None else FilePath(".")
+    tables = []
+    if run is not None and run.path is not None:
+        tables.append((folder / "result.json", "path.configurations", run.path))
+    if run is not None and run.trajectory is not None:
+        tables.append((folder / "execution.json", "configurations", run.trajectory[1]))
+    nodes = (policy or {}).get("nodes") or []
+    for i, node in enumerate(nodes[:1]):          # one node tells which space the policy was planned in
+        if node.get("expected") is not None:
+            tables.append((source, f"nodes[{i}].expected", np.atleast_2d(node["expected"])))
+    for path, name, table in tables:
+        if np.shape(table)[-1] != dimension:
+            raise ConfigError(f"holds configurations of {np.shape(table)[-1]} coordinates; the scene's robot has "
+                              f"{dimension} (another scene's run? name the scene with --scene)", source=str(path),
+                              field=name, value=list(np.shape(table)))

@@ -295,6 +295,9 @@ class Viewer:
         self.port = port or free_port(host)
         # viser's page with our script for software WebGL (no multisampling there; pliant_viewer.page)
         self.server, self.page_patched = page.start_server(host, self.port)
+        # viser moves on to the next port when one is taken (another server took the free one meanwhile): the port
+        # it serves on is the one it reports
+        self.port = self.server.get_port()
         # no share button: viser's share links tunnel through an outside server; the page stays on this machine
         self.server.gui.configure_theme(control_width="medium", show_share_button=False)
         # No image-based lighting and no shadows: in software WebGL (headless Chromium, SwiftShader) viser's default
@@ -706,9 +709,9 @@ class Viewer:
             for a, b in itertools.pairwise(ts):
                 self.set_time(float(b))
                 serializer.insert_sleep(float(b - a))
-        path = FilePath(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+        from pliant.files import write_text
+
         from pliant_viewer import page
 
-        path.write_text(page.patch(serializer.as_html()), encoding="utf-8")
-        return path
+        # atomic: a failure (a full disk, Ctrl-C) leaves the previous file or none, never half a page
+        return write_text(FilePath(path), page.patch(serializer.as_html()))
