@@ -20,7 +20,14 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pliant.contracts import checked_command, checked_plan, checked_reset, checked_simulate, checked_step
+from pliant.contracts import (
+    checked_command,
+    checked_evaluate,
+    checked_plan,
+    checked_reset,
+    checked_simulate,
+    checked_step,
+)
 from pliant.errors import DimensionError, DriverError, JointMismatch, LimitViolation, PlanningError, SimulationError
 from pliant.hardware.limits import JointLimits
 from pliant.hardware.state import JointState, RobotStatus
@@ -632,9 +639,21 @@ class Planner(Component):
 
 
 class PathMetric(Component):
-    """Scores a path (e.g. the reachable-volume quality metric of thesis ch. 6)."""
+    """Scores a path (e.g. the reachable-volume quality metric of thesis ch. 6).
+
+    The core checks ``evaluate``'s arguments before the plugin's code runs (:func:`pliant.contracts.checked_evaluate`):
+    the problem, the rng, and a path whose every waypoint is valid in the problem (:meth:`PlanningProblem.is_valid`:
+    in the space's bounds, collision-free, feasible), so that no metric scores waypoints out of the workspace or
+    inside an obstacle.
+    """
 
     kind = "metric"
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        # the core checks evaluate's problem, rng and path (its waypoints' validity) before the plugin's code runs
+        super().__init_subclass__(**kwargs)
+        if "evaluate" in cls.__dict__:
+            cls.evaluate = checked_evaluate(cls.__dict__["evaluate"])
 
     @abstractmethod
     def evaluate(self, path: Path, problem: PlanningProblem, rng: np.random.Generator) -> dict[str, float]:
