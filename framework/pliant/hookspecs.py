@@ -27,7 +27,10 @@ class PliantSpec:
         """Draw figures for a finished pipeline ``run`` into ``directory``; return the files written.
 
         ``run`` is a :class:`pliant.pipeline.RunRecord`.  Return a list of ``pathlib.Path`` (or
-        ``None`` when the plugin has nothing to draw for this run).
+        ``None`` when the plugin has nothing to draw for this run).  It is called for every outcome
+        (``run.outcome``): after a failed or interrupted execution ``run.execution`` is the partial record, possibly
+        without steps.  A file written but not a figure goes into ``run.files`` instead; either way the next run into
+        the folder removes it (docs/outcomes.md), and a file in neither list stays.
         """
 
     @hookspec
