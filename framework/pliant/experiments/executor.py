@@ -24,6 +24,7 @@ the ``pliant`` command installs the chosen executor for the command's duration (
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import os
 import socket
@@ -72,6 +73,8 @@ def check_head(address: str | None, timeout: float = CONNECT_TIMEOUT) -> None:
     connection, an unknown host, or a server that does not speak gRPC (Ray's protocol: HTTP/2; e.g. the dashboard's
     port) -- with a :class:`ConfigError` naming ``--address``.  ``ray.init`` itself retries such an address for many
     minutes.  With ``RAY_USE_TLS`` set only the connection is checked."""
+    if address == "auto":
+        address = _auto_address()
     parsed = parse_address(address)
     if parsed is None:
         return
@@ -107,6 +110,21 @@ def check_head(address: str | None, timeout: float = CONNECT_TIMEOUT) -> None:
         raise ConfigError("something listens there but it is not a Ray head (no gRPC answer; the head's address "
                           "is the one `ray start --head` prints, port 6379 by default)", field="--address",
                           value=address)
+
+
+def _auto_address() -> str | None:
+    """The head's address ``--address auto`` means (``RAY_ADDRESS``, else the cluster this machine runs), as Ray
+    finds it; None when Ray cannot tell here (``ray.init`` then decides).  No cluster at all is a ConfigError."""
+    try:
+        from ray._private.services import canonicalize_bootstrap_address_or_die
+    except ImportError:                         # no Ray (said when connecting), or a Ray without this function
+        return None
+    try:
+        return canonicalize_bootstrap_address_or_die("auto")
+    except ConnectionError as exc:
+        raise ConfigError(f"no Ray cluster found on this machine ({exc})", field="--address", value="auto") from None
+    except Exception:                           # a Ray of another shape: ray.init decides
+        return None
 
 
 def _positive(value, name: str, *, zero: bool = False) -> float:
@@ -756,5 +774,11 @@ def from_args(args, *, check: bool = True) -> Executor | None:
         return None
     executor = create(name, address=address)
     if check and isinstance(executor, RayExecutor):
+        try:
+            missing = importlib.util.find_spec("ray") is None
+        except ValueError:                      # a module without a spec (e.g. blocked in sys.modules)
+            missing = True
+        if missing:
+            raise ConfigError("Ray is not installed (pip install 'pliant[ray]')", field="--executor", value="ray")
         check_head(executor.address)
     return executor

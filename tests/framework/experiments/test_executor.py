@@ -290,3 +290,24 @@ def test_executor_times_and_cpus_must_be_finite_and_positive(options):
     if name != "cpus":
         with pytest.raises(ConfigError, match=name):
             LocalExecutor(1, **options)
+
+
+def test_auto_and_a_missing_ray_are_refused_before_the_command_runs(monkeypatch):
+    """``--address auto`` with no cluster here (Ray's own lookup says so) and ``--executor ray`` without Ray fail in
+    from_args, before a command writes its settings; an auto address Ray finds is checked like any other."""
+    pytest.importorskip("ray")
+    from ray._private import services
+
+    def none_here(address):
+        raise ConnectionError("Could not find any running Ray instance.")
+
+    monkeypatch.setattr(services, "canonicalize_bootstrap_address_or_die", none_here)
+    with pytest.raises(ConfigError, match=r"--address: no Ray cluster found on this machine .*'auto'"):
+        from_args(SimpleNamespace(executor="ray", address="auto"))
+    refused = f"127.0.0.1:{_closed_port()}"
+    monkeypatch.setattr(services, "canonicalize_bootstrap_address_or_die", lambda address: refused)
+    with pytest.raises(ConfigError, match="--address: cannot reach the Ray head"):
+        from_args(SimpleNamespace(executor="ray", address="auto"))
+    monkeypatch.setitem(sys.modules, "ray", None)
+    with pytest.raises(ConfigError, match=r"--executor: Ray is not installed"):
+        from_args(SimpleNamespace(executor="ray", address=None))
