@@ -303,7 +303,8 @@ def checked_evaluate(method):
     :class:`~pliant.errors.PliantError` names ``problem``, ``rng`` or ``path[i]`` (with the obstacle, where the
     problem's checker can say) before the metric's code runs: no metric scores waypoints out of the workspace or
     inside an obstacle.  The motions between waypoints are not refused: judging what executing them meets is what a
-    metric of execution under contact is for (thesis ch. 6's peg insertions press the peg along the hole's rim)."""
+    metric of execution under contact is for (the straight motions of thesis ch. 6's peg tasks meet the block the
+    hole is cut in)."""
     if getattr(method, WRAPPED, False):
         return method
 
