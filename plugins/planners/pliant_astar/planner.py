@@ -10,6 +10,7 @@ import numpy as np
 from pliant.errors import ConfigError, PlanningError
 from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
+from pliant.planning.warmup import warm_up
 from pliant.results import Path, PlanResult, Status
 from pliant.termination import BudgetExpired, Termination, time_left
 
@@ -108,6 +109,12 @@ class AStarPlanner(Planner):
     Options = AStarOptions
     example_components = {"cost": "voxel"}
 
+    def bind(self, context) -> None:
+        """Attach to the pipeline and warm up (:func:`pliant.planning.warmup.warm_up`: one-off loading when the
+        pipeline is built, not inside ``max_time``)."""
+        super().bind(context)
+        warm_up(context)
+
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:
         t0 = time.perf_counter()
@@ -154,6 +161,12 @@ class ParetoPlanner(Planner):
 
     Options = ParetoOptions
     example_components = {"cost": "voxel"}
+
+    def bind(self, context) -> None:
+        """Attach to the pipeline and warm up (:func:`pliant.planning.warmup.warm_up`: one-off loading when the
+        pipeline is built, not inside ``max_time``)."""
+        super().bind(context)
+        warm_up(context)
 
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:

@@ -31,6 +31,7 @@ from pliant.geometry.rotations import quat_from_axis_angle, quat_multiply, wrap_
 from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
+from pliant.planning.warmup import warm_up
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
 from pliant.termination import BudgetExpired, Termination, time_left
@@ -109,6 +110,15 @@ class BeliefPlanner(Planner):
         """Simple RRT (``mode = "simple"``) checks straight edges and needs no simulator; the others do."""
         return replace(self.SPECS, needs_simulator=self.options.mode != "simple")
     example_options = {"max_time": None, "max_iterations": 40, "particles": 8}
+
+    def bind(self, context) -> None:
+        """Attach to the pipeline and warm up (:func:`pliant.planning.warmup.warm_up`, one control period of the
+        simulator included; and the clustering module's scipy imports): one-off loading when the pipeline is built,
+        not inside ``max_time``."""
+        super().bind(context)
+        import pliant.planning.clustering  # noqa: F401
+
+        warm_up(context, simulate=self.options.mode != "simple")
 
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:
@@ -286,7 +296,8 @@ class BeliefPlanner(Planner):
         start = tree.nodes[near].expected
         step = problem.scene.resolution
         edge = problem.space.discretize(start, target, step)[1:]
-        free = self._collision(edge)
+        # each state, and each motion between consecutive states at voxel resolution (the core's checker)
+        free = self._collision(edge) & problem.motions_valid(np.vstack([start[None], edge[:-1]]), edge)
         if not free.all():
             edge = edge[: int(np.argmin(free))]          # advance to the last free state, as RRT-Extend would
             if not len(edge) or float(problem.space.distance(edge[-1], start)) < self._min_progress:

@@ -31,6 +31,7 @@ from pliant.errors import ConfigError
 from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
 from pliant.planning.tree import Tree
+from pliant.planning.warmup import warm_up
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
 from pliant.termination import Termination
@@ -108,6 +109,12 @@ class RRTStarPlanner(Planner):
     example_scene = "triple-wall"
     example_components = {"cost": "voxel"}
     example_options = {"max_time": None, "max_iterations": 1500}     # conformance: quick and deterministic
+
+    def bind(self, context) -> None:
+        """Attach to the pipeline and warm up (:func:`pliant.planning.warmup.warm_up`: one-off loading when the
+        pipeline is built, not inside ``max_time``)."""
+        super().bind(context)
+        warm_up(context)
 
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:

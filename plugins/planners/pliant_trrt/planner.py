@@ -25,6 +25,7 @@ from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
 from pliant.planning.shortcut import perturb, shortcut
 from pliant.planning.tree import Tree
+from pliant.planning.warmup import warm_up
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
 from pliant.termination import Termination
@@ -105,6 +106,12 @@ class TRRTPlanner(Planner):
         return None
 
     # --- planning --------------------------------------------------------------------------------
+
+    def bind(self, context) -> None:
+        """Attach to the pipeline and warm up (:func:`pliant.planning.warmup.warm_up`: one-off loading when the
+        pipeline is built, not inside ``max_time``)."""
+        super().bind(context)
+        warm_up(context)
 
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:

@@ -22,11 +22,12 @@ from dataclasses import dataclass, replace
 from pathlib import Path as FilePath
 
 import numpy as np
-from pliant.errors import ConfigError, PlanningError, SimulationError
+from pliant.errors import ConfigError, PlanningError, PliantError, SimulationError
 from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
 from pliant.options import option
+from pliant.planning.warmup import warm_up
 from pliant.results import Path, PlanResult, Policy, Status
-from pliant.termination import Termination
+from pliant.termination import Termination, time_left
 
 from pliant_tsrrt import domain
 from pliant_tsrrt.domain import PushOptions
@@ -184,6 +185,10 @@ class TSRRTPlanner(Planner):
         if context is not None and context.scene is not None:
             domain.movable_names(context.scene, self.options.objects)
             domain.check_scene(context.scene, self.options)
+        # one-off loading when the pipeline is built, not inside max_time (pliant.planning.warmup)
+        warm_up(context)
+        if context is not None and context.scene is not None:
+            warm_kernels(context.scene, self.options, domain.movable_names(context.scene, self.options.objects))
 
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:
@@ -210,7 +215,9 @@ class TSRRTPlanner(Planner):
         space.warm_up()
         if o.start == "random":
             s0 = random_arrangements(space, rng, 1, clearance=o.start_clearance)[0]
-        termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations)
+        # max_time bounds the whole call: learning (models "auto" without a learner), the space's set-up and the
+        # kernels' warm-up come off the search's budget (tree, improvement phase, shortcut: pliant_tsrrt.search.grow)
+        termination = termination or Termination(max_time=time_left(o.max_time, t0), max_iterations=o.max_iterations)
         found = grow(space, s0, rng, search_settings(o), termination)
         stats = dict(found.statistics, learn_time=learn_time,
                      start_cost=float(space.cost.cost(s0[None])[0]), total_time=time.perf_counter() - t0)
@@ -243,6 +250,25 @@ class TSRRTPlanner(Planner):
         t0 = time.perf_counter()
         models, _ = learn_models(arena(world, scene, o), learn_settings(o), rng, only=names)
         return models, time.perf_counter() - t0
+
+
+class _StandInModels:
+    """Push models for :func:`warm_kernels`: every primitive moves its object 2 cm along x."""
+
+    def means(self, classes: list[str]) -> np.ndarray:
+        out = np.zeros((len(classes), 6, 3))
+        out[..., 0] = 0.02
+        return out
+
+
+def warm_kernels(scene, o: TSRRTOptions, names: list[str]) -> None:
+    """Call TS-RRT's compiled kernels once (:meth:`ObjectSpace.warm_up`) on a stand-in of the planning space (the
+    scene's objects, placeholder push models), so that loading them -- some seconds per process -- happens when the
+    pipeline is built, not inside ``max_time``; a scene the stand-in cannot describe is left to planning."""
+    try:
+        build_space(scene, o, _StandInModels(), names).warm_up()
+    except PliantError:
+        pass
 
 
 def paddle_path(space: ObjectSpace, problem: PlanningProblem, states: np.ndarray, actions: list[int]) -> Path:
