@@ -121,7 +121,7 @@ def test_track_mode_commands_the_simulators_prediction(peg):
     # model-predictive tracking: every step the command aims at where the kinematic simulator says the robot
     # gets in one period (here pressed onto the block, it slides instead of pushing into it)
     ctrl = registry.create("controller", "contact", peg, gain=2.0, mode="track")
-    q, target = pose(7, 7, 1.2), pose(6, 7, 0.0)          # target inside the block below
+    q, target = pose(7, 7, 3.55), pose(6, 7, 0.0)         # on the block (its top at z = 3), target inside it below
     predicted = peg.simulator.simulate(q[None], target, np.random.default_rng(0), 0.1).final[0]
     command = ctrl.command(q, target, 0.1)
     space = peg.robot.space

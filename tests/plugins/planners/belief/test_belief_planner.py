@@ -37,8 +37,9 @@ def one_extension(starts, target, seed=0):
 
 
 def test_particles_straddling_a_wall_split_and_their_probabilities_sum_to_one():
-    # half the belief in the middle passage, half in the right one; the target lies in the wall between
-    starts = [[5.5, 5.0, 0.0]] * 6 + [[8.0, 5.0, 0.0]] * 6
+    # half the belief in the middle passage, half in the right one (the L-block's x arm reaches 1.5 m right of its
+    # reference point, so both are free); the target lies in the wall between
+    starts = [[4.75, 5.0, 0.0]] * 6 + [[8.0, 5.0, 0.0]] * 6
     tree, new, counters = one_extension(starts, [6.75, 5.0, 0.0])
     assert len(new) == 2 and all(tree.nodes[i].split for i in new)
     assert sum(tree.nodes[i].probability for i in new) == pytest.approx(1.0)
@@ -50,8 +51,8 @@ def test_particles_straddling_a_wall_split_and_their_probabilities_sum_to_one():
 
 def test_a_motion_in_free_space_does_not_split():
     rng = np.random.default_rng(0)
-    starts = np.array([8.0, 5.0, 0.0]) + rng.uniform(-0.05, 0.05, (12, 3))
-    tree, new, _ = one_extension(starts, [8.0, 4.0, 0.0])
+    starts = np.array([7.75, 5.0, 0.0]) + rng.uniform(-0.05, 0.05, (12, 3))      # free: the arm ends 0.25 m short
+    tree, new, _ = one_extension(starts, [7.75, 4.0, 0.0])
     assert len(new) == 1 and not tree.nodes[new[0]].split
     node = tree.nodes[new[0]]
     assert node.probability == 1.0 and node.reverse_probability == 1.0 and node.effective_probability == 1.0
