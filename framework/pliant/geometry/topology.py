@@ -29,6 +29,9 @@ diagonal pair of voxels would both separate and not separate the background.)
 tree extension of a sampling planner, with a compact per-node state (the sorted indices of the
 voxels removed so far from each watched object), so that every check covers the whole path from
 the start — also after a rewiring changes a node's parent (re-extend from the new parent's state).
+Each edge is swept from its parent's configuration, segment by segment, so checking a path edge by
+edge and checking it whole sweep the same voxels: the planners' per-edge checks and their final check
+of the path returned agree (issue 31).
 """
 
 from __future__ import annotations
@@ -333,16 +336,21 @@ class PunctureChecker:
     robot may enter), ``"all"``, or a sequence of object names.
 
     A planner keeps :meth:`initial_state` at the root and, for an edge from a node to a new one,
-    calls :meth:`extend` with the parent's state and the interpolated configurations of the edge
-    (spaced at most a voxel apart, or the swept volume has gaps); it stores the returned state at
-    the new node when ``ok``.  The state holds every voxel swept since the start, so each check
-    covers the whole path (a rewired node is re-extended from its new parent's state).
+    calls :meth:`extend` with the parent's state, the interpolated configurations of the edge after the
+    parent and ``start=`` the parent's configuration (so the step out of the parent is swept too); it stores
+    the returned state at the new node when ``ok``.  The state holds every voxel swept since the start, so
+    each check covers the whole path (a rewired node is re-extended from its new parent's state), and the
+    union of the edges' sweeps is exactly the sweep of the whole path: :meth:`check` on the path returned
+    (the planners' final check, after any post-processing) gives the same verdict as the edges did.
 
-    Each object is checked on its bounding box plus a one-voxel empty margin; the counts are
-    compared with the object's initial :class:`Topology`: more tunnels is a puncture (a hole
-    through the object), fewer cavities is a puncture (a void opened to the outside), more
-    components is a cut.  Fewer components (a piece entirely inside the swept volume) and more
-    cavities (a void swept inside the object) are not flagged.
+    Each object is checked on its bounding box plus a one-voxel empty margin, against the object at
+    the start: more tunnels than its initial :class:`Topology` is a puncture (a hole through the
+    object); one of its own voids connected to the outside or to another of its voids is a puncture
+    (a void opened); one of its own pieces falling apart is a cut.  Voids and pieces are followed one
+    by one (a representative voxel per void, the initial piece of every voxel), not only counted, so
+    a sweep that also carves a closed cavity into a thick wall, or sweeps a whole piece away, cannot
+    hide a void it opened or a piece it split.  A piece entirely inside the swept volume and a void
+    swept inside the object are not flagged.
     """
 
     def __init__(self, grid: VoxelGrid, body_points: Callable[[np.ndarray], np.ndarray],
@@ -372,6 +380,8 @@ class PunctureChecker:
         self._lower: list[np.ndarray] = []
         self._masks: list[np.ndarray] = []
         self.initial: list[Topology] = []
+        self._voids: list[np.ndarray] = []
+        self._pieces: list[np.ndarray] = []
         for k in ids:
             voxels = grid.object_id == k
             if not voxels.any():
@@ -388,6 +398,12 @@ class PunctureChecker:
             self._lower.append(lo - 1)                       # grid index of the crop's voxel (0, 0, 0)
             self._masks.append(crop)
             self.initial.append(_topology_padded(crop))
+            # one voxel of each initial void, and the initial piece of every voxel: _judge follows them one by one
+            background, _ = ndimage.label(~crop, structure=_BACKGROUND)
+            labels = background.ravel()
+            _, first = np.unique(labels, return_index=True)
+            self._voids.append(np.sort(first[(labels[first] != 0) & (labels[first] != labels[0])]))
+            self._pieces.append(ndimage.label(crop, structure=_FOREGROUND)[0].ravel())
         self.names = [names[k] for k in self.ids]
         # slot of the watched object at each voxel of the grid padded by one voxel (-1: none), so that
         # a body point maps to its object with one clipped index computation and one lookup
@@ -455,16 +471,25 @@ class PunctureChecker:
 
     def _swept_cells(self, pts: np.ndarray) -> np.ndarray:
         """Flat padded-grid indices of the voxels the body points ``(n, m, 3)`` occupy (n = 1) or sweep between
-        consecutive configurations (see :meth:`occupied`)."""
+        consecutive configurations (see :meth:`occupied`).
+
+        Each segment (one body point between two consecutive configurations) is cut into its own number of
+        pieces, ``ceil`` of its largest per-axis displacement in voxels, so the cells of a path are the union of
+        the cells of its segments: checking a path edge by edge (:meth:`extend` with ``start``) and checking it
+        whole (:meth:`check`) sweep exactly the same voxels."""
         coords = (pts - self.grid.lower) / self.grid.resolution            # in voxels, (n, m, 3)
         if len(coords) == 1:
             return self._flat([self._padded_index(coords[..., a], a) for a in range(3)])
         start, end = coords[:-1].reshape(-1, 3), coords[1:].reshape(-1, 3)
-        pieces = max(1, int(np.ceil(float(np.max(np.abs(end - start), initial=0.0)))))
-        t = np.linspace(0.0, 1.0, pieces + 1)[:, None, None]
-        knots = start[None] + t * (end - start)[None]                      # (pieces + 1, s, 3)
-        lo = np.minimum(knots[:-1], knots[1:]) - self.arc_margin
-        hi = np.maximum(knots[:-1], knots[1:]) + self.arc_margin
+        delta = end - start
+        counts = np.maximum(1, np.ceil(np.max(np.abs(delta), axis=1)).astype(np.int64))
+        owner = np.repeat(np.arange(len(start)), counts)
+        k = np.arange(len(owner)) - np.repeat(np.cumsum(counts) - counts, counts)
+        n = counts[owner].astype(np.float64)
+        p0 = start[owner] + (k / n)[:, None] * delta[owner]                # the pieces' ends, (pieces, 3)
+        p1 = start[owner] + ((k + 1) / n)[:, None] * delta[owner]
+        lo = np.minimum(p0, p1) - self.arc_margin
+        hi = np.maximum(p0, p1) + self.arc_margin
         first = [self._padded_index(lo[..., a], a).ravel() for a in range(3)]
         last = [self._padded_index(hi[..., a], a).ravel() for a in range(3)]
         span = [last[a] - first[a] for a in range(3)]           # 0, 1 or 2: a piece spans < 2 voxels
@@ -484,17 +509,30 @@ class PunctureChecker:
                                                      first[2][keep] + dz]))
         return np.concatenate(cells)
 
-    def extend(self, state: PunctureState, configurations: np.ndarray) -> tuple[PunctureState, bool, str]:
+    def extend(self, state: PunctureState, configurations: np.ndarray,
+               start: np.ndarray | None = None) -> tuple[PunctureState, bool, str]:
         """Sweep the robot through ``configurations`` from ``state``; check for puncture and cut (thesis 4.3.4).
 
         ``configurations``: ``(n, d)`` (or one ``(d,)``), the interpolated configurations of the edge.
+        ``start`` ``(d,)``: the configuration the edge leaves from (the parent node's).  Pass it: the motion from
+        ``start`` to ``configurations[0]`` is then swept like every other step of the edge.  Without it only the
+        voxels ``configurations[0]`` occupies are taken, so a step across a voxel corner at the start of the edge
+        is not swept -- what a planner that gave the states after the parent alone used to miss.
         Returns ``(new_state, ok, reason)``: ``reason`` is ``""`` when ``ok``, else names each object
-        at fault and the count that changed (``"puncture: ..."`` or ``"cut: ..."``).  Objects that
+        at fault and what changed (``"puncture: ..."`` or ``"cut: ..."``).  Objects that
         gained no removed voxel are not recounted (they were valid at ``state``).
         """
         if len(state.removed) != len(self.ids):
             raise DimensionError(f"state has {len(state.removed)} objects, the checker watches {len(self.ids)}",
                                  field="state", value=len(state.removed))
+        if start is not None:
+            q = np.asarray(configurations, dtype=np.float64)
+            q = q[None] if q.ndim == 1 else q
+            s0 = np.asarray(start, dtype=np.float64)
+            if s0.ndim != 1 or q.ndim != 2 or s0.shape[0] != q.shape[1]:
+                raise DimensionError(f"must be one configuration of the {q.shape[-1]} coordinates of the edge",
+                                     field="start", value=list(s0.shape))
+            configurations = np.vstack([s0[None], q])
         new = self.occupied(configurations)
         removed = list(state.removed)
         problems = []
@@ -505,11 +543,16 @@ class PunctureChecker:
             if len(merged) == len(removed[slot]):
                 continue
             removed[slot] = merged
-            problems.extend(self._judge(slot, self._count(slot, merged)))
+            problems.extend(self._judge(slot, merged))
         return PunctureState(tuple(removed)), not problems, "; ".join(problems)
 
     def check(self, configurations: np.ndarray) -> tuple[bool, str]:
-        """Check a whole path ``(n, d)`` (points about a voxel apart) from the start: ``(ok, reason)``."""
+        """Check a whole path ``(n, d)`` from the start: ``(ok, reason)``.
+
+        The path is swept exactly as :meth:`extend` sweeps its edges (each step between consecutive
+        configurations conservatively), so a path whose edges passed :meth:`extend` one after the other, each
+        with its ``start``, passes here too, and the other way round.  Consecutive configurations a check step
+        apart (a voxel or less) keep the arcs of a rotating robot within :attr:`arc_margin` of the chords."""
         _, ok, reason = self.extend(self.initial_state(), configurations)
         return ok, reason
 
@@ -522,13 +565,44 @@ class PunctureChecker:
         mask.ravel()[removed] = False
         return _topology_padded(mask)
 
-    def _judge(self, slot: int, now: Topology) -> list[str]:
+    def _judge(self, slot: int, removed: np.ndarray) -> list[str]:
+        """What the removal of ``removed`` did wrong to object ``slot``: puncture (a hole gained, one of its own
+        voids opened to the outside or joined to another) or cut (one of its own pieces split).
+
+        Voids and pieces are followed one by one, not only counted: a count can hide a change when the same
+        sweep also carves a new cavity inside a thick wall (cavities 1 -> 0 -> 1) or removes a whole piece while
+        it splits another (components 2 -> 3 -> 2).  Opening a void is monotone in the swept voxels (removing more
+        never closes it again), so a conservative sweep never passes a path that a finer sweep finds opening one.
+        """
         start, name = self.initial[slot], self.names[slot]
+        mask = self._masks[slot].copy()
+        flat = mask.ravel()
+        flat[removed] = False
+        _, components = ndimage.label(mask, structure=_FOREGROUND)
+        background, regions = ndimage.label(~mask, structure=_BACKGROUND)
+        cavities = regions - 1 if components else 0       # the crop's empty margin is the outside, label 1
+        euler = _euler_padded(mask)
+        tunnels = components + cavities - euler if components else 0
         out = []
-        if now.tunnels > start.tunnels:
-            out.append(f"puncture: object {name!r} gained a hole (tunnels {start.tunnels} -> {now.tunnels})")
-        if now.cavities < start.cavities:
-            out.append(f"puncture: object {name!r} had a void opened (cavities {start.cavities} -> {now.cavities})")
-        if now.components > start.components:
-            out.append(f"cut: object {name!r} split into {now.components} pieces (was {start.components})")
+        if tunnels > start.tunnels:
+            out.append(f"puncture: object {name!r} gained a hole (tunnels {start.tunnels} -> {tunnels})")
+        seeds = self._voids[slot]
+        if len(seeds):
+            where = background.ravel()[seeds]
+            outside = background.ravel()[0]
+            opened = int(np.count_nonzero(where == outside))
+            if opened:
+                out.append(f"puncture: object {name!r} had a void opened to the outside ({opened} of {len(seeds)}; "
+                           f"cavities {start.cavities} -> {cavities})")
+            inner = where[where != outside]
+            if len(np.unique(inner)) < len(inner):
+                out.append(f"puncture: object {name!r} had two of its voids joined (cavities {start.cavities} -> "
+                           f"{cavities})")
+        left = np.unique(self._pieces[slot][flat])           # initial pieces with a voxel left
+        if components > len(left):
+            if components > start.components:
+                out.append(f"cut: object {name!r} split into {components} pieces (was {start.components})")
+            else:
+                out.append(f"cut: object {name!r} had a piece split ({components} pieces from {len(left)} of its "
+                           f"{start.components}; the others swept away)")
         return out

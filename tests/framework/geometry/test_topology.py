@@ -347,3 +347,80 @@ def test_no_finer_sampling_of_a_path_finds_a_puncture_the_edge_check_missed(corn
         assert not edge_ok
     if checker.ids:                                 # the sweep contains every voxel a finer sampling reaches
         assert set(fine_state.removed[0].tolist()) <= set(checker.occupied(coarse)[0].tolist())
+
+
+# --- edge by edge equals the whole path; voids and pieces followed one by one (issue 31) ------------------------
+
+
+def _wall_shell(thickness: int, lo: int = 2, hi: int = 10) -> np.ndarray:
+    m = np.zeros((12, 12, 12), bool)
+    m[lo:hi, lo:hi, lo:hi] = True
+    m[lo + thickness:hi - thickness, lo + thickness:hi - thickness, lo + thickness:hi - thickness] = False
+    return m
+
+
+def test_an_edge_is_swept_from_its_parent_when_given_its_start():
+    """A shell two voxels thick, entered diagonally: the step from the parent (in the first wall layer) to the
+    edge's first state (in the second layer, one voxel over in y) crosses the edge between the two layers' voxels.
+    Given only the states after the parent, the two removed voxels meet at an edge and the void stays closed to
+    the 6-connected outside; swept from the parent, a voxel beside the edge goes too and the void opens."""
+    checker = PunctureChecker(_grid({"shell": (_wall_shell(2), 0.5)}), _probe())
+    outside, first_layer = _centre(1, 5, 5), np.array([0.29, 0.59, 0.55])   # voxel (2, 5, 5)
+    root, ok, _ = checker.extend(checker.initial_state(), [first_layer], start=outside)
+    assert ok and root.removed_count == 1
+    edge = np.array([[0.31, 0.61, 0.55], _centre(4, 6, 5)])    # (3, 6, 5) -- second layer -- then the void
+    _, ok_states_only, _ = checker.extend(root, edge)
+    _, ok_swept, reason = checker.extend(root, edge, start=first_layer)
+    assert ok_states_only                          # the old per-edge call: the corner step is never swept
+    assert not ok_swept and "void opened" in reason
+    assert not checker.check(np.vstack([outside, first_layer, edge]))[0]      # the whole path agrees
+    with pytest.raises(DimensionError, match="start"):
+        checker.extend(root, edge, start=np.zeros(2))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 3), st.lists(st.tuples(*[st.floats(0.0, 1.19, allow_nan=False)] * 3), min_size=2,
+                                   max_size=6), st.integers(1, 4))
+def test_edge_by_edge_from_each_parent_sweeps_exactly_the_whole_path(thickness, waypoints, per_edge):
+    """Any path cut into edges: extending edge by edge, each from its parent, gives the same removed voxels and
+    the same verdict as checking the whole path at once (the planners' per-edge check and their final check)."""
+    checker = PunctureChecker(_grid({"shell": (_wall_shell(thickness), 0.5)}), _probe())
+    q = np.array(waypoints)
+    t = np.linspace(0.0, 1.0, per_edge + 1)[1:, None]
+    path = np.vstack([q[:1]] + [a + t * (b - a) for a, b in itertools.pairwise(q)])   # per_edge states an edge
+    state, ok_edges = checker.initial_state(), True
+    for parent, child in itertools.pairwise(range(0, len(path), per_edge)):
+        state, ok, _ = checker.extend(state, path[parent + 1:child + 1], start=path[parent])
+        ok_edges &= ok
+    whole, ok_whole, _ = checker.extend(checker.initial_state(), path)
+    assert [r.tolist() for r in state.removed] == [r.tolist() for r in whole.removed]
+    assert ok_edges == ok_whole == checker.check(path)[0]
+
+
+def test_a_void_opened_is_caught_even_when_the_sweep_carves_a_new_cavity():
+    """A probe of two points: one pierces a wall three voxels thick into the void, the other, inside the top wall
+    from the start, carves a closed groove out of that wall's middle layer.  The cavity count stays 1 (one void
+    opened, one made), which the counts alone passed; the void itself is followed and found open."""
+    m = _wall_shell(3, 1, 11)                      # solid 1 .. 10, void 4 .. 7 on every axis
+    offsets = np.array([[0.0, 0.0, 0.0], [0.2, 0.0, 0.4]])
+
+    def body_points(q):
+        return np.atleast_2d(q)[:, None, :] + offsets[None]
+    checker = PunctureChecker(_grid({"shell": (m, 0.5)}), body_points)
+    path = _line([0.05, 0.55, 0.55], [0.55, 0.55, 0.55])  # point 1: x 0 .. 5 (into the void); 2: x 2 .. 7 at z = 9
+    topo = checker.topologies(checker.extend(checker.initial_state(), path)[0])[0]
+    ok, reason = checker.check(path)
+    assert topo.cavities == checker.initial[0].cavities == 1 and topo.tunnels == 0    # counts unchanged ...
+    assert not ok and "void opened" in reason                                          # ... but the void is open
+
+
+def test_a_piece_split_is_a_cut_even_when_another_piece_is_swept_away():
+    m = np.zeros((12, 12, 12), bool)
+    m[1:11, 5:7, 5:7] = True                       # a bar along x, 2 x 2 in section
+    m[5, 2, 5] = True                              # and a one-voxel crumb in front of it
+    checker = PunctureChecker(_grid({"bar": (m, 0.3)}), _probe(half=1))
+    assert checker.initial[0].components == 2
+    _, ok, reason = checker.extend(checker.initial_state(), _line([0.55, 0.15, 0.6], [0.55, 1.0, 0.6]))
+    assert checker.topologies(checker.extend(checker.initial_state(),
+                                             _line([0.55, 0.15, 0.6], [0.55, 1.0, 0.6]))[0])[0].components == 2
+    assert not ok and "cut: object 'bar' had a piece split" in reason
