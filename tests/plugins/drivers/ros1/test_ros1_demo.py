@@ -1,0 +1,50 @@
+"""The robot demos plan to a budget of work (iterations), wall time only a cap, and the user's --set wins (issue 31,
+item 6); no ROS needed."""
+
+from __future__ import annotations
+
+import pliant
+import pytest
+from pliant_ros1.demo import BUDGETS, PIPELINES, budget_overrides
+
+
+def _planner(name, overrides):
+    return pliant.Pipeline.from_file(name, overrides=budget_overrides(name, overrides)).components["planner"].options
+
+
+@pytest.mark.parametrize("name", ["iiwa-policy", "pr2-policy"])
+def test_the_iiwa_and_pr2_demos_plan_to_an_iteration_budget_with_time_as_a_cap(name):
+    iterations, cap = BUDGETS[name]
+    options = _planner(name, [])
+    assert options["max_iterations"] == iterations
+    assert options["max_time"] == cap
+    # a cap, not the budget: far above the pipeline's own time budget
+    assert cap >= 10 * pliant.Pipeline.from_file(name).components["planner"].options["max_time"]
+
+
+def test_the_users_settings_win():
+    options = _planner("pr2-policy", ["planner.max_time=120"])         # the issue's command
+    assert options["max_time"] == 120 and options["max_iterations"] == BUDGETS["pr2-policy"][0]
+    options = _planner("iiwa-policy", ["planner.max_iterations=5"])
+    assert options["max_iterations"] == 5
+
+
+def test_every_budget_names_a_demo_and_baxter_keeps_its_pipelines_budget():
+    assert set(BUDGETS) <= set(PIPELINES)
+    assert budget_overrides("baxter-policy", ["seed=1"]) == ["seed=1"]
+
+
+@pytest.mark.parametrize("name", ["iiwa-policy", "pr2-policy"])
+def test_on_the_peer_the_driver_gets_the_demo_watchdog_and_the_users_world_settings(name, tmp_path):
+    from pliant_ros1.demo import DEMO_STATE_TIMEOUT, robot_overrides
+
+    driver = PIPELINES[name][0]
+    pipeline = pliant.Pipeline.from_file(name, overrides=robot_overrides(name, 3, [], "http://127.0.0.1:1", tmp_path))
+    world = pipeline.world_spec()
+    assert world.name == driver and world.options["state_timeout"] == DEMO_STATE_TIMEOUT
+    assert world.options["master_uri"] == "http://127.0.0.1:1" and pipeline.seed == 3
+    assert pipeline.components["planner"].options["max_iterations"] == BUDGETS[name][0]
+    user = ["execution.world.state_timeout=0.1", "planner.max_time=120"]
+    pipeline = pliant.Pipeline.from_file(name, overrides=robot_overrides(name, 0, user, "http://127.0.0.1:1", tmp_path))
+    assert pipeline.world_spec().options["state_timeout"] == 0.1           # the user's setting wins
+    assert pipeline.components["planner"].options["max_time"] == 120
