@@ -148,7 +148,8 @@ def print_run(record) -> None:
     width = max(len(k) for k, _ in rows)
     for key, value in rows:
         print(f"{key:<{width}}  {value}")
-    print(f"\nreport: {record.output / 'report.md'}", flush=True)
+    report = record.output / "report.md"
+    print(f"\nreport: {report}" if report in record.files else "\nnothing written", flush=True)
     if not record.outcome.success:
         print(f"{record.outcome.value}: {record.error} (exit status {record.exit_status})", file=sys.stderr)
 
@@ -286,7 +287,10 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     try:
         from pliant.experiments.executor import from_args, using
+        from pliant.files import check_path_name
 
+        if isinstance(getattr(args, "output", None), str):      # any command's --output: "" is not "here"
+            check_path_name(args.output, "--output")
         # a command given add_executor_arguments: its tasks run with the executor asked for (--executor ray)
         executor = from_args(args) if hasattr(args, "executor") else None
         with using(executor):

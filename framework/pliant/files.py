@@ -89,6 +89,16 @@ def read_json(path: str | Path, *, expect: type | tuple[type, ...] | None = dict
     return data
 
 
+def check_path_name(text: Any, field: str) -> str:
+    """``text`` if it can name a file or directory: an empty or blank name (which ``Path`` reads as the current
+    directory) or one holding a NUL is a :class:`~pliant.errors.ConfigError` naming ``field`` and the value."""
+    if not isinstance(text, str) or not text.strip():
+        raise ConfigError("must name a file or directory (the current directory is .)", field=field, value=text)
+    if "\x00" in text:
+        raise ConfigError("must not hold a NUL character", field=field, value=text)
+    return text
+
+
 def write_text(path: str | Path, text: str) -> Path:
     """Write ``text`` to ``path`` atomically (temporary file, fsync, rename); parent directories are created."""
     path = Path(path)

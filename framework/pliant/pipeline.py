@@ -15,10 +15,10 @@ value without editing the file (``pliant run FILE --set ...``).  :meth:`Pipeline
 scores and writes a report (``result.json``, ``report.md`` and figures) under ``output``.
 
 Every run ends with a typed :class:`~pliant.results.Outcome` (planned, reached, not planned, stuck, failed, error,
-interrupted) and each outcome has one exit status (docs/outcomes.md).  The run folder holds one run only: a run
-first removes the files the previous run into it wrote (listed in its ``.pliant-files.json``; nothing else), writes
-``run.json`` at once, ``result.json`` as soon as planning ends, and ``execution.json`` and ``report.md`` at the end
-of every outcome -- including an execution that raised (its partial record) and Ctrl-C.
+interrupted) and each outcome has one exit status (docs/outcomes.md).  The run folder holds one run only: once the
+pipeline is built, a run removes the files the previous run into it wrote (listed in its ``.pliant-files.json``;
+nothing else) and writes ``run.json``, then ``result.json`` as soon as planning ends, and ``execution.json`` and
+``report.md`` at the end of every outcome -- including an execution that raised (its partial record) and Ctrl-C.
 """
 
 from __future__ import annotations
@@ -339,24 +339,25 @@ class Pipeline:
         an error before execution (bad input, a component refusing the problem: outcome ``error``, the
         :class:`~pliant.errors.PliantError` itself), and Ctrl-C (:class:`RunInterrupted`, a
         :class:`KeyboardInterrupt` carrying the record; also when an anytime planner returned early on Ctrl-C).
-        With ``write``, the output folder is first cleared of the previous run's files (:meth:`prepare_output`).
+        With ``write``, the output folder is checked before anything is built (:meth:`prepare_output`), and once the
+        pipeline is built it is cleared of the previous run's files (:meth:`clear_previous_run`) and ``run.json`` is
+        written; bad input found while building writes nothing and leaves the previous run's files as they were.
         """
         record = RunRecord(self, None, None, None, {}, self.output, {})
         if write:
             self.prepare_output()
-            self._write_run_json(record, "running")
         try:
             self._run_stages(record, on_step, write)
         except KeyboardInterrupt as exc:
             record.outcome = Outcome.INTERRUPTED
             record.error = record.error or f"Ctrl-C during {record.stage}"
-            if write:
+            if write and record.files:                  # the folder holds this run: finish it
                 self._write_report_after(record)
             raise (exc if isinstance(exc, RunInterrupted) else RunInterrupted(record)) from None
         except Exception as exc:
             record.outcome = Outcome.ERROR
             record.error = f"{type(exc).__name__}: {exc}"
-            if write:
+            if write and record.files:
                 self._write_report_after(record)
             raise
         if write:
@@ -375,6 +376,9 @@ class Pipeline:
         if context.controller is not None and (context.simulator is not None or self.world_settings.get("world")):
             world = self.execution_world(context)
         timings["build"] = time.perf_counter() - t0
+        if write:                   # built: the input holds; from here on the folder is this run's
+            self.clear_previous_run(record.output)
+            self._write_run_json(record, "running")
         rng = np.random.default_rng(self.seed)
         learner = context.extras.get("learner")
         if learner is not None:
@@ -542,8 +546,8 @@ class Pipeline:
 
     def prepare_output(self) -> Path:
         """Create the report directory now, before any work, so that a directory that cannot be written (a file of
-        that name, no permission, a full disk) fails at once instead of after planning, and clear it of the previous
-        run's files (:meth:`clear_previous_run`); returns it."""
+        that name, no permission, a full disk) fails at once instead of after planning; returns it.  Nothing in it
+        is touched (:meth:`run` clears the previous run's files once the pipeline is built)."""
         out = self.output
         try:
             if out.exists() and not out.is_dir():
@@ -553,7 +557,6 @@ class Pipeline:
             probe = out / f".pliant-write-test-{os.getpid()}"
             probe.write_bytes(b"")
             probe.unlink()
-            self.clear_previous_run(out)
         except PipelineError:
             raise
         except (OSError, ValueError) as exc:

@@ -336,3 +336,11 @@ def test_reproduce_to_an_output_that_is_no_directory_writes_nothing(tmp_path, ou
     """``pliant reproduce NAME --output ""`` wrote the report into the current directory and exited 0."""
     (tmp_path / "file.txt").write_text("kept")
     _refused(["reproduce", "figure-3.5", "--ci", "--output", output], tmp_path, "--output", output)
+
+
+@pytest.mark.parametrize("command", [["metric-table"], ["belief-experiment", "table-5.1"], ["learn-table"],
+                                     ["learn-active"], ["pareto", "triple-wall"]])
+def test_every_command_refuses_an_empty_output_before_writing(tmp_path, command):
+    """An empty ``--output`` is the current directory to ``Path``: these commands started hour-long experiments
+    writing into it."""
+    _refused([*command, "--output", ""], tmp_path, "--output", "")

@@ -201,18 +201,38 @@ def test_a_second_run_leaves_no_file_of_the_first(tmp_path):
     assert "push-slide" not in (out / "report.md").read_text()
 
 
-def test_bad_input_exits_2_and_the_folder_holds_no_earlier_run(tmp_path, capsys):
+def test_bad_input_exits_2_writes_nothing_and_keeps_the_earlier_run(tmp_path, capsys):
     out = tmp_path / "o"
     assert main(["run", "straight-demo", "--output", str(out)]) == 0
-    assert "path.png" in _files(out)
+    before = {name: (out / name).read_bytes() for name in _files(out)}
+    assert "path.png" in before
     capsys.readouterr()
     assert main(["run", "straight-demo", "--set", "planner.step=-2", "--output", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and "planner.step" in err[0]
-    assert _files(out) == sorted([MANIFEST, "report.md", "run.json"])
-    assert _run_json(out)["outcome"] == "error"
+    assert {name: (out / name).read_bytes() for name in _files(out)} == before
+
+
+def test_an_error_after_building_is_reported_in_the_cleared_folder(tmp_path, plugin, capsys):
+    from pliant.errors import PlanningError
+
+    class Refusing(WaypointPlanner):
+        def plan(self, problem, rng, termination=None):
+            raise PlanningError("cannot plan in this scene", field="scene", value="se2-maze")
+
+    plugin("planner", "test-refusing", Refusing)
+    out = tmp_path / "o"
+    assert main(["run", "push-slide", "--set", "simulator=kinematic", "--set", "controller.eps_adjust_max=0.05",
+                 "--output", str(out)]) == 3
+    capsys.readouterr()
+    assert main(["run", str(_pipeline_file(tmp_path, planner={"name": "test-refusing"})), "--output", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot plan in this scene" in err[0]
+    assert _files(out) == sorted([MANIFEST, "report.md", "run.json"])       # nothing of the push-slide run
+    assert _run_json(out)["outcome"] == "error" and _run_json(out)["stage"] == "plan"
     report = (out / "report.md").read_text()
-    assert "**Outcome: error** (exit status 2)" in report and "planner.step" in report and "No plan" in report
+    assert "**Outcome: error** (exit status 2)" in report and "cannot plan in this scene" in report
+    assert "No plan was made" in report
 
 
 def test_an_earlier_run_from_before_the_manifest_is_cleared_of_pliants_files_only(tmp_path):

@@ -117,3 +117,12 @@ def test_read_json_of_a_directory_or_missing_file_names_it(tmp_path):
     for path in (tmp_path, tmp_path / "missing.json"):
         with pytest.raises(ConfigError, match="cannot be read"):
             read_json(path)
+
+
+def test_a_path_name_must_name_something():
+    from pliant.files import check_path_name
+
+    assert check_path_name("out", "--output") == "out" and check_path_name(".", "--output") == "."
+    for bad in ("", "   ", "a\x00b", None, 5):
+        with pytest.raises(ConfigError, match=r"^--output: must"):
+            check_path_name(bad, "--output")
