@@ -131,3 +131,26 @@ def test_every_plan_result_records_its_budget_and_the_time_used_and_the_report_p
     rows = dict(record.summary_rows())
     used = record.result.statistics["planning_time"]
     assert rows["budget"] == f"30 s or 5 iterations, used {used:.2f} s"
+
+
+def test_a_shortcut_stopped_by_the_budget_is_the_shortcut_of_the_iterations_it_ran():
+    from pliant.planning.shortcut import perturb, shortcut
+
+    pipe = Pipeline("se2-maze", planner={"name": "straight"})          # maze-slide's scripted, valid motion
+    problem = PlanningProblem.from_context(pipe.build())
+    path = np.array([problem.start, [7.75, 5.0, 0.0], [7.75, 1.375, 0.0], [0.75, 1.375, 0.0], problem.goal])
+    assert problem.path_is_valid(path)
+    step = problem.scene.resolution
+    for method, extra in ((shortcut, {"length_weight": 1.0}),
+                          (perturb, {"spacing": 2.5 * step, "sigma": step, "length_weight": 1.0})):
+        calls = []
+
+        def stop(calls=calls):
+            calls.append(1)
+            return len(calls) > 7                   # the budget expires before the eighth iteration
+
+        cut, cut_cost = method(problem, path, np.random.default_rng(1), step=step, iterations=40, stop=stop, **extra)
+        ran, ran_cost = method(problem, path, np.random.default_rng(1), step=step, iterations=7, **extra)
+        assert len(calls) == 8 and cut_cost == ran_cost and np.array_equal(cut, ran)
+        _, before = method(problem, path, np.random.default_rng(1), step=step, iterations=0, **extra)
+        assert problem.is_valid(cut).all() and cut_cost <= before

@@ -27,11 +27,14 @@ def _segment_costs(problem: PlanningProblem, dense: np.ndarray, length_weight: f
 
 def shortcut(problem: PlanningProblem, configurations: np.ndarray, rng: np.random.Generator, *, step: float,
              iterations: int = 200, length_weight: float = 0.0,
-             check: Callable[[np.ndarray], bool] | None = None) -> tuple[np.ndarray, float]:
+             check: Callable[[np.ndarray], bool] | None = None,
+             stop: Callable[[], bool] | None = None) -> tuple[np.ndarray, float]:
     """Shortcut a path ``(k, d)``; returns the dense improved path and its cost.
 
     ``step``: densification and checking distance (space metric units).  ``check(path) -> bool`` may
     veto a candidate whole path (it sees the full dense path, so path-dependent checks stay exact).
+    ``stop() -> bool``, asked before every iteration, ends the shortcutting early with the path so far (a planner's
+    time budget: :meth:`pliant.termination.Condition.expired`); every path it can return is valid.
     """
     if not step > 0:
         raise DimensionError("step must be positive", field="step", value=step)
@@ -40,7 +43,7 @@ def shortcut(problem: PlanningProblem, configurations: np.ndarray, rng: np.rando
     dense = problem.densify(configurations, step)
     segments = _segment_costs(problem, dense, length_weight)
     for _ in range(iterations):
-        if len(dense) < 3:
+        if len(dense) < 3 or (stop is not None and stop()):
             break
         i, j = np.sort(rng.choice(len(dense), size=2, replace=False))
         if j - i < 2:
@@ -61,7 +64,8 @@ def shortcut(problem: PlanningProblem, configurations: np.ndarray, rng: np.rando
 
 def perturb(problem: PlanningProblem, configurations: np.ndarray, rng: np.random.Generator, *, step: float,
             spacing: float, sigma: float, iterations: int = 200, proposals: int = 8, length_weight: float = 0.0,
-            check: Callable[[np.ndarray], bool] | None = None) -> tuple[np.ndarray, float]:
+            check: Callable[[np.ndarray], bool] | None = None,
+            stop: Callable[[], bool] | None = None) -> tuple[np.ndarray, float]:
     """Random local perturbation of a path's waypoints; returns the dense improved path and its cost.
 
     Shortcutting only removes detours: it cannot move a path that passes a costly region off-centre to
@@ -72,7 +76,8 @@ def perturb(problem: PlanningProblem, configurations: np.ndarray, rng: np.random
     and cheaper than the current ones (cost integral at ``step`` plus ``length_weight`` x length)
     replaces it.  A stochastic hill climb (the idea of STOMP's noisy updates without its smoothing
     matrix); the endpoints stay fixed, the cost never rises, and ``check(dense path) -> bool`` may veto
-    a candidate whole path (path-dependent checks such as puncture detection stay exact).
+    a candidate whole path (path-dependent checks such as puncture detection stay exact); ``stop`` as
+    :func:`shortcut`'s.
     """
     for name, value in (("step", step), ("spacing", spacing), ("sigma", sigma)):
         if not value > 0:
@@ -98,7 +103,7 @@ def perturb(problem: PlanningProblem, configurations: np.ndarray, rng: np.random
     segments = _segment_costs(problem, dense, length_weight)
     pieces = [(dense[a:b + 1], float(np.sum(segments[a:b]))) for a, b in itertools.pairwise(index)]
     for _ in range(iterations):
-        if len(waypoints) < 3:
+        if len(waypoints) < 3 or (stop is not None and stop()):
             break
         i = int(rng.integers(1, len(waypoints) - 1))
         current = pieces[i - 1][1] + pieces[i][1]

@@ -28,7 +28,7 @@ from pliant.planning.tree import Tree
 from pliant.planning.warmup import warm_up
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
-from pliant.termination import Termination
+from pliant.termination import Termination, time_left
 
 from pliant_trrt.transition import TransitionTest
 
@@ -134,8 +134,11 @@ class TRRTPlanner(Planner):
         history: list[list[float]] = []
         best, best_path, best_tree_cost, first, solutions = math.inf, None, math.nan, None, 0
         n_expand = n_refine = 0
-        termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations,
+        # max_time bounds the whole call: the set-up above comes off the loop's budget, and the post-processing of
+        # a solution (shortcut, perturbation) stops when the budget has expired, keeping the path so far
+        termination = termination or Termination(max_time=time_left(o.max_time, t0), max_iterations=o.max_iterations,
                                                  stop_on_first=o.stop_on_first)
+        self._expired = termination.expired
         progress = ProgressLine(self.name, enabled=o.progress)
         with termination.watch():
             iteration = 0
@@ -209,12 +212,12 @@ class TRRTPlanner(Planner):
         cost = tree_cost
         if o.shortcut_iterations:
             path, cost = shortcut(problem, path, rng, step=self._check_step, iterations=o.shortcut_iterations,
-                                  check=check)
+                                  check=check, stop=self._expired)
         if o.perturb_iterations:
             path, cost = perturb(problem, path, rng, step=self._check_step,
                                  spacing=o.perturb_spacing or 2.5 * self._check_step,
                                  sigma=o.perturb_sigma or self._check_step, iterations=o.perturb_iterations,
-                                 check=check)
+                                 check=check, stop=self._expired)
         stats["shortcut_time"] += time.perf_counter() - t
         return path, cost
 
