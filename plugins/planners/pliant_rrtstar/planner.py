@@ -34,7 +34,7 @@ from pliant.planning.tree import Tree
 from pliant.planning.warmup import warm_up
 from pliant.progress import ProgressLine
 from pliant.results import Path, PlanResult, Status
-from pliant.termination import Termination
+from pliant.termination import Termination, time_left
 
 from pliant_rrtstar.edges import evaluate_edges, state_costs, state_validity
 from pliant_rrtstar.goal import TaskSpaceGoal
@@ -149,8 +149,9 @@ class RRTStarPlanner(Planner):
         self._best_path = None
         history: list[list[float]] = []
         best, best_node, first, radius = math.inf, -1, None, o.max_step
-        termination = termination or Termination(max_time=o.max_time, max_iterations=o.max_iterations,
-                                                 stop_on_first=o.stop_on_first)
+        # max_time bounds the whole call: the set-up above (puncture checker, goal sampler) comes off the loop's
+        termination = termination or Termination(max_time=time_left(o.max_time, t0),    # budget
+                                                 max_iterations=o.max_iterations, stop_on_first=o.stop_on_first)
         progress = ProgressLine(self.name, enabled=o.progress)
         with termination.watch():
             iteration = 0
