@@ -96,6 +96,12 @@ class PiirlLearner(Learner):
         if self.require("robot").rigid_placement(self.scene.start[None]) is None:
             raise ConfigError("PIIRL's sample paths need a rigid robot with a tip", field="robot",
                               value=self.scene.robot.kind)
+        reach = float(np.linalg.norm(np.asarray(self.scene.upper) - np.asarray(self.scene.lower)))
+        if np.linalg.norm(self.options.tip) > reach:
+            # the body and a tip on a target could not both lie in the workspace (and a sample moved to put such a
+            # tip on its target would leave it by that much)
+            raise ConfigError(f"the tip lies farther from the body frame's origin than the workspace's diagonal "
+                              f"({reach:.4g} m)", field="learner.tip", value=list(self.options.tip))
         self.features = DeformationFeatures(self.scene)
         self.sampler = PathSampler(self.features, self.options.tip, _part(self.options, SampleOptions))
 

@@ -164,6 +164,12 @@ def test_lower_above_upper_is_refused_naming_both(name):
     pliant.registry.create("learner", name, lower=1.0, upper=200.0, initial=100.0)
 
 
+def test_a_tip_beyond_the_workspace_is_refused_when_bound(context):
+    # hollow-cube's workspace diagonal: 0.484 * sqrt(3) = 0.838 m
+    with pytest.raises(ConfigError, match=r"learner.tip: the tip lies farther .* \(0.8383 m\)"):
+        pliant.registry.create("learner", "piirl", context, tip=(0.0, 0.0, -1e6))
+
+
 def test_the_capture_tool_never_steps_out_of_the_workspace():
     from pliant_piirl.capture import CaptureSession
     from pliant_piirl.features import DeformationFeatures
