@@ -149,8 +149,8 @@ class RRTStarPlanner(Planner):
         self._best_path = None
         history: list[list[float]] = []
         best, best_node, first, radius = math.inf, -1, None, o.max_step
-        # max_time bounds the whole call: the set-up above (puncture checker, goal sampler) comes off the loop's
-        termination = termination or Termination(max_time=time_left(o.max_time, t0),    # budget
+        # max_time bounds the whole call: the set-up above (puncture checker, goal sampler) comes off the budget
+        termination = termination or Termination(max_time=time_left(o.max_time, t0),
                                                  max_iterations=o.max_iterations, stop_on_first=o.stop_on_first)
         progress = ProgressLine(self.name, enabled=o.progress)
         with termination.watch():
