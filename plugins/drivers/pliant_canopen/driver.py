@@ -497,6 +497,7 @@ class CanopenDriver(Driver):
                 if not self._syncing or silent < 1.5 * self._period \
                         or (self._stream_moving and silent < self.options.stream_timeout):
                     return False
+                self._stream_moving = False      # from now on the drives hold: keep-alive every period
             self._send_held(still=True)
             return True
 

@@ -105,3 +105,37 @@ def test_braking_with_late_writes_after_a_lost_heartbeat_injects_no_stand_still_
         k = int(np.argmax(acceleration))
         assert acceleration[k] <= allowed, (f"joint {limits.names[j]}: |a| {acceleration[k]:.3g} rad/s^2 at the "
                                             f"drive (limit {limits.acceleration[j]:g}), targets {q[k:k + 3]}")
+
+
+def test_a_stream_gone_mid_motion_is_held_after_stream_timeout_then_every_period(arm3, make_peer, make_driver):
+    """Writes that move, then none: no keep-alive while the stream may only be late; after ``stream_timeout`` the
+    keep-alive holds the last target (no feed-forward), and from then on at the SYNC period, not once per
+    ``stream_timeout`` (the stream's last target is now the held one)."""
+    peer = make_peer(str(arm3))
+    driver = make_driver(joint_map=str(arm3), stream_timeout=0.2)
+    driver.open()
+    driver.enable()
+    sent = []
+    keep_alive = driver._keep_alive
+
+    def counted():
+        if keep_alive():
+            sent.append(time.monotonic())
+            return True
+        return False
+
+    q = np.zeros(3)
+    for _ in range(5):
+        q[0] += 0.002
+        driver.write(q, np.array([0.2, 0.0, 0.0]))
+    last_write = driver._last_sync
+    assert driver._stream_moving
+    driver._keep_alive = counted
+    assert _wait(lambda: len(sent) >= 20)
+    assert sent[0] - last_write >= 0.2                 # never sooner than stream_timeout after the moving write
+    assert not driver._stream_moving                   # then holding: a keep-alive every period
+    assert _wait(lambda: sum(t[1] == 11 and t[3] == 0 for t in list(peer.targets)) >= 20)
+    held = [t for t in list(peer.targets) if t[1] == 11]
+    moving = max(k for k, t in enumerate(held) if t[3] != 0)     # the last write (a velocity offset)
+    assert held[moving][2] == 100                                 # 0.01 rad at 10000 counts/rad
+    assert all(t[2] == 100 and t[3] == 0 for t in held[moving + 1:])
