@@ -77,9 +77,13 @@ class VoxelStartCheck:
         return self.depth(points.reshape(-1, 3)).reshape(len(q), -1).max(axis=1, initial=0.0)
 
     def describe(self, q: np.ndarray) -> str:
-        """What holds the deepest surface point at ``q`` ``(d,)``: ``object 'name'``, the walls closing the scene's
-        bounds (outside the grid), or ``""`` when no point is inside."""
-        points = self.robot.body_points(np.asarray(q, dtype=np.float64)[None], self.surface)[0]
+        """What holds the deepest surface point at ``q`` ``(d,)`` (:meth:`describe_points`)."""
+        return self.describe_points(self.robot.body_points(np.asarray(q, dtype=np.float64)[None], self.surface)[0])
+
+    def describe_points(self, points: np.ndarray) -> str:
+        """What holds the deepest of points ``(m, 3)``: ``object 'name'``, the walls closing the scene's bounds
+        (outside the grid), or ``""`` when no point is inside."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         depth = self.depth(points)
         if not (depth > 0).any():
             return ""

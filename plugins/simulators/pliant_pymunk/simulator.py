@@ -17,6 +17,7 @@ kinematic simulator, so the two agree in free space.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -119,6 +120,7 @@ class PymunkSimulator(SteppedSimulator):
         self._add_objects()
         self._add_robot(q)
         self._contact = False
+        self._placed = False                # no object placed by set_object_poses since (see step)
 
     def object_poses(self) -> dict[str, np.ndarray]:
         """The movable objects' current poses ``(x, y, theta)`` (m, rad; theta in [-pi, pi)), by name."""
@@ -128,8 +130,11 @@ class PymunkSimulator(SteppedSimulator):
 
     def set_object_poses(self, poses: dict[str, np.ndarray]) -> None:
         """Place the named movable objects at ``(x, y, theta)`` (m, rad), at rest, as fresh bodies; the robot and the
-        other objects stay.  An unknown name or a pose that is not three finite numbers is a
-        :class:`~pliant.errors.SimulationError` naming it (nothing is moved then)."""
+        other objects stay.  An unknown name, a pose that is not three finite numbers, or one that puts the object
+        more than ``start_tolerance`` voxels into a static wall, the scene's bounds or another movable object
+        (:meth:`_check_placement`) is a :class:`~pliant.errors.SimulationError` naming it (nothing is moved then).
+        An object placed on the robot is refused by the next ``step`` (a ``reset`` may move the robot away first,
+        as object-space planners do: put the objects back, then the pusher)."""
         index = {spec.name: k for k, spec in enumerate(self.objects)}
         checked = {}
         for name, pose in poses.items():
@@ -141,11 +146,69 @@ class PymunkSimulator(SteppedSimulator):
                 raise SimulationError("an object pose must be three finite numbers (x, y, theta)",
                                       field=f"set_object_poses.{name}", value=np.asarray(pose).tolist())
             checked[index[name]] = pose
+        self._check_placement(checked)
         o = self.options
         for k, pose in checked.items():
             self.world.remove(*self._object_parts[k])
             spec = dataclasses.replace(self.objects[k], position=pose[:2].copy(), angle=float(pose[2]))
             self._object_parts[k] = add_object(self.world, self.pymunk, spec, o.friction, o.table_friction)
+        self._placed = self._placed or bool(checked)
+
+    def _check_placement(self, placed: dict[int, np.ndarray]) -> None:
+        """Refuse object poses ``placed`` (object index -> ``(x, y, theta)``) that put an object more than
+        ``start_tolerance`` (m) into the static walls or the bounds (its outline's depth in their voxels, as for
+        the robot's starts) or into another movable object (each outline in the other); the solver would
+        otherwise throw them apart, or let one pass through the other."""
+        tolerance = self.start_tolerance
+        step = 0.25 * self.context.scene.resolution
+        z = 0.5 * (self.context.scene.lower[2] + self.context.scene.upper[2])
+        poses = {k: spec.pose(parts[0]) for k, (spec, parts) in enumerate(zip(self.objects, self._object_parts))}
+        poses.update(placed)
+        outlines = {k: _outline(self.objects[k], poses[k], step) for k in poses}
+        for k in placed:
+            spec, pose, outline = self.objects[k], poses[k], outlines[k]
+            found = [(float(self.starts.depth(np.column_stack([outline, np.full(len(outline), z)])).max()),
+                      self.starts.describe_points(np.column_stack([outline, np.full(len(outline), z)])))]
+            for j in poses:
+                if j != k:
+                    other = self.objects[j]
+                    found.append((max(_depth_in_object(other, poses[j], outline).max(initial=0.0),
+                                      _depth_in_object(spec, pose, outlines[j]).max(initial=0.0)),
+                                  f"movable object '{other.name}'"))
+            depth, what = max(found, key=lambda item: item[0])
+            if depth > tolerance:
+                raise SimulationError(f"places object '{spec.name}' {depth:.4g} m inside {what} (this simulator "
+                                      f"tolerates {tolerance:.4g} m of contact)", field=f"set_object_poses.{spec.name}",
+                                      value=np.asarray(pose).tolist())
+
+    def _check_robot_clear_of_placed_objects(self) -> None:
+        """Refuse to step a robot that lies more than ``start_tolerance`` (m) inside a movable object placed by
+        :meth:`set_object_poses` since the last ``reset`` (the robot's surface points in the object, the object's
+        outline in the robot's convex pieces); the solver would throw them apart."""
+        step = 0.25 * self.context.scene.resolution
+        robot_points = self.robot.body_points(self.configuration()[None], self.starts.surface)[0][:, :2]
+        pieces = self._robot_pieces()
+        for spec, parts in zip(self.objects, self._object_parts):
+            pose = spec.pose(parts[0])
+            depth = max(_depth_in_object(spec, pose, robot_points).max(initial=0.0),
+                        _depth_in_pieces(pieces, _outline(spec, pose, step)).max(initial=0.0))
+            if depth > self.start_tolerance:
+                raise SimulationError(f"the robot starts {depth:.4g} m inside movable object '{spec.name}' (placed "
+                                      f"there by set_object_poses; this simulator tolerates "
+                                      f"{self.start_tolerance:.4g} m of contact); reset the robot elsewhere first",
+                                      field="step", value=self.configuration().tolist())
+
+    def _robot_pieces(self) -> list[tuple]:
+        """The robot's shapes in the world now: ``("poly", vertices (m, 2) counter-clockwise)`` or
+        ``("circle", centre (2,), radius)``."""
+        pieces = []
+        body = self.body
+        for shape in self._robot_objects:
+            if isinstance(shape, self.pymunk.Poly):
+                pieces.append(("poly", np.array([tuple(body.local_to_world(v)) for v in shape.get_vertices()])))
+            elif isinstance(shape, self.pymunk.Circle):
+                pieces.append(("circle", np.array(tuple(body.local_to_world(shape.offset))), shape.radius))
+        return pieces
 
     def configuration(self):
         return np.array([self.body.position.x, self.body.position.y,
@@ -155,6 +218,9 @@ class PymunkSimulator(SteppedSimulator):
         return self._contact
 
     def step(self, velocity, dt, rng):
+        if self._placed:
+            self._check_robot_clear_of_placed_objects()
+            self._placed = False
         v = self.actuate(velocity, rng)
         self._servo = (float(v[0]), float(v[1]))
         self.control.angle = self.body.angle
@@ -206,3 +272,48 @@ class PymunkSimulator(SteppedSimulator):
         self.body.each_arbiter(collect)
         self._normals = normals
         return bool(normals)
+
+
+def _outline(spec, pose: np.ndarray, step: float) -> np.ndarray:
+    """Points ``(m, 2)`` along the outline of movable object ``spec`` at ``pose`` ``(x, y, theta)``, at most ``step``
+    (m) apart, corners included (two convex shapes overlap only where one's outline enters the other)."""
+    if spec.kind == "box":
+        hx, hy = spec.half_extents
+        corners = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy], [-hx, -hy]])
+        local = np.vstack([np.linspace(a, b, max(2, math.ceil(np.linalg.norm(b - a) / step) + 1))[:-1]
+                           for a, b in itertools.pairwise(corners)])
+    else:
+        count = max(8, math.ceil(2 * math.pi * spec.radius / step))
+        angle = np.linspace(0.0, 2 * math.pi, count, endpoint=False)
+        local = spec.radius * np.column_stack([np.cos(angle), np.sin(angle)])
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    return local @ np.array([[c, s], [-s, c]]) + pose[:2]
+
+
+def _depth_in_object(spec, pose: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Depth (m) of points ``(m, 2)`` inside movable object ``spec`` at ``pose``: the distance to its outline, 0
+    outside."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    local = (np.asarray(points) - pose[:2]) @ np.array([[c, -s], [s, c]])
+    if spec.kind == "box":
+        return np.maximum(np.minimum(spec.half_extents[0] - np.abs(local[:, 0]),
+                                     spec.half_extents[1] - np.abs(local[:, 1])), 0.0)
+    return np.maximum(spec.radius - np.linalg.norm(local, axis=1), 0.0)
+
+
+def _depth_in_pieces(pieces: list[tuple], points: np.ndarray) -> np.ndarray:
+    """Depth (m) of points ``(m, 2)`` inside the robot's convex pieces (:meth:`PymunkSimulator._robot_pieces`): the
+    largest over the pieces of the distance to that piece's outline, 0 outside all."""
+    depth = np.zeros(len(points))
+    for piece in pieces:
+        if piece[0] == "circle":
+            depth = np.maximum(depth, piece[2] - np.linalg.norm(points - piece[1], axis=1))
+            continue
+        vertices = piece[1]
+        edges = np.roll(vertices, -1, axis=0) - vertices
+        inward = np.column_stack([-edges[:, 1], edges[:, 0]]) / np.linalg.norm(edges, axis=1)[:, None]
+        if np.sum(edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]) < 0:
+            inward = -inward                                  # clockwise vertices: the left normal points out
+        signed = np.einsum("ec,mec->me", inward, points[:, None, :] - vertices[None])
+        depth = np.maximum(depth, signed.min(axis=1))
+    return np.maximum(depth, 0.0)

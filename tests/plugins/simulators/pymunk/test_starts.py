@@ -104,10 +104,77 @@ def test_starts_are_refused_exactly_when_a_brute_force_check_finds_them_inside(r
                 sim.reset(q)
         else:
             sim.reset(q)
-            assert np.allclose(sim.configuration(), q)
+            assert float(space.distance(sim.configuration(), q)) < 1e-9
     inside = np.nonzero(depths > tolerance)[0]
     if len(inside):
         with pytest.raises(SimulationError, match=rf"^starts\[{inside[0]}\]: places the robot"):
             sim.simulate(starts, starts[0], np.random.default_rng(0), 0.1)
     else:
         assert sim.simulate(starts, starts[0], np.random.default_rng(0), 0.1).final.shape == starts.shape
+
+
+@functools.cache
+def push():
+    ctx = Context(scene=load_scene("se2-push"))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    return ctx, registry.create("simulator", "pymunk", ctx)
+
+
+@pytest.mark.parametrize(("x", "y", "depth"), [
+    (0.09, 0.5, 0.03),                                      # the crate's left face 3 cm into the rim (x < 0.04)
+    (0.8, 0.93, None),                                      # its top face through the rim (y > 0.96), 1 cm beyond
+])
+def test_placing_an_object_into_a_wall_is_refused_and_moves_nothing(x, y, depth):
+    _, sim = push()
+    sim.reset(np.array([0.3, 0.5, 0.0]))
+    sim.set_object_poses({"crate": np.array([0.6, 0.5, 0.0])})
+    with pytest.raises(SimulationError, match=r"^set_object_poses\.crate: places object 'crate' (\S+) m inside "
+                                              r"object 'rim'") as error:
+        sim.set_object_poses({"crate": np.array([x, y, 0.0])})
+    measured = float(error.value.args[0].split(" m inside")[0].rsplit(" ", 1)[1])
+    # a voxel or more deep (and beyond the bounds): at least a voxel, as the starts' measure says
+    assert measured >= 0.02 if depth is None else measured == pytest.approx(depth, abs=1e-3)
+    assert np.allclose(sim.object_poses()["crate"], [0.6, 0.5, 0.0])
+
+
+@pytest.mark.parametrize(("x", "theta", "depth"), [
+    (0.35, 0.0, 0.05),                                      # the paddle (x 0.28-0.32) inside the crate's left half
+    (0.394, 0.0, 0.006),                                    # 6 mm: deeper than a quarter of the 2 cm voxel
+    (0.32 + 0.08 * 2 ** 0.5 - 0.01, np.pi / 4, 0.01),       # a turned crate's corner 1 cm into the paddle
+])
+def test_a_step_with_an_object_placed_on_the_robot_is_refused_until_a_reset_moves_it(x, theta, depth):
+    _, sim = push()
+    sim.reset(np.array([0.3, 0.5, 0.0]))
+    sim.set_object_poses({"crate": np.array([x, 0.5, theta])})     # placing is fine: a reset may move the paddle
+    with pytest.raises(SimulationError, match=r"^step: the robot starts (\S+) m inside movable object 'crate'") as e:
+        sim.step(np.array([0.05, 0.0, 0.0]), 0.1, np.random.default_rng(0))
+    assert float(e.value.args[0].split(" m inside")[0].rsplit(" ", 1)[1]) == pytest.approx(depth, abs=1e-3)
+    assert np.allclose(sim.configuration(), [0.3, 0.5, 0.0])
+    assert np.allclose(sim.object_poses()["crate"], [x, 0.5, theta])
+    sim.reset(np.array([0.1, 0.5, 0.0]))                   # puts the crate back at its scene pose (x 0.6) ...
+    sim.set_object_poses({"crate": np.array([x, 0.5, theta])})     # ... and here again, the paddle now clear
+    assert sim.step(np.zeros(3), 0.1, np.random.default_rng(0))[0] == pytest.approx(0.1, abs=1e-3)
+
+
+@pytest.mark.parametrize(("x", "theta"), [(0.4, 0.0), (0.32 + 0.08 * 2 ** 0.5 + 0.001, np.pi / 4), (0.4 - 0.004, 0.0)])
+def test_an_object_placed_against_the_robot_is_accepted(x, theta):
+    _, sim = push()
+    sim.reset(np.array([0.3, 0.5, 0.0]))
+    sim.set_object_poses({"crate": np.array([x, 0.5, theta])})            # touching, or 4 mm in: contact
+    assert np.allclose(sim.object_poses()["crate"], [x, 0.5, theta])
+    q = sim.step(np.array([0.05, 0.0, 0.0]), 0.1, np.random.default_rng(0))
+    assert q[0] > 0.3
+
+
+def test_placing_a_movable_object_onto_another_is_refused():
+    ctx = Context(scene=load_scene("tsrrt-table"))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    sim = registry.create("simulator", "pymunk", ctx)
+    before = sim.object_poses()
+    block = before["block-1"]                                  # a 0.1 m square, turned; the can's radius 0.05 m
+    along = np.array([np.cos(block[2]), np.sin(block[2]), 0.0])
+    with pytest.raises(SimulationError, match=r"^set_object_poses\.can-1: places object 'can-1' 0\.04 m inside "
+                                              r"movable object 'block-1'"):
+        sim.set_object_poses({"can-1": block + 0.06 * along})
+    assert all(np.allclose(sim.object_poses()[n], p) for n, p in before.items())
+    sim.set_object_poses({"can-1": block + 0.101 * along})     # beside it: accepted
