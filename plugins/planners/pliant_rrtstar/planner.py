@@ -16,7 +16,10 @@ node shifts the cost of its whole subtree by the same amount.
 stores the voxels its path from the start has swept out of each watched object.  An extension is
 checked from its parent's state; a rewire re-derives the state of the rewired node from its new
 parent and then of every descendant from its own parent, and is refused if any of them punctures or
-cuts an object — so every node's whole path from the start is always checked.
+cuts an object — so every node's whole path from the start is always checked.  Every edge is swept from its
+parent's configuration (``extend(..., start=parent)``), so the per-edge states are exactly the whole path's
+sweep; the path returned is checked once more as a whole (:meth:`RRTStarPlanner._final_check`) and, should that
+ever refuse it, the next cheapest solution is returned, or a failure status when none passes.
 """
 
 from __future__ import annotations
@@ -99,7 +102,9 @@ class RRTStarPlanner(Planner):
     (``[[t, best cost], ...]``, strictly decreasing), ``rewires``, ``rewires_refused`` (by puncture
     or cut), ``punctures_refused`` (extensions and rewirings refused by puncture or cut),
     ``invalid_edges``, ``gamma``, ``radius`` (final), ``goal_states`` (sampled for a task-space
-    target), ``solutions`` (nodes in the goal), ``puncture_check``, ``interrupted``.
+    target), ``solutions`` (nodes in the goal), ``puncture_check``, ``final_check_refused`` (solutions whose
+    whole path failed the final puncture check; 0 when the per-edge checks and the whole path agree),
+    ``interrupted``.
     """
 
     SPECS = PlannerSpecs(anytime=True)
@@ -177,6 +182,12 @@ class RRTStarPlanner(Planner):
                      time_to_first=first, cost_history=history, gamma=self.gamma, radius=radius,
                      goal_states=len(self.goal_pool), solutions=len(self.goal_nodes),
                      puncture_check=self.punctures is not None, interrupted=termination.interrupted)
+        best_node, best, refused = self._final_check(best_node, best)
+        stats["final_check_refused"] = refused
+        if best_node < 0 and refused:
+            return PlanResult(Status.TIMEOUT, planner=self.name, statistics=stats, options=self._option_dict(),
+                              message=f"no puncture-free solution within the budget: the final check of the whole "
+                                      f"path refused all {refused} solutions ({self._refused_reason})")
         if best_node < 0:
             target = self.goal.target if self.goal is not None else None
             gap = float(np.min(np.linalg.norm(self.goal.tip(self.tree.configurations) - target, axis=-1))) \
@@ -261,7 +272,8 @@ class RRTStarPlanner(Planner):
             if not np.isfinite(totals[i]):
                 break
             if self.punctures is not None:
-                topology, ok, _ = self.punctures.extend(self.topology[near[i]], edges.of(i))
+                topology, ok, _ = self.punctures.extend(self.topology[near[i]], edges.of(i),
+                                                       start=tree.configurations[near[i]])
                 if not ok:
                     self.stats["punctures_refused"] += 1
                     continue
@@ -303,7 +315,7 @@ class RRTStarPlanner(Planner):
     def _rewire_topology(self, node: int, x: int, edge: np.ndarray) -> bool:
         """Re-derive the puncture state of ``x`` under ``node`` and of all its descendants; commit if all pass."""
         tree, checker = self.tree, self.punctures
-        state, ok, _ = checker.extend(self.topology[node], edge)
+        state, ok, _ = checker.extend(self.topology[node], edge, start=tree.configurations[node])
         if not ok:
             return False
         new = {x: state}
@@ -313,12 +325,34 @@ class RRTStarPlanner(Planner):
             for d in tree.descendants(x):
                 p = int(parents[d])
                 edge_states = self.problem.space.discretize(q[p], q[d], self.check_step)[1:]
-                new[int(d)], ok, _ = checker.extend(new[p], edge_states)
+                new[int(d)], ok, _ = checker.extend(new[p], edge_states, start=q[p])
                 if not ok:
                     return False
         for k, s in new.items():
             self.topology[k] = s
         return True
+
+    def _final_check(self, best_node: int, best: float) -> tuple[int, float, int]:
+        """The cheapest solution whose whole path passes the puncture check (thesis 4.3.4), ``(node, cost,
+        solutions refused)``; ``node`` is -1 when none does.
+
+        The path returned is checked once more as a whole, densified at ``check_step`` exactly as its edges were
+        checked, by the same :meth:`PunctureChecker.check` -- a guard that the per-edge states (built from each
+        parent's, re-derived on every rewire) and the path agree.  With the edges swept from their parents they do,
+        so ``final_check_refused`` stays 0; should it not, the next cheapest solution is tried."""
+        self._refused_reason = ""
+        if best_node < 0 or self.punctures is None:
+            return best_node, best, 0
+        nodes = np.unique(np.asarray(self.goal_nodes, dtype=np.int64))
+        refused = 0
+        for node in nodes[np.argsort(self.tree.path_costs[nodes], kind="stable")]:
+            dense = self.problem.densify(self.tree.path_to(int(node)), self.check_step)
+            ok, reason = self.punctures.check(dense)
+            if ok:
+                return int(node), float(self.tree.path_costs[node]), refused
+            refused += 1
+            self._refused_reason = self._refused_reason or reason
+        return -1, math.inf, refused
 
     # --- helpers -----------------------------------------------------------------------------------
 

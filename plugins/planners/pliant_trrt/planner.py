@@ -88,7 +88,8 @@ class TRRTPlanner(Planner):
     Statistics: ``iterations``, ``nodes``, ``time``, ``time_to_first`` (s), ``cost_history``
     (``[[t, best cost], ...]``), ``temperature`` (final), ``uphill_accepted``, ``refused``,
     ``refinements_skipped``, ``invalid_edges``, ``punctures``, ``gradient_kept`` (GradienT-RRT),
-    ``solutions``, ``interrupted``.
+    ``solutions``, ``final_check_refused`` (solutions whose whole path failed the final puncture check),
+    ``interrupted``.
     """
 
     SPECS = PlannerSpecs(anytime=True)
@@ -130,7 +131,7 @@ class TRRTPlanner(Planner):
         self._space = space
         self._new_tree(start, c_start, k)
         stats = {"iterations": 0, "refinements_skipped": 0, "invalid_edges": 0, "punctures": 0, "gradient_kept": 0,
-                 "trees": 1, "shortcut_time": 0.0}
+                 "trees": 1, "shortcut_time": 0.0, "final_check_refused": 0}
         history: list[list[float]] = []
         best, best_path, best_tree_cost, first, solutions = math.inf, None, math.nan, None, 0
         n_expand = n_refine = 0
@@ -182,6 +183,10 @@ class TRRTPlanner(Planner):
                      cost_history=history, temperature=self.test.temperature, k=k,
                      uphill_accepted=self.test.accepted_uphill, refused=self.test.refused,
                      solutions=solutions, interrupted=termination.interrupted, tree_cost=best_tree_cost)
+        if best_path is None and stats["final_check_refused"]:
+            return PlanResult(Status.TIMEOUT, planner=self.name, statistics=stats, options=self._option_dict(),
+                              message=f"no puncture-free solution within the budget: the final check of the whole "
+                                      f"path refused all {stats['final_check_refused']} solutions")
         if best_path is None:
             gap = float(np.min(space.distance(self.tree.configurations, goal)))
             return PlanResult(Status.TIMEOUT, planner=self.name, statistics=stats, options=self._option_dict(),
@@ -200,10 +205,18 @@ class TRRTPlanner(Planner):
 
     def _finish(self, problem: PlanningProblem, path: np.ndarray, tree_cost: float, rng: np.random.Generator,
                 stats: dict) -> tuple[np.ndarray, float]:
-        """A solution as returned: the tree's path, shortcut when ``shortcut_iterations`` asks; and its cost."""
+        """A solution as returned: the tree's path, shortcut when ``shortcut_iterations`` asks; and its cost.
+
+        With the puncture check on, the path returned is checked once more as a whole after any post-processing
+        (:meth:`_whole_path_ok`); a shortcut path that fails falls back to the tree's path, and a tree path that
+        fails is no solution (cost ``inf``, counted in ``final_check_refused``)."""
         o = self.options
+        if not self._whole_path_ok(problem, path):
+            stats["final_check_refused"] += 1
+            return path, math.inf
         if not (o.shortcut_iterations or o.perturb_iterations):
             return path, tree_cost
+        tree_path = path
         t = time.perf_counter()
         check = None
         if self._punctures is not None:
@@ -219,7 +232,18 @@ class TRRTPlanner(Planner):
                                  sigma=o.perturb_sigma or self._check_step, iterations=o.perturb_iterations,
                                  check=check, stop=self._expired)
         stats["shortcut_time"] += time.perf_counter() - t
+        if not self._whole_path_ok(problem, path):
+            stats["final_check_refused"] += 1
+            return tree_path, tree_cost
         return path, cost
+
+    def _whole_path_ok(self, problem: PlanningProblem, path: np.ndarray) -> bool:
+        """The final puncture check (thesis 4.3.4): the whole path, densified at the check step as its edges were
+        checked, through the same :meth:`PunctureChecker.check`; true without the puncture check."""
+        if self._punctures is None:
+            return True
+        dense = problem.densify(path, self._check_step)
+        return bool(self._punctures.check(dense)[0])
 
     def _option_dict(self) -> dict:
         return dict(vars(self.options))
@@ -253,7 +277,8 @@ class TRRTPlanner(Planner):
             return None
         topology = None
         if self._punctures is not None:
-            topology, ok, _ = self._punctures.extend(self._topology[parent], edge)
+            topology, ok, _ = self._punctures.extend(self._topology[parent], edge,
+                                                     start=self.tree.configurations[parent])
             if not ok:
                 stats["punctures"] += 1
                 return None
