@@ -168,6 +168,7 @@ class CanopenDriver(Driver):
         self._state: JointState | None = None
         self._sequence = 0
         self._sync_index = 0
+        self._published_sync = -1                        # the SYNC of the newest joint state
         self._sync_time = 0.0
         self._last_sync = 0.0
         self._last_master_heartbeat = 0.0
@@ -449,6 +450,12 @@ class CanopenDriver(Driver):
             self._hold_velocity = np.zeros(len(counts), dtype=np.int64)
         if self._comm_faults:
             return
+        if self._published_sync == self._sync_index:
+            # a second complete set for one SYNC: TPDOs of the previous SYNC came after this one was sent (a loaded
+            # machine) and completed the first.  One state per SYNC: two states with one stamp and different
+            # positions are a fault of the robot to the safety layer; the next SYNC brings this data anyway
+            return
+        self._published_sync = self._sync_index
         jm = self.joint_map
         velocities = jm.to_radians_per_second(np.array([d.velocity for d in self._drives], dtype=np.int64))
         self._sequence += 1

@@ -139,3 +139,44 @@ def test_a_stream_gone_mid_motion_is_held_after_stream_timeout_then_every_period
     moving = max(k for k, t in enumerate(held) if t[3] != 0)     # the last write (a velocity offset)
     assert held[moving][2] == 100                                 # 0.01 rad at 10000 counts/rad
     assert all(t[2] == 100 and t[3] == 0 for t in held[moving + 1:])
+
+
+def test_late_tpdos_of_the_previous_sync_never_make_two_states_with_one_stamp(arm3):
+    """On a loaded machine the TPDOs answering SYNC k can arrive after SYNC k+1 was sent: they complete a set
+    stamped with k+1's time, and k+1's own TPDOs then complete a second one.  The driver publishes one state per
+    SYNC (the old one published both: one stamp, different positions, a StateError in the safety layer).  Frames
+    are fed to the receive callbacks directly: no bus, no timing."""
+    from pliant_canopen.driver import TPDO1, TPDO2, CanopenDriver, _Drive
+
+    driver = CanopenDriver(joint_map=str(arm3))
+    jm = driver.joint_map
+    drives = [_Drive(i, j.name, j.node) for i, j in enumerate(jm.joints)]
+    driver._drives = drives
+    callbacks = [(driver._tpdo_callback(d, 0, TPDO1), driver._tpdo_callback(d, 1, TPDO2)) for d in drives]
+
+    def answer(counts):
+        for (tpdo1, tpdo2), c in zip(callbacks, counts):
+            tpdo1(0x180, bytearray(TPDO1.pack(0x27, c)), 0.0)
+            tpdo2(0x280, bytearray(TPDO2.pack(0, 8)), 0.0)
+
+    def sync(index, stamp):                  # what _send_held does under the lock when it sends a SYNC
+        driver._sync_index, driver._sync_time = index, stamp
+        for d in drives:
+            d.received = 0
+
+    sync(1, 10.00)
+    answer([100, 200, 300])
+    first = driver.latest_state()
+    assert first is not None and first.stamp == 10.00 and first.sequence == 1
+    sync(2, 10.01)
+    answer([101, 201, 301])                  # SYNC 1's answers, late: they complete the set of SYNC 2
+    answer([102, 202, 302])                  # SYNC 2's own answers
+    second = driver.latest_state()
+    assert second.sequence == 2 and second.stamp == 10.01                  # one state for SYNC 2, not two
+    sync(3, 10.02)
+    answer([103, 203, 303])
+    third = driver.latest_state()
+    assert third.sequence == 3 and third.stamp == 10.02
+    np.testing.assert_allclose(third.positions, jm.to_radians(np.array([103, 203, 303])))
+    stamps = [first.stamp, second.stamp, third.stamp]
+    assert len(set(stamps)) == 3
