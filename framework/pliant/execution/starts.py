@@ -34,15 +34,14 @@ class VoxelStartCheck:
         self.robot = robot
         self.outside_solid = outside_solid
         self.surface = np.asarray(robot.surface_indices(), dtype=np.int64)
-        self._shape = np.asarray(grid.shape, dtype=np.int64)
-        self._occupied = grid.occupied
+        # the occupancy with one layer of "outside" around it: any index clipped to [-1, n] looks up in one step
+        self._solid_padded = np.pad(grid.occupied, 1, constant_values=outside_solid)
+        self._last = np.asarray(grid.shape, dtype=np.int64)
 
     def _solid(self, index: np.ndarray) -> np.ndarray:
         """Bool ``(m,)``: voxel indices ``(m, 3)`` that are occupied (or outside the grid, when that is solid)."""
-        valid = np.all((index >= 0) & (index < self._shape), axis=1)
-        solid = np.full(len(index), self.outside_solid)
-        solid[valid] = self._occupied[index[valid, 0], index[valid, 1], index[valid, 2]]
-        return solid
+        i = np.clip(index, -1, self._last) + 1
+        return self._solid_padded[i[:, 0], i[:, 1], i[:, 2]]
 
     def depth(self, points: np.ndarray) -> np.ndarray:
         """Depth (m) of points ``(m, 3)`` inside the obstacles: 0 in a free voxel, else the distance to the nearest
