@@ -130,7 +130,9 @@ def main(argv: list[str] | None = None) -> int:
     print_table("Budgets: wall time of plan() against max_time (flag: more than 10 % over)",
                 ("planner", "pipeline", "max_time (s)", "used (s)", "used / max_time", "status", "budget"), rows)
     over = [r for r in runs if r["over"]]
-    print(f"\n{len(over)} of {sum(r['max_time'] is not None for r in runs)} budgeted runs more than 10 % over")
+    measured = sum(r["ratio"] is not None for r in runs)
+    failed = sum(r["status"].startswith("error") for r in runs)
+    print(f"\n{len(over)} of {measured} budgeted runs more than 10 % over" + (f"; {failed} failed" if failed else ""))
     write_json("budgets", {"quick": args.quick, "seed": args.seed, "tolerance": TOLERANCE, "runs": runs})
     return 0
 
