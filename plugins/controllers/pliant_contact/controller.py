@@ -34,7 +34,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import PlanningError
+from pliant.errors import PlanningError, SimulationError
 from pliant.interfaces import Controller
 from pliant.options import option
 
@@ -81,6 +81,8 @@ class ContactMotionController(Controller):
         # the predictions' actuation noise: one reproducible stream per drive (a generator re-seeded every call
         # would repeat the same draws, a fixed bias of up to the noise bound on every joint, every step)
         self._prediction_rng = np.random.default_rng(0)
+        #: control steps of this drive whose measured configuration the prediction simulator refused as a start
+        self.refused_predictions = 0
 
     def reached(self, q, target) -> bool:
         return bool(self.space.distance(q, target) <= self.options.tolerance)
@@ -123,7 +125,14 @@ class ContactMotionController(Controller):
         """The pipeline's simulator's configuration ``horizon`` s (default one period) after ``q``, driven toward
         ``target`` (its noise from one reproducible stream per drive)."""
         horizon = dt if self.options.horizon is None else self.options.horizon
-        return self.context.simulator.simulate(q[None], target, self._prediction_rng, horizon).final[0]
+        try:
+            return self.context.simulator.simulate(q[None], target, self._prediction_rng, horizon).final[0]
+        except SimulationError:
+            # the simulator refuses a start inside one of its obstacles: the measured configuration lies deeper in
+            # the model's geometry than the world let it (a dynamic world's or a robot's contact, a model that
+            # differs), so there is nothing to predict from; aim at the target this period, as without a prediction
+            self.refused_predictions += 1
+            return target
 
     def _adjust(self, q, target, fraction, dt):
         if self.options.mode == "predict":

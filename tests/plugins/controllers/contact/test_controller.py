@@ -131,6 +131,18 @@ def test_track_mode_commands_the_simulators_prediction(peg):
         registry.create("controller", "contact", Context(scene=peg.scene, robot=peg.robot), mode="track")
 
 
+def test_track_mode_aims_at_the_target_when_the_simulator_refuses_the_measured_start(peg):
+    # measured 5 cm into the block's top (a dynamic world's contact, deeper than the kinematic simulator's quarter
+    # voxel): nothing to predict from, so this period commands the target, and the refusal is counted
+    ctrl = registry.create("controller", "contact", peg, gain=2.0, mode="track")
+    q, target = pose(7, 7, 3.45), pose(6, 7, 0.0)
+    command = ctrl.command(q, target, 0.1)
+    assert np.allclose(command, 2.0 * peg.robot.space.difference(target, q))
+    assert ctrl.refused_predictions == 1
+    ctrl.command(pose(7, 7, 3.55), target, 0.1)                  # on the block: predicted again
+    assert ctrl.refused_predictions == 1
+
+
 def test_track_mode_slides_the_peg_into_the_hole(peg):
     ctrl = registry.create("controller", "contact", peg, gain=2.0, mode="track", horizon=0.1)
     path = Path(np.array([pose(7, 7, 5), pose(5.6, 5.6, 3.5), pose(5, 5, 3.3), pose(5, 5, 0.625)]))
