@@ -138,3 +138,27 @@ def test_starts_are_refused_exactly_when_a_brute_force_check_finds_them_inside(r
             sim.simulate(starts[0] if len(starts) == 1 else starts, starts[0], np.random.default_rng(0), 0.1)
     else:
         assert sim.simulate(starts, starts[0], np.random.default_rng(0), 0.1).final.shape == starts.shape
+
+
+def ball_scene():
+    from pliant import Scene
+
+    data = {"name": "ball", "start": [0.5, 0.5, 0.5], "goal": [0.5, 0.5, 0.9],
+            "bounds": {"lower": [0, 0, 0], "upper": [1, 1, 1], "resolution": 0.05},
+            "objects": [{"name": "ball", "shape": "sphere", "radius": 0.2, "position": [0.5, 0.5, 0.5],
+                         "deformability": 0.0, "sensitivity": 1.0}],
+            "robot": {"kind": "rigid", "space": "r3", "parts": [{"shape": "box", "size": [0.1, 0.1, 0.1]}]}}
+    ctx = Context(scene=Scene.from_dict(data))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    return ctx
+
+
+def test_a_scene_whose_start_is_inside_an_object_cannot_be_stepped_from_it():
+    ctx = ball_scene()                                  # the robot's start is the ball's centre
+    sim = registry.create("simulator", "kinematic", ctx)
+    with pytest.raises(SimulationError, match=r"^step: places the robot \S+ m inside object 'ball'.*"
+                                              r"\(got \[0\.5, 0\.5, 0\.5\]\)"):
+        sim.step(np.array([0.0, 0.0, 1.0]), 0.1, np.random.default_rng(0))
+    assert np.allclose(sim.configuration(), [0.5, 0.5, 0.5])
+    sim.reset(np.array([0.5, 0.5, 0.9]))                # above the ball: free, and stepping works from there
+    assert sim.step(np.array([0.0, 0.0, 0.5]), 0.1, np.random.default_rng(0))[2] == pytest.approx(0.9, abs=0.06)

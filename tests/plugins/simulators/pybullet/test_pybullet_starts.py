@@ -128,3 +128,17 @@ def test_starts_are_refused_exactly_when_a_brute_force_check_finds_them_inside(r
             sim.simulate(starts, starts[0], np.random.default_rng(0), 0.1)
     else:
         assert sim.simulate(starts, starts[0], np.random.default_rng(0), 0.1).final.shape == starts.shape
+
+
+def test_a_scene_whose_start_is_inside_an_object_is_refused_when_the_simulator_is_built():
+    from pliant import Scene
+
+    data = {"name": "ball", "start": [0.5, 0.5, 0.5], "goal": [0.5, 0.5, 0.9],
+            "bounds": {"lower": [0, 0, 0], "upper": [1, 1, 1], "resolution": 0.05},
+            "objects": [{"name": "ball", "shape": "sphere", "radius": 0.2, "position": [0.5, 0.5, 0.5],
+                         "deformability": 0.0, "sensitivity": 1.0}],
+            "robot": {"kind": "rigid", "space": "r3", "parts": [{"shape": "box", "size": [0.1, 0.1, 0.1]}]}}
+    ctx = Context(scene=Scene.from_dict(data))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    with pytest.raises(SimulationError, match=r"^reset: places the robot \S+ m inside object 'ball'"):
+        registry.create("simulator", "pybullet", ctx)          # bind places the robot at the scene's start
