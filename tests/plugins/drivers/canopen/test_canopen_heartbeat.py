@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 import pytest
-from pliant.errors import ConnectionLost
+from pliant.errors import ConnectionLost, StaleState
 
 Q = np.array([0.3, -0.25, 0.2, -0.4, 0.15, 0.3, -0.2])
 
@@ -38,7 +38,9 @@ def test_a_lost_heartbeat_is_one_fault_entry_and_one_error_line_however_many_tic
     """Counted per lost drive (node 12): on a loaded machine another drive's heartbeat may come late too, which
     is then its own fault, with its own one entry."""
     peer = make_peer(str(arm3))
-    driver = make_driver(joint_map=str(arm3), heartbeat_timeout=0.1)
+    # 0.5 s, not less: a loaded machine stalls this process's threads for 0.1-0.3 s, and other drives would look
+    # lost too (they are counted apart, but the drives' own consumer of the master's heartbeat would fault them)
+    driver = make_driver(joint_map=str(arm3), heartbeat_timeout=0.5)
     driver.open()
     driver.enable()
     assert _wait(lambda: driver.robot_status().enabled)
@@ -52,7 +54,7 @@ def test_a_lost_heartbeat_is_one_fault_entry_and_one_error_line_however_many_tic
     assert _wait(lambda: len(ages.update(_heartbeat_entries(driver, node)) or ages) >= 25, period=0.002)
     entries = _heartbeat_entries(driver, node)
     assert len(entries) == 1 and entries[0].startswith(node + "heartbeat lost (none for ")
-    assert entries[0].endswith("consumer timeout 0.1 s)")
+    assert entries[0].endswith("consumer timeout 0.5 s)")
     assert sum(key.startswith(node) for key in driver._comm_faults) == 1
     errors = [r.getMessage() for r in caplog.records if r.levelno == logging.ERROR and node in r.getMessage()]
     assert len(errors) == 1 and "heartbeat lost" in errors[0]
@@ -64,7 +66,9 @@ def test_braking_with_late_writes_after_a_lost_heartbeat_injects_no_stand_still_
     keep-alive repeated the held target between them (velocity offset 0), a one-cycle stand-still."""
     peer = make_peer()
     # stream_timeout: however long the held write waits, the stream counts as late, never as gone
-    driver = make_driver(heartbeat_timeout=0.1, stream_timeout=600.0)
+    # and no states while the write is held: the state watchdog may fire first on a slow machine (either fault
+    # brakes the arm, which is what is tested)
+    driver = make_driver(heartbeat_timeout=0.5, stream_timeout=600.0, state_timeout=5.0)
     period = driver.limits.period
     write = driver.write
     moving_writes = []
@@ -77,7 +81,7 @@ def test_braking_with_late_writes_after_a_lost_heartbeat_injects_no_stand_still_
             if len(moving_writes) == 10:
                 peer.drop_heartbeat(6)
                 dropped.set()
-                assert _wait(lambda: driver._comm_faults), "the driver never noticed the lost heartbeat"
+                assert _wait(lambda: _heartbeat_entries(driver, "node 6 ")), "the lost heartbeat went unnoticed"
             elif dropped.is_set():
                 late_braking_writes.append(1)
                 time.sleep(3 * period)           # a loaded machine: the sync thread's keep-alive is due meanwhile
@@ -86,9 +90,8 @@ def test_braking_with_late_writes_after_a_lost_heartbeat_injects_no_stand_still_
     driver.write = late_write
     with driver:
         driver.move_to(Q, wait=False)
-        with pytest.raises(ConnectionLost) as info:
+        with pytest.raises((ConnectionLost, StaleState)):
             driver.move_to(Q)
-        assert "node 6 (lbr_iiwa_joint_6): heartbeat lost" in str(info.value)
         driver.stop()
         assert len(_heartbeat_entries(driver, "node 6 ")) == 1
     assert dropped.is_set() and len(late_braking_writes) >= 3          # it was braking from a motion, late
