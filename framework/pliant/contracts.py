@@ -106,8 +106,9 @@ def validated_result(problem, result):
     does not accept; then a copy with status ``invalid path``, no path and no policy, the reason in ``message``
     and ``statistics["validity"]`` (DESIGN rule 11: "solved" means valid).  Every state is checked, and every
     motion between consecutive states unless the result carries a policy (a policy's motions are its actions,
-    executed -- and simulated while planning -- with contact; its path lists their outcomes).  Results without a
-    path, or of a problem without a collision checker, pass unchanged."""
+    executed -- and simulated while planning -- with contact; its path lists their outcomes, checked as states within
+    the simulator's contact slop, ``Simulator.start_tolerance``).  Results without a path, or of a problem without a
+    collision checker, pass unchanged."""
     import dataclasses
 
     from pliant.results import PlanResult, Status
@@ -120,7 +121,12 @@ def validated_result(problem, result):
     if result.policy is not None:
         if configurations.ndim != 2 or configurations.shape[1] != problem.space.dim:
             return result               # a policy's path in another space (e.g. objects): the policy's own checks
-        ok = problem.is_valid(configurations)
+        # simulated outcomes: collision-free up to the simulator's contact slop; the cost model is not asked (a
+        # state in contact within the slop may be NaN for it)
+        slop = float(getattr(problem.simulator, "start_tolerance", 0.0) or 0.0)
+        ok = problem.checker.states_valid(configurations, tolerance=slop)
+        if problem.validity is not None and ok.any():
+            ok &= np.asarray(problem.validity(configurations), dtype=bool)
         if ok.all():
             result.statistics.setdefault("validity", {"valid": True, "checked_states": len(configurations)})
             return result

@@ -487,12 +487,13 @@ class PlanningProblem:
                    robot=context.robot, simulator=context.simulator, controller=context.controller, scene=scene,
                    checker=ValidityChecker.from_context(context))
 
-    def is_valid(self, q: np.ndarray) -> np.ndarray:
+    def is_valid(self, q: np.ndarray, collisions: bool = True) -> np.ndarray:
         """Bool ``(n,)``: in the space's bounds, collision-free (:attr:`checker`), feasible for the cost, and
-        passing ``validity``."""
+        passing ``validity``.  ``collisions=False`` leaves the collision check out, for states of a motion that
+        :meth:`motions_valid` checks anyway."""
         q = np.atleast_2d(q)
         ok = np.asarray(self.space.is_valid(q), dtype=bool)
-        if self.checker is not None and ok.any():
+        if collisions and self.checker is not None and ok.any():
             ok &= self.checker.states_valid(q)
         if self.cost is not None and ok.any():
             ok &= self.cost.is_valid(q)
@@ -501,13 +502,14 @@ class PlanningProblem:
         return ok
 
     def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Bool ``(m,)``: every instant of each motion ``a[i] -> b[i]`` (the space's interpolation; ``(m, d)`` or
-        ``(d,)``, broadcast) is collision-free, at the resolution of the scene's voxels (conservative advancement,
-        :mod:`pliant.planning.validity`).  All true without a :attr:`checker`; the states at both ends are also
-        checked with :meth:`is_valid`'s other checks (cost, ``validity``)."""
+        """Bool ``(m,)``: both ends of each motion ``a[i] -> b[i]`` (``(m, d)`` or ``(d,)``, broadcast) are in the
+        space's bounds and every instant of the motion (the space's interpolation) is collision-free, at the
+        resolution of the scene's voxels (conservative advancement, :mod:`pliant.planning.validity`); only the
+        bounds without a :attr:`checker`.  The states' cost feasibility and ``validity`` are :meth:`is_valid`'s
+        (a planner checks them on the states it discretises anyway)."""
         a, b = np.broadcast_arrays(np.atleast_2d(np.asarray(a, dtype=np.float64)),
                                    np.atleast_2d(np.asarray(b, dtype=np.float64)))
-        ok = self.is_valid(a) & self.is_valid(b)
+        ok = np.asarray(self.space.is_valid(a), dtype=bool) & np.asarray(self.space.is_valid(b), dtype=bool)
         if self.checker is not None and ok.any():
             idx = np.nonzero(ok)[0]
             ok[idx] = self.checker.motions_valid(a[idx], b[idx])

@@ -49,7 +49,7 @@ def shortcut(problem: PlanningProblem, configurations: np.ndarray, rng: np.rando
         if j - i < 2:
             continue
         bridge = problem.space.discretize(dense[i], dense[j], step)
-        if not problem.is_valid(bridge[1:-1]).all():
+        if not problem.is_valid(bridge[1:-1]).all() or not problem.motion_is_valid(dense[i], dense[j]):
             continue
         bridge_segments = _segment_costs(problem, bridge, length_weight)
         if not np.sum(bridge_segments) < np.sum(segments[i:j]) - 1e-12:
@@ -119,7 +119,8 @@ def perturb(problem: PlanningProblem, configurations: np.ndarray, rng: np.random
             after, c1 = motion(q, waypoints[i + 1])
             if not c0 + c1 < best_cost:
                 continue
-            if not (problem.is_valid(before[1:]).all() and problem.is_valid(after[1:-1]).all()):
+            if not (problem.is_valid(before[1:]).all() and problem.is_valid(after[1:-1]).all()
+                    and problem.motions_valid(np.array([waypoints[i - 1], q]), np.array([q, waypoints[i + 1]])).all()):
                 continue
             best, best_cost = (q, (before, c0), (after, c1)), c0 + c1
         if best is None:

@@ -100,6 +100,7 @@ class ValidityChecker:
                 near = grown
         self._forbidden_padded = grids.reshape(len(forbidden), -1)
         self._near_padded = near.reshape(len(forbidden), -1)
+        self._far = self._far_clearance(grids)
         self._rigid = self._rigid_layout()
         self._reach = self._body_reach()
         self._has_collisions = type(robot).collisions is not _robot_base_collisions()
@@ -119,13 +120,17 @@ class ValidityChecker:
 
     # --- states ----------------------------------------------------------------------------------
 
-    def states_valid(self, q: np.ndarray) -> np.ndarray:
-        """Bool ``(n,)``: each configuration ``(n, d)`` (or ``(d,)``) is in the space's bounds and collision-free."""
+    def states_valid(self, q: np.ndarray, tolerance: float = 0.0) -> np.ndarray:
+        """Bool ``(n,)``: each configuration ``(n, d)`` (or ``(d,)``) is in the space's bounds and collision-free.
+
+        ``tolerance`` (m, below half a voxel): a point that far (per axis) from a cube it may enter still counts
+        as touching -- the contact slop of a simulator's own states (``Simulator.start_tolerance``); 0 for plans.
+        """
         q = np.atleast_2d(np.asarray(q, dtype=np.float64))
         ok = np.asarray(self.space.is_valid(q), dtype=bool).reshape(-1)
         if ok.any():
             idx = np.nonzero(ok)[0]
-            ok[idx] = self._free(q[idx], clearance=False)[0]
+            ok[idx] = self._free(q[idx], clearance=False, tolerance=tolerance)[0]
         return ok
 
     def explain(self, q: np.ndarray) -> str | None:
@@ -161,8 +166,12 @@ class ValidityChecker:
         ok = np.ones(m, dtype=bool)
         if m == 0:
             return ok, 0
-        # the initial samples: one voxel of body-point displacement apart
-        pieces = np.maximum(1, np.ceil(self._sample_bound(a, b) / self.resolution - 1e-9)).astype(np.int64)
+        # the initial samples: a rigid body's motions start whole (far from obstacles the clearance certifies long
+        # intervals; near them the intervals are bisected); other robots' one voxel of body-point displacement apart
+        if self._rigid is not None:
+            pieces = np.ones(m, dtype=np.int64)
+        else:
+            pieces = np.maximum(1, np.ceil(self._sample_bound(a, b) / self.resolution - 1e-9)).astype(np.int64)
         owner = np.repeat(np.arange(m), pieces + 1)
         first = np.concatenate([[0], np.cumsum(pieces + 1)])[:-1]
         j = np.arange(len(owner)) - first[owner]
@@ -220,7 +229,8 @@ class ValidityChecker:
 
     # --- internals -------------------------------------------------------------------------------
 
-    def _free(self, q: np.ndarray, clearance: bool) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    def _free(self, q: np.ndarray, clearance: bool,
+              tolerance: float = 0.0) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """Per configuration: collision-free ``(n,)``; with ``clearance`` also each body point's distance (m) to
         the nearest cube its material may not enter ``(n, m)`` and the points ``(n, m, 3)``."""
         n = len(q)
@@ -234,7 +244,7 @@ class ValidityChecker:
         for s in range(0, n, chunk):
             part = q[s:s + chunk]
             points = np.asarray(self.robot.body_points(part), dtype=np.float64)
-            ok = self._points_free(points)
+            ok = self._points_free(points, tolerance)
             free[s:s + chunk] = ok.all(axis=1)
             if clearance:
                 c = self._clearance(points)
@@ -249,32 +259,38 @@ class ValidityChecker:
     def _lookup(self, table: np.ndarray, idx: np.ndarray, classes: np.ndarray) -> np.ndarray:
         """``table`` (a padded per-class flat grid: forbidden or near) at voxel indices ``(..., 3)`` for points of
         ``classes`` ``(...)``; indices outside the grid read its border (outside: forbidden, near)."""
-        padded = self._padded_shape
-        i = np.clip(idx + 1, 0, padded - 1)
-        flat = (i[..., 0] * padded[1] + i[..., 1]) * padded[2] + i[..., 2]
-        return table[classes, flat]
+        return table[classes, self._flat(idx + 1)]
 
-    def _points_free(self, points: np.ndarray) -> np.ndarray:
+    def _flat(self, padded_idx: np.ndarray) -> np.ndarray:
+        """Flat indices into the padded grids of padded voxel indices ``(..., 3)`` (clamped to the border)."""
+        padded = self._padded_shape
+        i = np.clip(padded_idx, 0, padded - 1)
+        return (i[..., 0] * padded[1] + i[..., 1]) * padded[2] + i[..., 2]
+
+    def _points_free(self, points: np.ndarray, tolerance: float = 0.0) -> np.ndarray:
         """Bool ``(..., m)``: each point is outside every cube its material may not enter (a point on the face
-        between such a cube and an allowed one touches it and is free)."""
-        u = (points - self._lower) / self.resolution
-        idx = np.floor(u).astype(np.int64)
+        between such a cube and an allowed one touches it and is free; so is one within ``tolerance`` m of it)."""
+        u = points - self._lower
+        u *= 1.0 / self.resolution
+        u += 1.0                                     # padded voxel coordinates: truncation is floor where it matters
+        padded_idx = u.astype(np.int64)
         classes = np.broadcast_to(self.classes, points.shape[:-1])
-        bad = self._lookup(self._forbidden_padded, idx, classes)
+        bad = self._forbidden_padded[classes, self._flat(padded_idx)]
         if not bad.any():
             return ~bad
-        # a point in a forbidden cube but on one of its faces: free if a cube across that face is allowed
-        frac = u - idx
-        onface = bad & np.any((frac < FACE_SLACK) | (frac > 1.0 - FACE_SLACK), axis=-1)
+        # a point in a forbidden cube but on (or within the slack of) one of its faces: free if a cube across is allowed
+        slack = min(max(FACE_SLACK, tolerance / self.resolution), 0.5)
+        frac = u - np.floor(u)
+        onface = bad & np.any((frac < slack) | (frac > 1.0 - slack), axis=-1)
         if onface.any():
             sel = np.nonzero(onface)
             us, cs = u[sel], classes[sel]
-            lo = np.floor(us - FACE_SLACK).astype(np.int64)
-            hi = np.floor(us + FACE_SLACK).astype(np.int64)
+            lo = np.floor(us - slack).astype(np.int64)
+            hi = np.floor(us + slack).astype(np.int64)
             still = np.ones(len(us), dtype=bool)
             for pick in itertools.product((0, 1), repeat=3):
                 cand = np.stack([hi[:, k] if pick[k] else lo[:, k] for k in range(3)], axis=-1)
-                still &= self._lookup(self._forbidden_padded, cand, cs)
+                still &= self._forbidden_padded[cs, self._flat(cand)]
             bad[sel] = still
         return ~bad
 
@@ -288,6 +304,9 @@ class ValidityChecker:
         frac = (u - idx) * h                                   # distance to the voxel's lower faces (m)
         classes = np.broadcast_to(self.classes, points.shape[:-1])
         best = h + np.min(np.where(self._moving_axes, np.minimum(frac, h - frac), np.inf), axis=-1)
+        # beyond the 3 x 3 x 3 block: the far bound of the voxel's centre, less the point's offset from it
+        offset = np.linalg.norm(np.where(self._moving_axes, frac - 0.5 * h, 0.0), axis=-1)
+        best = np.maximum(best, self._lookup(self._far, idx, classes) - offset)
         near = self._lookup(self._near_padded, idx, classes)
         if not near.any():
             return best
@@ -308,6 +327,24 @@ class ValidityChecker:
             local = np.where(hit, np.minimum(local, np.sqrt(gap2)), local)
         best[sel] = local
         return best
+
+    def _far_clearance(self, grids: np.ndarray) -> np.ndarray:
+        """Per class and padded voxel, a lower bound (m) on the distance from the voxel's centre to the nearest cube
+        the class may not enter: with ``e`` the Euclidean distance between the centres (moving axes only), the gap
+        to that cube is at least ``max(e / 2, e - sqrt(k) h / 2)`` (``k`` moving axes); flat ``(c, N)``."""
+        from scipy.ndimage import distance_transform_edt
+
+        h = self.resolution
+        k = int(self._moving_axes.sum())
+        sampling = np.where(self._moving_axes, h, 1e9 * h)     # a fixed axis: its layers are out of reach
+        out = np.empty(grids.shape, dtype=np.float64)
+        for c, grid in enumerate(grids):
+            if grid.all():
+                out[c] = 0.0
+                continue
+            e = distance_transform_edt(~grid, sampling=sampling)
+            out[c] = np.maximum(np.minimum(e / 2.0, e), e - np.sqrt(k) * h / 2.0)
+        return out.reshape(len(grids), -1)
 
     def _rigid_layout(self) -> tuple[np.ndarray, float] | None:
         """For a rigid body in r3 / se2 / se3: its local points and the farthest one's distance (m); else None."""

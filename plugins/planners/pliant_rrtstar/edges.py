@@ -25,7 +25,8 @@ class Edges:
     states: ``(k, d)`` every edge's states after its start, edge after edge.  offsets: ``(m + 1,)``,
     edge ``i`` owns ``states[offsets[i]:offsets[i + 1]]``.  state_costs: ``(k,)``.  cost: ``(m,)``
     edge costs (cost units).  valid: ``(m,)`` every state of the edge in bounds, passing the problem's
-    checks and with a finite state cost not above the ceiling.  length: ``(m,)`` metric length.
+    checks and with a finite state cost not above the ceiling, and the motion collision-free at voxel
+    resolution (:meth:`PlanningProblem.motions_valid`).  length: ``(m,)`` metric length.
     """
 
     states: np.ndarray
@@ -40,13 +41,17 @@ class Edges:
         return self.states[self.offsets[i]:self.offsets[i + 1]]
 
 
-def state_validity(problem: PlanningProblem, q: np.ndarray, costs: np.ndarray, max_cost: float) -> np.ndarray:
-    """Bool ``(n,)``: in bounds, passing ``problem.validity`` and the cost model's own check, cost <= ``max_cost``.
+def state_validity(problem: PlanningProblem, q: np.ndarray, costs: np.ndarray, max_cost: float,
+                   collisions: bool = True) -> np.ndarray:
+    """Bool ``(n,)``: in bounds, collision-free (unless ``collisions`` is false: the states of a motion checked
+    whole), passing ``problem.validity`` and the cost model's own check, cost <= ``max_cost``.
 
     A NaN cost (infeasible, thesis eq. 3.1) fails.  The cost model's ``is_valid`` is called only when
     it overrides the default (finite cost), which ``costs`` already says.
     """
     ok = np.asarray(problem.space.is_valid(q), dtype=bool) & (costs <= max_cost)
+    if collisions and problem.checker is not None and ok.any():    # the core's checker, no cost model needed
+        ok &= problem.checker.states_valid(q)
     if problem.validity is not None and ok.any():
         ok &= np.asarray(problem.validity(q), dtype=bool)
     cost = problem.cost
@@ -77,8 +82,10 @@ def evaluate_edges(problem: PlanningProblem, starts: np.ndarray, ends: np.ndarra
     states = space.interpolate(starts[owner], ends[owner], t[:, None])
     steps = (length / counts)[owner]                     # interpolation is at constant speed along the geodesic
     costs = state_costs(problem, states)
-    ok = state_validity(problem, states, costs, max_cost)
+    ok = state_validity(problem, states, costs, max_cost, collisions=False)     # collisions: the motions below
     weighted = np.where(ok, costs * steps, 0.0)
     cost = np.add.reduceat(weighted, offsets[:-1]) + length_weight * length
     valid = np.logical_and.reduceat(ok, offsets[:-1])
+    if valid.any():                                       # the motions themselves, at voxel resolution
+        valid[valid] = problem.motions_valid(starts[valid], ends[valid])
     return Edges(states, offsets, costs, np.where(valid, cost, np.inf), valid, length)

@@ -268,7 +268,9 @@ class TRRTPlanner(Planner):
         ``None`` when a state is invalid or the motion punctures an object."""
         space = problem.space
         edge = space.discretize(self.tree.configurations[parent], q_new, self._check_step)[1:]
-        if not problem.is_valid(edge).all():
+        # the states (cost, validity) at the check step; the motion itself at voxel resolution (core checker)
+        if not (problem.is_valid(edge, collisions=False).all()
+                and problem.motion_is_valid(self.tree.configurations[parent], q_new)):
             stats["invalid_edges"] += 1
             return None
         costs = self._state_cost(problem)(edge)
