@@ -113,8 +113,9 @@ class PinocchioRobot(RobotModel):
         self._set_limits(entry)
         self.base_configuration = self._posture()
         self._sample_body(self.options.resolution or scene.resolution, spec.material)
-        #: self-penetration (m) the validity check tolerates: half a voxel, the resolution of the body points
-        self.self_tolerance = 0.5 * scene.resolution
+        #: self-penetration (m) the validity check tolerates: a quarter voxel, the contact slop of the kinematic
+        #: simulator's states
+        self.self_tolerance = 0.25 * scene.resolution
         #: batched forward kinematics of the joints carrying points; None: a joint on the chain is not
         #: a plain revolute / prismatic one, and body points fall back to the per-configuration loop
         self._chain = JointChain.build(self.model, self.joint_ids, self._used, self.base_configuration)
@@ -586,7 +587,8 @@ class PinocchioRobot(RobotModel):
 
     def collisions(self, q: np.ndarray) -> np.ndarray:
         """Bool ``(n,)``: the robot's collision model collides with itself, two non-allowed geometries (coal, after
-        the SRDF's allowed pairs) overlapping by more than :attr:`self_tolerance` (half a voxel).
+        the SRDF's allowed pairs) overlapping by more than :attr:`self_tolerance` (a quarter voxel), or by an
+        unknown depth (coal reports 0 for mesh pairs).
 
         The core's validity checker (:mod:`pliant.planning.validity`) calls it after checking the body points --
         sampled on every collision geometry's surface at the scene resolution -- against the scene's voxels, which
@@ -600,8 +602,8 @@ class PinocchioRobot(RobotModel):
             for k in self._colliding_pairs(x):
                 result = self._pair_data.collisionResults[k]
                 depth = max((abs(float(result.getContact(c).penetration_depth)) for c in range(result.numContacts())),
-                            default=np.inf)
-                if depth > self.self_tolerance:
+                            default=0.0)
+                if depth == 0.0 or depth > self.self_tolerance:
                     out[a] = True
                     break
         return out

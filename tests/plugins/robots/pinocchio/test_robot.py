@@ -333,6 +333,24 @@ def test_self_collision(iiwa, pr2, baxter):
     assert baxter.self_collision(np.vstack([np.zeros(7), into_pedestal])).tolist() == [False, True]
 
 
+def test_collisions_are_self_collisions_deeper_than_a_quarter_voxel_and_the_checker_uses_them(iiwa, pr2, baxter):
+    from pliant.planning.validity import ValidityChecker
+
+    assert pr2.self_tolerance == pytest.approx(0.25 * pr2.context.scene.resolution)          # 0.01 m
+    deep = [0.0, 1.2, 0.0, 0.0, 0.0, 0.0, 0.0]                  # the arm pitched 3.3 cm into the base
+    grazing = [0.0, 1.3, 0.0, 0.0, 0.0, 0.0, 0.0]               # 2-3.5 mm: within the contact slop
+    assert pr2.self_collision(np.array([deep, grazing])).tolist() == [True, True]
+    assert pr2.collisions(np.array([np.zeros(7), deep, grazing])).tolist() == [False, True, False]
+    into_pedestal = [1.7, 0.5, 0.0, 1.5, 0.0, 0.0, 0.0]         # mesh pairs: coal gives no depth, so it counts
+    assert baxter.collisions(np.array([into_pedestal]))[0]
+    # every collision is a self-collision (the tolerance only forgives)
+    q = iiwa.space.sample(np.random.default_rng(0), 60)
+    assert not (iiwa.collisions(q) & ~iiwa.self_collision(q)).any()
+    checker = ValidityChecker(pr2.context.scene, pr2)
+    assert checker._has_collisions
+    assert checker.states_valid(np.array([np.zeros(7), deep])).tolist() == [True, False]
+
+
 @pytest.mark.parametrize("name", ["pr2", "baxter"])
 def test_broad_phase_self_contacts_equal_every_pairs_narrow_phase(name, request):
     # self_contacts narrows the pairs by coal's sweep and prune; brute force: every pair's narrow phase
