@@ -1,6 +1,6 @@
 """Batched edge evaluation for RRT*: discretise many edges at once, one cost call, per-edge sums.
 
-An edge ``a -> b`` is discretised as :meth:`Space.discretize` does (``ceil(d(a, b) / step)`` equal
+An edge ``a -> b`` is discretised as :meth:`Space.discretize` does (``ceil(d(a, b) / step - 1e-9)`` equal
 parts; the same interpolated states, bit for bit up to the interpolation's batching); its cost is the
 discrete integral of :meth:`PlanningProblem.path_cost` over the states after ``a``,
 ``sum_j c(q_j) d(q_{j-1}, q_j)``, plus ``length_weight * d(a, b)`` — so the cost of a path is the
@@ -73,7 +73,9 @@ def evaluate_edges(problem: PlanningProblem, starts: np.ndarray, ends: np.ndarra
     space = problem.space
     starts, ends = np.broadcast_arrays(np.atleast_2d(starts), np.atleast_2d(ends))
     length = np.atleast_1d(np.asarray(space.distance(starts, ends), dtype=np.float64))
-    counts = np.maximum(1, np.ceil(length / step).astype(np.int64))
+    # the slack of Space.discretize: an edge a hair longer than k steps (a steered edge of exactly max_step) is
+    # split into k parts, as PlanningProblem.densify splits it for the final puncture check and path_cost
+    counts = np.maximum(1, np.ceil(length / step - 1e-9).astype(np.int64))
     offsets = np.concatenate([[0], np.cumsum(counts)])
     owner = np.repeat(np.arange(len(starts)), counts)
     j = np.arange(offsets[-1]) - offsets[owner] + 1

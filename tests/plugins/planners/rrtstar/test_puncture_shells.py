@@ -47,6 +47,21 @@ def test_a_two_voxel_shell_entered_across_a_voxel_edge_stays_closed(shells):
     assert result.statistics["final_check_refused"] == 0
 
 
+def test_edges_are_split_as_the_final_check_densifies_them(shells):
+    """A steered edge of exactly max_step (0.15 = 3 check steps, to rounding) is split into the same states by the
+    planner's batched edge evaluation and by PlanningProblem.densify (the final check's): before, about a third
+    of them came out in 4 parts during planning and 3 in the final check, so the two swept different states."""
+    from pliant_rrtstar.edges import evaluate_edges
+
+    problem = shells.problem(1, np.random.default_rng(0))
+    rng = np.random.default_rng(1)
+    a = problem.space.sample(rng, 300)
+    b = np.array([problem.space.steer(q, target, 0.15) for q, target in zip(a, problem.space.sample(rng, 300))])
+    edges = evaluate_edges(problem, a, b, 0.05)
+    for i in range(len(a)):
+        assert np.allclose(edges.of(i), problem.densify(np.array([a[i], b[i]]), 0.05)[1:], atol=1e-12, rtol=0), i
+
+
 def test_a_goal_inside_the_void_is_not_reached_by_opening_it(shells):
     """The goal in the middle of the void: no path reaches it without opening the shell, so RRT* must not report
     solved with one (before the fix it did, for 8 of 9 such shells, through a wall)."""
