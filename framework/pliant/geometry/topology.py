@@ -550,9 +550,10 @@ class PunctureChecker:
         """Check a whole path ``(n, d)`` from the start: ``(ok, reason)``.
 
         The path is swept exactly as :meth:`extend` sweeps its edges (each step between consecutive
-        configurations conservatively), so a path whose edges passed :meth:`extend` one after the other, each
-        with its ``start``, passes here too, and the other way round.  Consecutive configurations a check step
-        apart (a voxel or less) keep the arcs of a rotating robot within :attr:`arc_margin` of the chords."""
+        configurations conservatively), so the verdict here is that of the last edge when the path is extended
+        edge by edge, each with its ``start``: a path whose edges all passed passes here too.  Consecutive
+        configurations a check step apart (a voxel or less) keep the arcs of a rotating robot within
+        :attr:`arc_margin` of the chords."""
         _, ok, reason = self.extend(self.initial_state(), configurations)
         return ok, reason
 
