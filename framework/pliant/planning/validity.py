@@ -100,7 +100,8 @@ class ValidityChecker:
                 near = grown
         self._forbidden_padded = grids.reshape(len(forbidden), -1)
         self._near_padded = near.reshape(len(forbidden), -1)
-        self._far = self._far_clearance(grids)
+        self._grids = grids
+        self._far_table: np.ndarray | None = None       # the far-field bound, on the first motion check
         self._rigid = self._rigid_layout()
         self._reach = self._body_reach()
         self._has_collisions = type(robot).collisions is not _robot_base_collisions()
@@ -306,7 +307,9 @@ class ValidityChecker:
         best = h + np.min(np.where(self._moving_axes, np.minimum(frac, h - frac), np.inf), axis=-1)
         # beyond the 3 x 3 x 3 block: the far bound of the voxel's centre, less the point's offset from it
         offset = np.linalg.norm(np.where(self._moving_axes, frac - 0.5 * h, 0.0), axis=-1)
-        best = np.maximum(best, self._lookup(self._far, idx, classes) - offset)
+        if self._far_table is None:
+            self._far_table = self._far_clearance(self._grids)
+        best = np.maximum(best, self._lookup(self._far_table, idx, classes) - offset)
         near = self._lookup(self._near_padded, idx, classes)
         if not near.any():
             return best
