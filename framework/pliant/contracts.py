@@ -87,6 +87,9 @@ def checked_plan(method):
                                 field="problem", value=type(problem).__name__)
         check_rng(rng)
         started = time.perf_counter()
+        if problem.checker is None and problem.scene is not None and problem.robot is None and problem.scene.objects:
+            raise PlanningError("the scene has obstacles, and without the robot no path can be checked against them "
+                                "(PlanningProblem.from_context(context) sets both)", field="robot", value=None)
         if problem.checker is None and problem.scene is not None and problem.robot is not None:
             import dataclasses
 

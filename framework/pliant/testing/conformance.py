@@ -155,6 +155,8 @@ def check_planner(planner: Planner, problem: PlanningProblem, seed: int = 0, who
         _require(np.allclose(problem.space.distance(path[0], problem.start), 0, atol=1e-6), who,
                  "a solved path starts at the start")
         _require(bool(np.all(problem.is_valid(path))), who, "every configuration of a solved path is valid")
+        if result.policy is None:
+            _require(problem.path_is_valid(path), who, "every motion of a solved path is valid (at voxel resolution)")
         if result.status is Status.SOLVED:
             end_gap = float(problem.space.distance(path[-1], problem.goal))
             _require(bool(problem.in_goal(path[-1:])[0]) or end_gap <= max(problem.goal_tolerance, 1e-6), who,

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 from pliant import Pipeline
+from pliant.errors import PlanningError
 from pliant.interfaces import Planner, PlanningProblem
 from pliant.planning.validity import ValidityChecker
 from pliant.results import Path, PlanResult, Status
@@ -144,6 +145,10 @@ def test_a_solved_path_through_a_wall_is_downgraded_with_the_reason():
     bare = PlanningProblem(space=problem.space, start=problem.start, goal=problem.goal, robot=problem.robot,
                            scene=problem.scene)
     assert Teleport().plan(bare, np.random.default_rng(0)).status is Status.INVALID_PATH
+    # a scene with obstacles but no robot: nothing could be checked, so the core refuses to plan
+    with pytest.raises(PlanningError, match="robot"):
+        Teleport().plan(PlanningProblem(space=problem.space, start=problem.start, goal=problem.goal,
+                                        scene=problem.scene), np.random.default_rng(0))
     # the free side: solved, and the check is on record
     free = checker_of(scene([wall()], start=(0.25, 0.3, 0.5), goal=(0.25, 0.7, 0.5)))[1]
     ok = Teleport().plan(free, np.random.default_rng(0))
