@@ -48,3 +48,40 @@ def test_on_the_peer_the_driver_gets_the_demo_watchdog_and_the_users_world_setti
     pipeline = pliant.Pipeline.from_file(name, overrides=robot_overrides(name, 0, user, "http://127.0.0.1:1", tmp_path))
     assert pipeline.world_spec().options["state_timeout"] == 0.1           # the user's setting wins
     assert pipeline.components["planner"].options["max_time"] == 120
+
+
+def test_the_peer_starts_when_the_driver_connects_not_before():
+    """Planning runs without the peer's load: building the execution world starts nothing, opening the driver starts
+    the peer once, and a world that is not a driver is left alone."""
+    from pliant.testing.memory_robot import MemoryDriver
+    from pliant_ros1.demo import start_peer_on_connect
+
+    class Peer:
+        robot = "iiwa"
+        starts = 0
+
+        def alive(self):
+            return self.starts > 0
+
+        def start(self):
+            self.starts += 1
+            return self
+
+    class Pipeline:
+        def __init__(self, world):
+            self.world = world
+
+        def execution_world(self, context):
+            return self.world
+
+    peer = Peer()
+    pipeline = Pipeline(MemoryDriver())
+    start_peer_on_connect(pipeline, peer)
+    driver = pipeline.execution_world(None)
+    assert peer.starts == 0
+    driver.open()
+    driver.open()
+    assert peer.starts == 1 and driver._open
+    other = Pipeline(object())
+    start_peer_on_connect(other, peer)
+    assert isinstance(other.execution_world(None), object) and peer.starts == 1
