@@ -43,6 +43,10 @@ class PymunkOptions(SteppedOptions):
     max_torque: float = option(2000.0, "largest torque the controller applies (N m)", minimum=0.0)
     table_friction: float = option(0.5, "Coulomb friction coefficient between movable objects and the table "
                                    "(force mu m g, torque mu m g r_mean); 0 lets them glide", minimum=0.0)
+    placed_tolerance: float = option(1.0, "deepest a movable object placed by set_object_poses may lie in the robot "
+                                     "when the next step starts, in voxels: the contact solver pushes it out (a "
+                                     "placement error makes the paddle touch, not pass through); deeper is refused",
+                                     minimum=0.0, maximum=2.0)
 
 
 class PymunkSimulator(SteppedSimulator):
@@ -182,20 +186,21 @@ class PymunkSimulator(SteppedSimulator):
                                       value=np.asarray(pose).tolist())
 
     def _check_robot_clear_of_placed_objects(self) -> None:
-        """Refuse to step a robot that lies more than ``start_tolerance`` (m) inside a movable object placed by
+        """Refuse to step a robot that lies more than ``placed_tolerance`` voxels inside a movable object placed by
         :meth:`set_object_poses` since the last ``reset`` (the robot's surface points in the object, the object's
         outline in the robot's convex pieces); the solver would throw them apart."""
         step = 0.25 * self.context.scene.resolution
         robot_points = self.robot.body_points(self.configuration()[None], self.starts.surface)[0][:, :2]
         pieces = self._robot_pieces()
+        tolerance = self.options.placed_tolerance * self.context.scene.resolution
         for spec, parts in zip(self.objects, self._object_parts):
             pose = spec.pose(parts[0])
             depth = max(_depth_in_object(spec, pose, robot_points).max(initial=0.0),
                         _depth_in_pieces(pieces, _outline(spec, pose, step)).max(initial=0.0))
-            if depth > self.start_tolerance:
+            if depth > tolerance:
                 raise SimulationError(f"the robot starts {depth:.4g} m inside movable object '{spec.name}' (placed "
                                       f"there by set_object_poses; this simulator tolerates "
-                                      f"{self.start_tolerance:.4g} m of contact); reset the robot elsewhere first",
+                                      f"{tolerance:.4g} m, option placed_tolerance); reset the robot elsewhere first",
                                       field="step", value=self.configuration().tolist())
 
     def _robot_pieces(self) -> list[tuple]:

@@ -139,8 +139,8 @@ def test_placing_an_object_into_a_wall_is_refused_and_moves_nothing(x, y, depth)
 
 @pytest.mark.parametrize(("x", "theta", "depth"), [
     (0.35, 0.0, 0.05),                                      # the paddle (x 0.28-0.32) inside the crate's left half
-    (0.394, 0.0, 0.006),                                    # 6 mm: deeper than a quarter of the 2 cm voxel
-    (0.32 + 0.08 * 2 ** 0.5 - 0.01, np.pi / 4, 0.01),       # a turned crate's corner 1 cm into the paddle
+    (0.375, 0.0, 0.025),                                    # 25 mm: deeper than placed_tolerance, the 2 cm voxel
+    (0.32 + 0.08 * 2 ** 0.5 - 0.03, np.pi / 4, None),       # a turned crate's corner 3 cm into the paddle
 ])
 def test_a_step_with_an_object_placed_on_the_robot_is_refused_until_a_reset_moves_it(x, theta, depth):
     _, sim = push()
@@ -148,7 +148,8 @@ def test_a_step_with_an_object_placed_on_the_robot_is_refused_until_a_reset_move
     sim.set_object_poses({"crate": np.array([x, 0.5, theta])})     # placing is fine: a reset may move the paddle
     with pytest.raises(SimulationError, match=r"^step: the robot starts (\S+) m inside movable object 'crate'") as e:
         sim.step(np.array([0.05, 0.0, 0.0]), 0.1, np.random.default_rng(0))
-    assert float(e.value.args[0].split(" m inside")[0].rsplit(" ", 1)[1]) == pytest.approx(depth, abs=1e-3)
+    measured = float(e.value.args[0].split(" m inside")[0].rsplit(" ", 1)[1])
+    assert measured > 0.02 if depth is None else measured == pytest.approx(depth, abs=1e-3)
     assert np.allclose(sim.configuration(), [0.3, 0.5, 0.0])
     assert np.allclose(sim.object_poses()["crate"], [x, 0.5, theta])
     sim.reset(np.array([0.1, 0.5, 0.0]))                   # puts the crate back at its scene pose (x 0.6) ...
@@ -156,11 +157,12 @@ def test_a_step_with_an_object_placed_on_the_robot_is_refused_until_a_reset_move
     assert sim.step(np.zeros(3), 0.1, np.random.default_rng(0))[0] == pytest.approx(0.1, abs=1e-3)
 
 
-@pytest.mark.parametrize(("x", "theta"), [(0.4, 0.0), (0.32 + 0.08 * 2 ** 0.5 + 0.001, np.pi / 4), (0.4 - 0.004, 0.0)])
+@pytest.mark.parametrize(("x", "theta"), [(0.4, 0.0), (0.32 + 0.08 * 2 ** 0.5 + 0.001, np.pi / 4), (0.4 - 0.004, 0.0),
+                                          (0.4 - 0.015, 0.0), (0.32 + 0.08 * 2 ** 0.5 - 0.015, np.pi / 4)])
 def test_an_object_placed_against_the_robot_is_accepted(x, theta):
     _, sim = push()
     sim.reset(np.array([0.3, 0.5, 0.0]))
-    sim.set_object_poses({"crate": np.array([x, 0.5, theta])})            # touching, or 4 mm in: contact
+    sim.set_object_poses({"crate": np.array([x, 0.5, theta])})   # touching, or up to 15 mm in: pushed out
     assert np.allclose(sim.object_poses()["crate"], [x, 0.5, theta])
     q = sim.step(np.array([0.05, 0.0, 0.0]), 0.1, np.random.default_rng(0))
     assert q[0] > 0.3
