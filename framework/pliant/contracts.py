@@ -141,7 +141,7 @@ def validated_result(problem, result):
         found = problem.path_verdict(configurations)
         if found.valid:
             result.statistics.setdefault("validity", {"valid": True, "checked_states": found.checked_states})
-            return result
+            return _goal_checked(problem, result)
         reason = found.reason
         verdict = {"valid": False, "index": found.index, "kind": found.kind, "reason": reason,
                    "checked_states": found.checked_states}
@@ -152,6 +152,29 @@ def validated_result(problem, result):
                                statistics=statistics,
                                message=f"the planner reported {result.status.value}, but its path is not valid: "
                                        f"{reason}")
+
+
+def _goal_checked(problem, result):
+    """``result`` unchanged unless it reports ``solved`` with a path whose last state is not in the problem's goal
+    (:meth:`PlanningProblem.in_goal`); then a copy with status ``approximate`` -- a valid path toward the goal, which
+    is what it is -- and the distance left in ``message`` and ``statistics["goal"]``."""
+    import dataclasses
+
+    from pliant.results import Status
+
+    if result.status is not Status.SOLVED or len(result.path.configurations) == 0:
+        return result
+    last = result.path.configurations[-1]
+    if bool(problem.in_goal(last)[0]):
+        return result
+    left = float(np.asarray(problem.space.distance(last[None], problem.goal))[0]) if problem.goal_region is None \
+        else math.nan
+    statistics = dict(result.statistics)
+    statistics["goal"] = {"reached": False, "distance": left, "tolerance": float(problem.goal_tolerance)}
+    statistics["reported_status"] = result.status.value
+    return dataclasses.replace(result, status=Status.APPROXIMATE, statistics=statistics,
+                               message=f"the planner reported solved, but its path ends {left:.6g} from the goal "
+                                       f"(tolerance {problem.goal_tolerance:.6g}): approximate")
 
 
 def _record_budget(planner, result, termination, seconds: float) -> None:

@@ -171,3 +171,22 @@ def test_straight_and_waypoints_check_the_motions_not_only_the_states():
     result = context.extras["planner"].plan(PlanningProblem.from_context(context), np.random.default_rng(0))
     # waypoint 0 is the start
     assert result.status is Status.INFEASIBLE and "motion from waypoint 1 to waypoint 2" in result.message
+
+
+class ShortOfTheGoal(Planner):
+    """Claims solved with a valid path that stops halfway (what gradient-trrt once returned)."""
+
+    def plan(self, problem, rng, termination=None):
+        half = 0.5 * (problem.start + problem.goal)
+        return PlanResult(Status.SOLVED, path=Path(np.vstack([problem.start, half])), cost=0.0, planner="short")
+
+
+def test_a_solved_path_that_stops_short_of_the_goal_is_approximate():
+    problem = checker_of(scene([wall()], start=(0.25, 0.3, 0.5), goal=(0.25, 0.7, 0.5)))[1]
+    result = ShortOfTheGoal().plan(problem, np.random.default_rng(0))
+    assert result.status is Status.APPROXIMATE and result.path is not None
+    assert result.statistics["goal"]["distance"] == pytest.approx(0.2)
+    assert result.statistics["reported_status"] == "solved" and "from the goal" in result.message
+    # within the goal tolerance it stays solved
+    problem.goal_tolerance = 0.25
+    assert ShortOfTheGoal().plan(problem, np.random.default_rng(0)).status is Status.SOLVED
