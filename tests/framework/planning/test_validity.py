@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from pliant import Pipeline
+from pliant import Pipeline, load_scene
 from pliant.errors import PlanningError
 from pliant.interfaces import Planner, PlanningProblem
 from pliant.planning.validity import ValidityChecker
@@ -190,3 +190,27 @@ def test_a_solved_path_that_stops_short_of_the_goal_is_approximate():
     # within the goal tolerance it stays solved
     problem.goal_tolerance = 0.25
     assert ShortOfTheGoal().plan(problem, np.random.default_rng(0)).status is Status.SOLVED
+
+
+def test_a_hand_built_problem_of_the_pipeline_s_scene_and_robot_reuses_its_checker(monkeypatch):
+    ctx = Pipeline.from_file("straight-demo", overrides=["scene=se2-maze"]).build()
+    planner = ctx.extras["planner"]
+    ValidityChecker.from_context(ctx)                  # the pipeline's checker (planners build it when bound)
+    built = []
+    original = ValidityChecker.__init__
+
+    def counted(self, *args, **kwargs):
+        built.append(1)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(ValidityChecker, "__init__", counted)
+    bare = PlanningProblem(space=ctx.space, start=ctx.scene.start, goal=ctx.scene.goal, robot=ctx.robot,
+                           scene=ctx.scene)
+    for _ in range(2):
+        assert planner.plan(bare, np.random.default_rng(0)).status is Status.INFEASIBLE   # the walls are seen
+    assert built == []                                 # the context's checker, not a new grid per plan
+    # a scene of its own (not the pipeline's) gets a checker of its own
+    other = PlanningProblem(space=ctx.space, start=ctx.scene.start, goal=ctx.scene.goal, robot=ctx.robot,
+                            scene=load_scene("se2-maze"))
+    planner.plan(other, np.random.default_rng(0))
+    assert built == [1]
