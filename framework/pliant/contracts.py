@@ -80,6 +80,8 @@ def checked_plan(method):
 
     @functools.wraps(method)
     def plan(self, problem, rng, *args, **kwargs):
+        import dataclasses
+
         from pliant.interfaces import PlanningProblem
 
         if not isinstance(problem, PlanningProblem):
@@ -91,8 +93,6 @@ def checked_plan(method):
             raise PlanningError("the scene has obstacles, and without the robot no path can be checked against them "
                                 "(PlanningProblem.from_context(context) sets both)", field="robot", value=None)
         if problem.checker is None and problem.scene is not None and problem.robot is not None:
-            import dataclasses
-
             from pliant.planning.validity import ValidityChecker
 
             # the planner's pipeline keeps one checker of its scene and robot: a problem built by hand for them (as
@@ -102,7 +102,11 @@ def checked_plan(method):
                       and getattr(context, "robot", None) is problem.robot)
             checker = ValidityChecker.from_context(context) if shared else ValidityChecker(problem.scene, problem.robot)
             problem = dataclasses.replace(problem, checker=checker)
-        result = validated_result(problem, method(self, problem, rng, *args, **kwargs))
+        result = method(self, problem, rng, *args, **kwargs)
+        region = self.goal_region(problem) if hasattr(self, "goal_region") else None
+        if region is not None:
+            problem = dataclasses.replace(problem, goal_region=region)
+        result = validated_result(problem, result)
         _record_budget(self, result, args[0] if args else kwargs.get("termination"), time.perf_counter() - started)
         return result
 

@@ -632,6 +632,12 @@ class Planner(Component):
         if "plan" in cls.__dict__:
             cls.plan = checked_plan(cls.__dict__["plan"])
 
+    def goal_region(self, problem: PlanningProblem) -> Callable[[np.ndarray], np.ndarray] | None:
+        """The goal test the last :meth:`plan` aimed at when the planner replaces ``problem``'s goal (a task-space
+        target given as a planner option): ``(n, d) -> bool (n,)``; ``None`` (the default): the problem's own.  The
+        core's final check (:func:`pliant.contracts.validated_result`) judges "solved" against it."""
+        return None
+
     @abstractmethod
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:

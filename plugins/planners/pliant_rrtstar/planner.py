@@ -121,6 +121,10 @@ class RRTStarPlanner(Planner):
         super().bind(context)
         warm_up(context)
 
+    def goal_region(self, problem: PlanningProblem):
+        """The task-space target's goal test (the tip within ``target_tolerance``) when ``target`` is set."""
+        return self.goal.contains if getattr(self, "goal", None) is not None else None
+
     def plan(self, problem: PlanningProblem, rng: np.random.Generator,
              termination: Termination | None = None) -> PlanResult:
         o = self.options

@@ -160,7 +160,8 @@ def test_a_pipeline_executes_on_the_can_arm_by_one_setting(make_peer, channel, t
                         planner={"name": "waypoints", "waypoints": [[0.4, 0.45, 0.0, -1.1, 0.0, 0.75, 0.0]]},
                         controller={"name": "contact", "gain": 4.0, "tolerance": 0.05},
                         execution={"period": 0.05, "time_limit": 30.0,
-                                   "world": {"name": "canopen", "channel": channel}})
+                                   "world": {"name": "canopen", "channel": channel,
+                                             "state_timeout": 0.5}})      # the fixture's: a loaded CI machine
     record = pipeline.run(write=False)
     assert record.execution.success and record.execution.world == "canopen"
     # the arm decelerates within its (conservative) limits after the last command; the record ends at rest
