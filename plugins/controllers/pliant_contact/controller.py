@@ -34,9 +34,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import PlanningError, SimulationError
-from pliant.interfaces import Controller
-from pliant.options import option
+from pliant.api import Controller, PlanningError, SimulationError, option
 
 
 @dataclass(frozen=True)

@@ -40,10 +40,17 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import ConfigError, ConnectionLost, DriverError, RobotDisabled
-from pliant.hardware.state import JointState, RobotStatus
-from pliant.interfaces import Driver, DriverOptions
-from pliant.options import option
+from pliant.api import (
+    ConfigError,
+    ConnectionLost,
+    Driver,
+    DriverError,
+    DriverOptions,
+    JointState,
+    RobotDisabled,
+    RobotStatus,
+    option,
+)
 
 from pliant_canopen import cia402
 from pliant_canopen.cia402 import DriveState, drive_state

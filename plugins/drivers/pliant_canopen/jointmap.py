@@ -34,8 +34,7 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.validation import Fields, read_toml
+from pliant.api import ConfigError, Fields, read_toml
 
 from pliant_canopen import cia402
 

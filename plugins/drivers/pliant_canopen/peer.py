@@ -391,7 +391,7 @@ class CanopenPeer:
     def __init__(self, joint_map: str | Path | JointMap | None = None, *, interface: str = "virtual",
                  channel: str = "pliant-canopen", bitrate: int = 1_000_000, initial=None, tau: float = 0.01,
                  nodes=None) -> None:
-        from pliant.hardware.limits import load_limits
+        from pliant.api import load_limits
 
         self.joint_map = joint_map if isinstance(joint_map, JointMap) else load_joint_map(joint_map)
         self.limits = load_limits(self.joint_map.limits).select(self.joint_map.names)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl

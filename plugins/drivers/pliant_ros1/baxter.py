@@ -21,8 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.hardware.state import RobotStatus
-from pliant.options import option
+from pliant.api import RobotStatus, option
 
 from pliant_ros1.driver import RosDriver, RosDriverOptions
 from pliant_ros1.messages import message_class

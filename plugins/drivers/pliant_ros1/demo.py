@@ -66,7 +66,7 @@ def robot_overrides(pipeline_name: str, seed: int, user: list[str], master_uri: 
 def start_peer_on_connect(pipeline, peer) -> None:
     """Make ``pipeline``'s robot driver start ``peer`` (a :class:`~pliant_ros1.peer.PeerProcess`) when it connects,
     i.e. after planning, and not before."""
-    from pliant.interfaces import Driver
+    from pliant.api import Driver
 
     make_world = pipeline.execution_world
 
@@ -102,8 +102,8 @@ def run(pipeline_name: str, seed: int = 0, overrides: list[str] | None = None) -
     execution reached the goal and every command the peer received was within the limits, 1 not planned, 3 the
     execution failed (the report says what: a watchdog, a fault), got stuck, or sent a command outside the limits,
     130 interrupted.  The pipeline writes its plan, the execution so far and the report in every case."""
-    import pliant
-    from pliant.pipeline import RunInterrupted
+    from pliant import api
+    from pliant.api import RunInterrupted
 
     from pliant_ros1.master import RosMaster
     from pliant_ros1.peer import PeerProcess, command_violations, read_record
@@ -115,7 +115,7 @@ def run(pipeline_name: str, seed: int = 0, overrides: list[str] | None = None) -
     driver, robot, side = PIPELINES[pipeline_name]
     user = list(overrides or [])
     overrides = budget_overrides(pipeline_name, user)
-    base = pliant.Pipeline.from_file(pipeline_name, overrides=[f"seed={seed}", *overrides])
+    base = api.Pipeline.from_file(pipeline_name, overrides=[f"seed={seed}", *overrides])
     world = base.world_spec()
     output = Path("out") / f"{pipeline_name}-on-{driver}"
     output.mkdir(parents=True, exist_ok=True)
@@ -131,7 +131,7 @@ def run(pipeline_name: str, seed: int = 0, overrides: list[str] | None = None) -
         peer = PeerProcess(robot, master.uri, side=side, record=record, extra=extra)   # started by the driver
         print(f"ROS master {master.uri}; running {pipeline_name} on {driver} (the {robot} peer, {world.name}, "
               "starts when the driver connects)", flush=True)
-        pipeline = pliant.Pipeline.from_file(pipeline_name, overrides=robot_overrides(
+        pipeline = api.Pipeline.from_file(pipeline_name, overrides=robot_overrides(
             pipeline_name, seed, user, master.uri, output))
         start_peer_on_connect(pipeline, peer)
         try:
@@ -162,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="the pipeline's seed")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a pipeline override")
     args = parser.parse_args(argv)
-    from pliant.errors import PliantError
+    from pliant.api import PliantError
 
     try:
         return run(args.pipeline, args.seed, args.set)

@@ -27,10 +27,7 @@ from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
 import numpy as np
-from pliant.errors import ConnectionLost
-from pliant.hardware.state import JointState, RobotStatus
-from pliant.interfaces import Driver, DriverOptions
-from pliant.options import option
+from pliant.api import ConnectionLost, Driver, DriverOptions, JointState, RobotStatus, option
 
 from pliant_ros1.robots import RosRobot, ros_robot
 

@@ -24,7 +24,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from pliant.hardware.limits import JointLimits
+from pliant.api import JointLimits
 
 #: simulators the peer can use (``none``: integrate the velocity, no contact)
 SIMULATORS = ("kinematic", "pybullet", "none")
@@ -37,13 +37,12 @@ def build_simulator(scene_name: str, group: str, name: str, limits: JointLimits,
     """``(simulator, scene)``: the scene, the ``pinocchio`` robot with joint ``group`` and simulator ``name``
     stepping at ``physics_rate`` (Hz) with the limits' velocities; ``options`` override the simulator's options.
     Checks that the robot model plans the limits' joints, in order."""
-    import pliant
-    from pliant.errors import ConfigError
-    from pliant.interfaces import Context
+    from pliant import api
+    from pliant.api import ConfigError, Context
 
-    scene = pliant.load_scene(scene_name)
+    scene = api.load_scene(scene_name)
     context = Context(scene)
-    context.robot = pliant.registry.create("robot", "pinocchio", context, group=group)
+    context.robot = api.registry.create("robot", "pinocchio", context, group=group)
     joints = tuple(context.robot.urdf_description().joint_names)
     if joints != tuple(limits.names):
         raise ConfigError(f"the scene's robot plans joints {list(joints)}, the peer commands {list(limits.names)}",
@@ -56,7 +55,7 @@ def build_simulator(scene_name: str, group: str, name: str, limits: JointLimits,
     if name == "kinematic":
         settings["self_collision"] = False
     settings.update(options or {})
-    simulator = context.simulator = pliant.registry.create("simulator", name, context, **settings)
+    simulator = context.simulator = api.registry.create("simulator", name, context, **settings)
     # warm up (compiled kernels load or compile on the first steps), so that real time starts on time
     rng = np.random.default_rng(0)
     start = np.clip(np.asarray(scene.start, dtype=np.float64), limits.command_lower, limits.command_upper)

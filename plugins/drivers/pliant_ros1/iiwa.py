@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.options import option
+from pliant.api import option
 
 from pliant_ros1.driver import RosDriver, RosDriverOptions
 from pliant_ros1.messages import message_class

@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from pliant.errors import ConnectionLost
+from pliant.api import ConnectionLost
 
 #: the host every master this module starts binds to
 LOOPBACK = "127.0.0.1"

@@ -26,7 +26,7 @@ import tempfile
 import threading
 from pathlib import Path
 
-from pliant.errors import ConfigError
+from pliant.api import ConfigError
 
 #: the shipped message definitions, one directory per ROS package
 MSG_DIR = Path(__file__).resolve().parent / "msg"

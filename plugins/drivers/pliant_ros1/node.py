@@ -23,7 +23,7 @@ import time
 import xmlrpc.client
 from urllib.parse import urlparse
 
-from pliant.errors import ConnectionLost, DriverError
+from pliant.api import ConnectionLost, DriverError
 
 _lock = threading.Lock()
 _node_master: str | None = None

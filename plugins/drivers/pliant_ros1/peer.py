@@ -69,7 +69,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pliant.hardware.limits import JointLimits, load_limits
+from pliant.api import JointLimits, load_limits
 
 from pliant_ros1.emulator import SIMULATORS, ArmEmulator, build_simulator
 from pliant_ros1.robots import ROBOTS, SIDES, joint_limits_from_urdf, ros_robot, state_joints, urdf_path
@@ -108,7 +108,7 @@ class RobotPeer:
                  start=None, limits: str | Path | None = None, seed: int = 0, enabled: bool = False,
                  speed_ratio: float = 0.3, fault_topic: str = DEFAULT_FAULT_TOPIC,
                  flood_rate: float = 10000.0) -> None:
-        from pliant.errors import ConfigError
+        from pliant.api import ConfigError
 
         if robot not in ROBOTS:
             raise ConfigError(f"unknown robot (peers: {', '.join(ROBOTS)})", field="robot", value=robot)
@@ -162,7 +162,7 @@ class RobotPeer:
             q = np.asarray(scene.start, dtype=np.float64)
             q = np.clip(q, self.limits.command_lower + START_MARGIN, self.limits.command_upper - START_MARGIN)
         if q.shape != (self.limits.dof,):
-            from pliant.errors import ConfigError
+            from pliant.api import ConfigError
 
             raise ConfigError(f"needs {self.limits.dof} joint positions", field="start", value=q.tolist())
         return q
@@ -183,12 +183,12 @@ class RobotPeer:
 
     def start(self) -> RobotPeer:
         """Build the simulated arm, join the ROS graph and start publishing."""
-        import pliant
+        from pliant import api
 
         from pliant_ros1.node import ensure_node
 
         if self.simulator_name == "none":
-            simulator, scene = None, pliant.load_scene(self.scene_name)
+            simulator, scene = None, api.load_scene(self.scene_name)
         else:
             simulator, scene = build_simulator(self.scene_name, self.spec.group, self.simulator_name, self.limits,
                                                self.physics_rate, self.simulator_options)
@@ -607,7 +607,7 @@ class PeerProcess:
     def start(self) -> PeerProcess:
         """Start the child process (stdout and stderr to ``log``) and wait for its ready line; raises
         :class:`~pliant.errors.ConnectionLost` with the end of its output when it does not come."""
-        from pliant.errors import ConnectionLost
+        from pliant.api import ConnectionLost
 
         from pliant_ros1.master import loopback_environment
 
@@ -753,7 +753,7 @@ def run_from_args(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m pliant_ros1.peer``."""
-    from pliant.errors import PliantError
+    from pliant.api import PliantError
 
     parser = add_arguments(argparse.ArgumentParser(prog="python -m pliant_ros1.peer", description=__doc__.split(
         "\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter))

@@ -22,8 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.hardware.state import RobotStatus
-from pliant.options import option
+from pliant.api import RobotStatus, option
 
 from pliant_ros1.driver import RosDriver, RosDriverOptions
 
@@ -59,7 +58,7 @@ class Pr2Driver(RosDriver):
         self._power, self._halted = None, None
         super()._connect()
         if self.options.robot_state:
-            from pliant.errors import RobotNotReady
+            from pliant.api import RobotNotReady
 
             from pliant_ros1.node import wait_for
 
@@ -99,7 +98,7 @@ class Pr2Driver(RosDriver):
         """Reset the halted motors: ``<ethercat_namespace>/reset_motors`` (``std_srvs/Empty``); refused while a
         run-stop is pressed (the robot would halt again)."""
         import rospy
-        from pliant.errors import EmergencyStop, RobotNotReady
+        from pliant.api import EmergencyStop, RobotNotReady
         from std_srvs.srv import Empty
 
         if not self.options.robot_state:

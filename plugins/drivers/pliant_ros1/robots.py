@@ -22,8 +22,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-from pliant.errors import ConfigError
-from pliant.robot_data import example_robot_data_dir
+from pliant.api import ConfigError, example_robot_data_dir
 
 #: the robots this plugin drives
 ROBOTS = ("pr2", "baxter", "iiwa")

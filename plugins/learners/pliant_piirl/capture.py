@@ -32,7 +32,7 @@ sequence (``pliant capture --keys``), which is also how the tool is tested headl
 from __future__ import annotations
 
 import numpy as np
-from pliant.errors import ConfigError
+from pliant.api import ConfigError
 
 from pliant_piirl.demonstration import Demonstration, DemonstrationTask
 

@@ -18,7 +18,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import ConfigError, PliantError
+from pliant.api import ConfigError, PliantError
 
 from pliant_piirl.capture import KEYS, CaptureSession
 from pliant_piirl.demonstration import load_demonstrations, save_demonstrations

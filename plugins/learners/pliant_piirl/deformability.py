@@ -22,10 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import ConfigError, DimensionError
-from pliant.geometry.tetmesh import box_tetrahedra, tetrahedron_volumes, write_vtk
-from pliant.interfaces import Learner
-from pliant.options import option
+from pliant.api import ConfigError, DimensionError, Learner, box_tetrahedra, option, tetrahedron_volumes, write_vtk
 
 
 @dataclass(frozen=True)

@@ -22,8 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.files import write_json
+from pliant.api import ConfigError, write_json
 
 FORMAT = "pliant-demonstrations"
 VERSION = 1

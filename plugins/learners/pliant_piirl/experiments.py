@@ -14,9 +14,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.experiments.runs import check_settings, open_log, run_tasks
-from pliant.files import write_json, write_text
+from pliant.api import ConfigError, check_settings, open_log, run_tasks, write_json, write_text
 
 SCENE = "hollow-cube"
 #: the probe tip in its body frame (m): the point that must touch a task's target (the learner's ``tip`` default)
@@ -44,7 +42,7 @@ def run_trials(*, trials: int, jobs: int, output: Path, all_pairs: bool = False,
     log, records = open_log(directory, "--output", echo)
     check_settings(directory, {"options": options, "mode": mode}, ["options", "mode"], replace=fresh or not records)
     if fresh:
-        from pliant.files import rewrite_jsonl
+        from pliant.api import rewrite_jsonl
 
         records.clear()
         rewrite_jsonl(log, records)
@@ -65,12 +63,12 @@ def run_trials(*, trials: int, jobs: int, output: Path, all_pairs: bool = False,
 
 
 def _learner(options: dict, name: str = "active-piirl", scene: str = SCENE):
-    import pliant
-    from pliant.interfaces import Context
+    from pliant import api
+    from pliant.api import Context
 
-    context = Context(scene=pliant.load_scene(scene))
-    context.robot = pliant.registry.create("robot", "rigid", context)
-    return pliant.registry.create("learner", name, context, **options)
+    context = Context(scene=api.load_scene(scene))
+    context.robot = api.registry.create("robot", "rigid", context)
+    return api.registry.create("learner", name, context, **options)
 
 
 def _trial(trial: int, mode: str, options: dict) -> dict:
@@ -218,7 +216,7 @@ def run_table41(*, plans: int, max_time: float | None, jobs: int, output: Path, 
                                "max_iterations": max_iterations, "straight": straight},
                    ["options", "max_time", "refine", "max_iterations", "straight"], replace=fresh or not records)
     if fresh or not learned_file.exists():
-        from pliant.files import rewrite_jsonl
+        from pliant.api import rewrite_jsonl
 
         records.clear()
         rewrite_jsonl(log, records)
@@ -253,14 +251,14 @@ def _plan41(learned_file: str, task: int, plan: int, max_time: float | None, ref
             max_iterations: int | None = None, straight: bool = False) -> dict:
     import json
 
-    import pliant
+    from pliant import api
 
     from pliant_piirl.demonstration import Demonstration
     from pliant_piirl.features import DeformationFeatures, true_sensitivities
     from pliant_piirl.verification import compare, plan_task
 
     learned = json.loads(Path(learned_file).read_text())
-    scene = pliant.load_scene(SCENE)
+    scene = api.load_scene(SCENE)
     features = DeformationFeatures(scene)
     demonstration = Demonstration.from_dict(learned["demonstrations_shown"][task])
     started = time.perf_counter()
@@ -282,13 +280,13 @@ def reference_paths(learned: dict, tasks) -> dict:
     """Per task, the best straight insertion (:func:`pliant_piirl.verification.straight_insertion`) under the *true*
     sensitivities and under *uniform* ones (every object 1), with their per-object deformation: what Table 4.1's
     counts give for the true values' own optimum, and for a planner that learned nothing."""
-    import pliant
+    from pliant import api
 
     from pliant_piirl.demonstration import Demonstration
     from pliant_piirl.features import DeformationFeatures, true_sensitivities
     from pliant_piirl.verification import straight_insertion
 
-    scene = pliant.load_scene(SCENE)
+    scene = api.load_scene(SCENE)
     features = DeformationFeatures(scene)
     truth = true_sensitivities(scene)
     out: dict[str, list] = {"true": [], "uniform": []}
@@ -327,11 +325,11 @@ def _main_class(costs: dict[str, float]) -> str | None:
 
 
 def write_table41(directory: Path, learned: dict, records: list[dict]) -> dict:
-    import pliant
+    from pliant import api
 
     from pliant_piirl.features import true_sensitivities
 
-    truth = true_sensitivities(pliant.load_scene(SCENE))
+    truth = true_sensitivities(api.load_scene(SCENE))
     recovered = learned["sensitivities"]
 
     def cost(deformation: dict[str, float], values: dict[str, float]) -> float:
@@ -458,7 +456,7 @@ def run_table42(*, max_time: float | None = None, max_iterations: int | None = N
     ``max_iterations`` RRT* iterations; exactly one is given.  An iteration budget makes the whole table a function
     of the seed alone, whatever the machine's speed or load (a time budget does not: a slower machine grows a
     smaller tree, and the expert may then demonstrate a different passage)."""
-    import pliant
+    from pliant import api
 
     from pliant_piirl.demonstration import Demonstration, DemonstrationTask, save_demonstrations
     from pliant_piirl.expert import PlannerExpert
@@ -479,7 +477,7 @@ def run_table42(*, max_time: float | None = None, max_iterations: int | None = N
     budget = f"{max_time:g} s" if max_time is not None else f"{max_iterations} iterations"
     directory = Path(output) / "learn-table-4.2"
     directory.mkdir(parents=True, exist_ok=True)
-    scene = pliant.load_scene(PLANAR)
+    scene = api.load_scene(PLANAR)
     features = DeformationFeatures(scene)
     truth = true_sensitivities(scene)
     weights = features.sensitivity_vector(truth)
@@ -533,12 +531,12 @@ THESIS_TABLE_81 = {"truth": (0.75, 0.625, 0.5, 0.375, 0.25), "recovered": (0.813
 def run_table81(*, repetitions: int, force: float, seed: int, output: Path, echo=print) -> dict:
     """Table 8.1: the ``press-deformability`` learner on five objects of the thesis's ground-truth deformability,
     against a known object of deformability 0.5; the mean absolute error and the ranking, the thesis's beside."""
-    import pliant
-    from pliant.interfaces import Context
+    from pliant import api
+    from pliant.api import Context
 
     started = time.perf_counter()
-    context = Context(scene=pliant.load_scene(SCENE))
-    learner = pliant.registry.create("learner", "press-deformability", context, repetitions=repetitions, force=force)
+    context = Context(scene=api.load_scene(SCENE))
+    learner = api.registry.create("learner", "press-deformability", context, repetitions=repetitions, force=force)
     truth = {f"object {k + 1}": d for k, d in enumerate(THESIS_TABLE_81["truth"])}
     echo(f"pressing the known object and {len(truth)} unknown ones {repetitions} times each ...")
     fitted = learner.fit(truth, np.random.default_rng(seed))

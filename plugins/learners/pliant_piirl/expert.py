@@ -20,8 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import PlanningError
-from pliant.options import option
+from pliant.api import PlanningError, option
 
 from pliant_piirl.demonstration import Demonstration, DemonstrationTask
 from pliant_piirl.tasks import rotation_onto

@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from pliant.errors import ConfigError
+from pliant.api import ConfigError
 
 
 def unit_sensitivity_scene(scene):
@@ -33,15 +33,15 @@ class DeformationFeatures:
 
     def __init__(self, scene, *, robot: str = "rigid", robot_options: dict | None = None, cost: str = "voxel",
                  step: float | None = None) -> None:
-        import pliant
-        from pliant.interfaces import Context
+        from pliant import api
+        from pliant.api import Context
 
         if step is not None and not (np.isfinite(step) and step > 0):
             raise ConfigError("must be a positive number of metric units", field="step", value=step)
         self.scene = scene
         context = Context(scene=unit_sensitivity_scene(scene))
-        context.robot = pliant.registry.create("robot", robot, context, **(robot_options or {}))
-        context.cost = pliant.registry.create("cost", cost, context)
+        context.robot = api.registry.create("robot", robot, context, **(robot_options or {}))
+        context.cost = api.registry.create("cost", cost, context)
         self.context, self.robot, self.space, self.cost = context, context.robot, context.robot.space, context.cost
         self.names = list(self.cost.feature_names())
         self.step = float(step) if step is not None else scene.resolution / 2

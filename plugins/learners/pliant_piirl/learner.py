@@ -21,9 +21,7 @@ import dataclasses
 import time
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.interfaces import Learner
-from pliant.options import option
+from pliant.api import ConfigError, Learner, option
 
 from pliant_piirl.demonstration import Demonstration, check_demonstrations, load_demonstrations
 from pliant_piirl.expert import ExpertOptions, SimulatedExpert, funnel_frame
@@ -150,11 +148,11 @@ class PiirlLearner(Learner):
 
 def example_demonstrations(pairs=(("L1", "M1"), ("M1", "H1")), seed: int = 0) -> list[Demonstration]:
     """Two simulated-expert demonstrations in ``hollow-cube`` (coarse search): the conformance kit's data."""
-    import pliant
+    from pliant import api
 
     from pliant_piirl.features import DeformationFeatures, true_sensitivities
 
-    scene = pliant.load_scene("hollow-cube")
+    scene = api.load_scene("hollow-cube")
     features = DeformationFeatures(scene)
     tip = np.array([0.0, 0.0, -0.06])
     expert = SimulatedExpert(features, true_sensitivities(scene), tip, ExpertOptions(grid=7, refine=1))

@@ -66,8 +66,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.options import option
+from pliant.api import ConfigError, option
 from scipy.optimize import minimize
 
 OBJECTIVES = ("likelihood", "ratio", "ranking")

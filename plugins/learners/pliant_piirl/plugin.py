@@ -1,7 +1,6 @@
 """Entry point of the ch. 4 learners: PIIRL sensitivity recovery and its active-learning loop."""
 
-from pliant.experiments.executor import add_executor_arguments
-from pliant.hookspecs import hookimpl
+from pliant.api import add_executor_arguments, hookimpl
 
 _MODULE = "pliant_piirl.learner"
 
@@ -39,7 +38,7 @@ def pliant_add_commands(subparsers):
 def _active_command(args) -> int:
     from pathlib import Path
 
-    from pliant.pipeline import parse_override
+    from pliant.api import parse_override
 
     from pliant_piirl.experiments import QUICK, render, run_trials
 
@@ -89,7 +88,7 @@ def add_table_command(subparsers):
 def _table_command(args) -> int:
     from pathlib import Path
 
-    from pliant.pipeline import parse_override
+    from pliant.api import parse_override
 
     from pliant_piirl.experiments import TABLE_FULL, TABLE_QUICK, render_table41, run_table41
 
@@ -132,10 +131,8 @@ def _import_command(args) -> int:
     from pathlib import Path
 
     import numpy as np
-    import pliant
-    from pliant.errors import ConfigError
-    from pliant.interfaces import Context
-    from pliant.pipeline import DEFAULT_ROBOT
+    from pliant import api
+    from pliant.api import DEFAULT_ROBOT, ConfigError, Context
 
     from pliant_piirl.demonstration import (
         DemonstrationTask,
@@ -155,9 +152,9 @@ def _import_command(args) -> int:
         if scene != args.scene:
             raise ConfigError(f"holds demonstrations of scene {scene!r}, not {args.scene!r}", field="--output",
                               value=str(output))
-    scene_model = pliant.load_scene(args.scene)
+    scene_model = api.load_scene(args.scene)
     context = Context(scene=scene_model)
-    context.robot = pliant.registry.create("robot", DEFAULT_ROBOT[scene_model.robot.kind], context)
+    context.robot = api.registry.create("robot", DEFAULT_ROBOT[scene_model.robot.kind], context)
     demonstration = import_demonstration(args.bag, args.topic, args.target, planes=planes, joints=args.joints,
                                          min_step=args.min_step)
     # the recording against the scene's workspace (and the robot's dimension) before anything is written
@@ -190,8 +187,8 @@ def add_capture_command(subparsers):
 
 def _capture_command(args) -> int:
     import numpy as np
-    import pliant
-    from pliant.errors import ConfigError
+    from pliant import api
+    from pliant.api import ConfigError
 
     from pliant_piirl.capture import CaptureSession
     from pliant_piirl.capture_server import CaptureServer
@@ -201,7 +198,7 @@ def _capture_command(args) -> int:
 
     if args.pair is not None and args.task is not None:
         raise ConfigError("give at most one of --pair and --task", field="--pair", value=args.pair)
-    scene = pliant.load_scene(args.scene)
+    scene = api.load_scene(args.scene)
     tip = np.array([0.0, 0.0, -0.06])
     if args.pair is None and args.task is None:         # the scene's own task: from its start to its goal
         from pliant_piirl.demonstration import DemonstrationTask
@@ -213,13 +210,12 @@ def _capture_command(args) -> int:
         _, demonstrations = load_demonstrations(args.task, dim=len(scene.start))
         if not demonstrations:
             raise ConfigError("holds no task", field="--task", value=args.task)
-        from pliant.interfaces import Context
-        from pliant.pipeline import DEFAULT_ROBOT
+        from pliant.api import DEFAULT_ROBOT, Context
 
         from pliant_piirl.demonstration import check_demonstrations
 
         context = Context(scene=scene)
-        context.robot = pliant.registry.create("robot", DEFAULT_ROBOT[scene.robot.kind], context)
+        context.robot = api.registry.create("robot", DEFAULT_ROBOT[scene.robot.kind], context)
         check_demonstrations(demonstrations[:1], scene, context.space, source=args.task)
         task = demonstrations[0].task
     else:

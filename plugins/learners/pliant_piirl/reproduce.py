@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import os
 
-from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
+from pliant.api import Headline, ReproductionRun, Row
+from pliant.api import ReproductionOutcome as Outcome
 
 MODES = {
     "table-4.1": {"full": "learn from the 12 pairs, then 3 plans per task: 10,000 RRT* iterations, shortcut, 60 rounds "
@@ -143,7 +144,7 @@ def table_81(run: ReproductionRun) -> Outcome:
 
 def declarations() -> list:
     """The three reproductions, for the plugin's hook."""
-    from pliant.experiments.reproduce import CATALOGUE, Reproduction
+    from pliant.api import CATALOGUE, Reproduction
 
     runners = {"table-4.1": "table_41", "table-4.2": "table_42", "table-8.1": "table_81"}
     return [Reproduction(name, CATALOGUE[name][0], f"pliant_piirl.reproduce:{runner}", modes=MODES[name],

@@ -17,7 +17,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import ConfigError
+from pliant.api import ConfigError
 
 from pliant_piirl.demonstration import Demonstration, DemonstrationTask
 

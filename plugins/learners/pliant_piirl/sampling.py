@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from pliant.options import option
+from pliant.api import option
 
 from pliant_piirl.demonstration import Demonstration
 

@@ -28,9 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import ConfigError, PlanningError
-from pliant.geometry.voxelgrid import VoxelGrid
-from pliant.options import option
+from pliant.api import ConfigError, PlanningError, VoxelGrid, option
 from scipy import ndimage
 
 from pliant_piirl.demonstration import DemonstrationTask

@@ -46,12 +46,12 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
     in the cost of ``sensitivities`` (:func:`straight_insertion`) and start the local search from whichever of it
     and the shortcut RRT* path is cheaper in that cost (a straight insertion with a puncture or cut is not used).
     The choice and both costs are in ``result.statistics["verification"]``."""
-    import pliant
-    from pliant.interfaces import Context, PlanningProblem
+    from pliant import api
+    from pliant.api import Context, PlanningProblem
 
     context = Context(scene=scene_with(scene, sensitivities))
-    context.robot = pliant.registry.create("robot", "rigid", context)
-    context.cost = pliant.registry.create("cost", "voxel", context)
+    context.robot = api.registry.create("robot", "rigid", context)
+    context.cost = api.registry.create("cost", "voxel", context)
     task = demonstration.task
     if planner == "rrtstar":
         options = {"puncture_check": True, "max_time": max_time, "progress": False, "max_step": 0.02,
@@ -60,7 +60,7 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
         options = dict(planner_options or {})
     if task.goal is None:                            # "the tip touches the target", as the chapter plans
         options.update({"target": tuple(task.target), "tip": tuple(tip), "target_tolerance": 0.004})
-    planner = pliant.registry.create("planner", planner, context, **options)
+    planner = api.registry.create("planner", planner, context, **options)
     robot = context.robot
 
     def inside_funnel(q: np.ndarray) -> np.ndarray:
@@ -73,9 +73,7 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
     straight = straight and task.goal is None and context.space.tangent_dim == 6
     if (result.path is None and not straight) or shortcut_iterations == 0:
         return result, None
-    from pliant.geometry.topology import PunctureChecker, arc_margin
-    from pliant.geometry.voxelgrid import VoxelGrid
-    from pliant.planning.shortcut import shortcut
+    from pliant.api import PunctureChecker, VoxelGrid, arc_margin, shortcut
 
     checker = PunctureChecker(VoxelGrid.from_scene(context.scene), robot.body_points,
                               arc_margin=arc_margin(context.scene, context.space))
@@ -109,7 +107,7 @@ def straight_insertion(features, sensitivities: dict[str, float], task, tip) -> 
     :class:`~pliant_piirl.expert.SimulatedExpert` over insertion directions inside the task's funnel, without its
     noise (``[start, pre-insertion, final]``, SE(3) configurations), or ``None`` when no direction is valid.  Only
     the given (recovered) values are read."""
-    from pliant.errors import PlanningError
+    from pliant.api import PlanningError
 
     from pliant_piirl.expert import ExpertOptions, SimulatedExpert
 

@@ -27,9 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.execution.noise import truncated_normal
-from pliant.interfaces import RobotModel, Simulator
-from pliant.planning.clustering import ClusteringContext, ac_connected
+from pliant.api import ClusteringContext, RobotModel, Simulator, ac_connected, truncated_normal
 
 from pliant_reachability.clearance import Clearance
 from pliant_reachability.contact import Contacts, classify, project_to_contact

@@ -14,8 +14,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from pliant.geometry.voxelgrid import VoxelGrid
-from pliant.interfaces import RobotModel
+from pliant.api import RobotModel, VoxelGrid
 
 #: configurations per chunk on the articulated path (bounds memory: chunk x points x 3 floats)
 CHUNK = 256

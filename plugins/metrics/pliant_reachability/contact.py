@@ -29,7 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.interfaces import RobotModel, Simulator
+from pliant.api import RobotModel, Simulator
 
 from pliant_reachability.clearance import Clearance
 from pliant_reachability.rollout import StuckWindow

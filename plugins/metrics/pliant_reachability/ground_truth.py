@@ -24,16 +24,16 @@ CONTROLLER_GAIN = 10.0
 
 @lru_cache(maxsize=4)
 def _worlds(task_name: str, alpha: float, epsilon: float):
-    import pliant
-    from pliant.interfaces import Context
+    from pliant import api
+    from pliant.api import Context
 
     task = TASKS[task_name]
-    context = Context(scene=pliant.load_scene(task.scene))
-    context.robot = pliant.registry.create("robot", "rigid", context, translation_weight=task.translation_weight)
-    context.simulator = pliant.registry.create("simulator", "kinematic", context, **task.simulator_options(alpha))
-    world = pliant.registry.create("simulator", task.world, context, **task.world_settings(alpha))
-    controller = pliant.registry.create("controller", "contact", context, gain=CONTROLLER_GAIN, tolerance=epsilon)
-    metric = pliant.registry.create("metric", "simulation", context, epsilon_reached=epsilon,
+    context = Context(scene=api.load_scene(task.scene))
+    context.robot = api.registry.create("robot", "rigid", context, translation_weight=task.translation_weight)
+    context.simulator = api.registry.create("simulator", "kinematic", context, **task.simulator_options(alpha))
+    world = api.registry.create("simulator", task.world, context, **task.world_settings(alpha))
+    controller = api.registry.create("controller", "contact", context, gain=CONTROLLER_GAIN, tolerance=epsilon)
+    metric = api.registry.create("metric", "simulation", context, epsilon_reached=epsilon,
                                     translation_weight=task.translation_weight)
     return world, controller, metric
 
@@ -46,8 +46,8 @@ def ground_truth(task_name: str, epsilon: float, alpha: float, executions: int, 
     ground truth)."""
     import time
 
-    from pliant.execution.loop import execute
-    from pliant.results import Path
+    from pliant.api import Path
+    from pliant.api import execute_path as execute
 
     task = TASKS[task_name]
     world, controller, metric = _worlds(task_name, alpha, epsilon)

@@ -21,12 +21,17 @@ import weakref
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import ConfigError, DimensionError, PlanningError
-from pliant.geometry.voxelgrid import VoxelGrid
-from pliant.interfaces import PathMetric, PlanningProblem
-from pliant.options import option
-from pliant.planning.clustering import ClusteringContext
-from pliant.results import Path
+from pliant.api import (
+    ClusteringContext,
+    ConfigError,
+    DimensionError,
+    Path,
+    PathMetric,
+    PlanningError,
+    PlanningProblem,
+    VoxelGrid,
+    option,
+)
 
 from pliant_reachability.assess import (
     SamplingSettings,

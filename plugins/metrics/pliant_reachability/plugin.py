@@ -1,7 +1,6 @@
 """Entry point of the reachable-volume path-quality metrics (thesis ch. 6)."""
 
-from pliant.experiments.executor import add_executor_arguments
-from pliant.hookspecs import hookimpl
+from pliant.api import add_executor_arguments, hookimpl
 
 _MODULE = "pliant_reachability.metrics"
 
@@ -60,8 +59,7 @@ def pliant_add_commands(subparsers):
 def _table_command(args) -> int:
     from pathlib import Path
 
-    from pliant.options import build_options
-    from pliant.pipeline import parse_override
+    from pliant.api import build_options, parse_override
 
     from pliant_reachability.metrics import ReachabilityOptions
     from pliant_reachability.tables import QUICK, run_tables

@@ -11,7 +11,8 @@ from __future__ import annotations
 import math
 import os
 
-from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
+from pliant.api import Headline, ReproductionRun, Row
+from pliant.api import ReproductionOutcome as Outcome
 
 #: reproduction -> (task, quantity)
 TABLES = {"table-6.1": ("se3-peg-tight", "p_exec"), "table-6.2": ("se2-through-passage", "p_exec"),
@@ -110,7 +111,7 @@ table_62 = table_63 = table_64 = table_61
 
 def declarations() -> list:
     """The four reproductions, for the plugin's hook."""
-    from pliant.experiments.reproduce import CATALOGUE, Reproduction
+    from pliant.api import CATALOGUE, Reproduction
 
     runner = {"table-6.1": "table_61", "table-6.2": "table_62", "table-6.3": "table_63", "table-6.4": "table_64"}
     return [Reproduction(name, CATALOGUE[name][0], f"pliant_reachability.reproduce:{runner[name]}", modes=MODES,

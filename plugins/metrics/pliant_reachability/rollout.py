@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.interfaces import Simulator
+from pliant.api import Simulator
 
 from pliant_reachability.volumes import ReachableVolumes
 

@@ -14,17 +14,14 @@ import time
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import ConfigError, PipelineError
-from pliant.files import write_json, write_text
+from pliant.api import ConfigError, PipelineError, write_json, write_text
 
 
 def select(pipeline_name: str, *, candidates: int, executions: int, execute_all: bool = False,
            overrides: list[str] | None = None, output: Path | None = None, echo=print) -> dict:
     """Run the selection experiment; returns (and writes, as ``selection.json`` and ``selection.md``) its report."""
-    from pliant.execution.loop import execute
-    from pliant.interfaces import PlanningProblem
-    from pliant.pipeline import Pipeline
-    from pliant.validation import safe_name
+    from pliant.api import Pipeline, PlanningProblem, safe_name
+    from pliant.api import execute_path as execute
 
     for key, value in (("--candidates", candidates), ("--executions", executions)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -61,7 +58,7 @@ def select(pipeline_name: str, *, candidates: int, executions: int, execute_all:
         raise PipelineError("fewer than two candidates found a path: nothing to choose between",
                             source=pipeline.source, field="planner", value=len(scored))
     chosen = scored if execute_all else [scored[0], scored[-1]]
-    from pliant.results import Path as PlannedPath
+    from pliant.api import Path as PlannedPath
 
     for row in chosen:
         path = PlannedPath.from_dict(row["path"])

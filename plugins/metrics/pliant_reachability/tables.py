@@ -13,9 +13,7 @@ import os
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.experiments.runs import check_settings, open_log, run_tasks
-from pliant.files import write_json, write_text
+from pliant.api import ConfigError, check_settings, open_log, run_tasks, write_json, write_text
 
 from pliant_reachability.evaluation import evaluate, task_density
 from pliant_reachability.ground_truth import ground_truth
@@ -73,7 +71,7 @@ def run_tables(tasks: list[str], *, runs: int, jobs: int, output: Path, fresh: b
                               replace=fresh or not records)
     if fresh:
         records = [r for r in records if r["task"] not in tasks]
-        from pliant.files import rewrite_jsonl
+        from pliant.api import rewrite_jsonl
 
         rewrite_jsonl(log, records)
     done = {(r["task"], r["method"], r["cell"], r["run"]) for r in records}

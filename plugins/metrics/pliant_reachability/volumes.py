@@ -24,8 +24,7 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.execution.actuation import ControlLaw
+from pliant.api import ConfigError, ControlLaw
 
 
 def tangent_weights(law: ControlLaw, translation_weight: float, rotation_weight: float) -> np.ndarray:

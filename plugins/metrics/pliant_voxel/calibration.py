@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import DimensionError
+from pliant.api import DimensionError
 
 
 @dataclass

@@ -11,10 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import DimensionError
-from pliant.geometry.voxelgrid import FREE, VoxelGrid
-from pliant.interfaces import CostModel, check_batch
-from pliant.options import option
+from pliant.api import FREE_VOXEL as FREE
+from pliant.api import CostModel, DimensionError, VoxelGrid, check_batch, option
 
 from pliant_voxel.formula import compress_table, cost_tables
 from pliant_voxel.kernels import (

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from pliant.geometry.voxelgrid import VoxelGrid
+from pliant.api import VoxelGrid
 
 
 def draw_pareto(run, directory: Path) -> list[Path]:

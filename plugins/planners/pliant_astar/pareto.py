@@ -6,7 +6,7 @@ from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import numpy as np
-from pliant.termination import BudgetExpired, Termination
+from pliant.api import BudgetExpired, Termination
 
 from pliant_astar.search import path_deformation, path_length, search
 

@@ -7,12 +7,21 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import ConfigError, PlanningError
-from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
-from pliant.options import option
-from pliant.planning.warmup import warm_up
-from pliant.results import Path, PlanResult, Status
-from pliant.termination import BudgetExpired, Termination, time_left
+from pliant.api import (
+    BudgetExpired,
+    ConfigError,
+    Path,
+    Planner,
+    PlannerSpecs,
+    PlanningError,
+    PlanningProblem,
+    PlanResult,
+    Status,
+    Termination,
+    option,
+    time_left,
+    warm_up,
+)
 
 from pliant_astar.pareto import ParetoPoint, pareto_front, sweep
 from pliant_astar.search import path_deformation, path_length, search

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl
@@ -36,7 +36,7 @@ def pliant_add_commands(subparsers):
 
 
 def _pareto_command(args) -> int:
-    from pliant.pipeline import Pipeline
+    from pliant.api import Pipeline
 
     name = f"pareto-{args.scene}" + (f"-{args.variant}" if args.variant else "")
     pipeline = Pipeline({"name": args.scene, "variant": args.variant} if args.variant else args.scene,
@@ -56,7 +56,7 @@ def _pareto_command(args) -> int:
 
 @hookimpl
 def pliant_reproductions():
-    from pliant.experiments.reproduce import Reproduction
+    from pliant.api import Reproduction
 
     return [Reproduction("figure-3.5", "Figure 3.5: A* path classes on the triple-wall over p",
                          "pliant_astar.reproduce:figure_35",

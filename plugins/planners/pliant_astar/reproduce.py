@@ -3,7 +3,8 @@ thesis's three paths (length in voxels, deformation)."""
 
 from __future__ import annotations
 
-from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
+from pliant.api import Headline, ReproductionRun, Row
+from pliant.api import ReproductionOutcome as Outcome
 
 #: thesis Figure 3.5: (p, length in voxels, deformation) of its three path classes
 THESIS = {"highest deformation": (0.0, 61, 1062), "medium deformation": (0.01, 65, 683),
@@ -13,7 +14,7 @@ VALUES = {"full": 101, "quick": 101, "ci": 21}
 
 def figure_35(run: ReproductionRun) -> Outcome:
     """Sweep A* over p on the triple-wall (hard robot, soft walls) and compare the path classes."""
-    from pliant.pipeline import Pipeline
+    from pliant.api import Pipeline
 
     values = VALUES[run.mode]
     record = Pipeline("triple-wall", name="figure-3.5", output=str(run.output / "run"), cost="voxel",

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from pliant.termination import checkpoint
+from pliant.api import checkpoint
 
 _OFFSETS = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
                      if (dx, dy, dz) != (0, 0, 0)], dtype=np.int64)

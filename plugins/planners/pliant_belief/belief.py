@@ -22,8 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.spaces import Space
+from pliant.api import ConfigError, Space
 
 
 def effective_probability(p: float, reverse: float, attempts: int) -> float:

@@ -29,9 +29,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from pliant.errors import ConfigError, DimensionError
-from pliant.execution.loop import ExecutionRecord, ExecutionWorld, Recorder, StepListener, drive
-from pliant.interfaces import Controller
+from pliant.api import ConfigError, Controller, DimensionError, ExecutionRecord, ExecutionWorld, Recorder, StepListener
+from pliant.api import drive_to as drive
 
 if TYPE_CHECKING:
     from pliant_belief.policy import Matcher, PartialPolicy

@@ -40,11 +40,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.experiments.executor import LocalExecutor
-from pliant.experiments.executor import current as current_executor
-from pliant.experiments.runs import check_settings, open_log, run_tasks
-from pliant.files import rewrite_jsonl
+from pliant.api import ConfigError, LocalExecutor, check_settings, current_executor, open_log, rewrite_jsonl, run_tasks
 
 
 @dataclass(frozen=True)
@@ -162,13 +158,13 @@ def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exe
     which a time budget pays for).
     """
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-    import pliant
-    from pliant.interfaces import PlanningProblem
+    from pliant import api
+    from pliant.api import PlanningProblem
 
     base = [*variant.overrides, f"planner.max_time={plan_time}", "planner.progress=false", f"seed={seed}"]
     if plan_iterations is not None:
         base.append(f"planner.max_iterations={plan_iterations}")
-    pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=base)
+    pipeline = api.Pipeline.from_file(variant.pipeline, overrides=base)
     context = pipeline.build()
     problem = PlanningProblem.from_context(context)
     t0 = time.perf_counter()
@@ -189,7 +185,7 @@ def _execute(variant: Variant, seed: int, base: list[str], context, planned, exe
              exec_time: float) -> dict:
     """Execute the policy ``planned`` ``executions`` times in every world of ``variant`` (execution ``k`` with
     seed ``10,000 seed + k``); the runs by world."""
-    import pliant
+    from pliant import api
 
     from pliant_belief.policy import PartialPolicy
 
@@ -204,7 +200,7 @@ def _execute(variant: Variant, seed: int, base: list[str], context, planned, exe
                 continue
             world_overrides = tuple(o for o in world_overrides if o != FIRST_ROUTE) + (
                 f'execution.variant="blocked-{passage}"',)
-        world_pipeline = pliant.Pipeline.from_file(variant.pipeline, overrides=[*base, *world_overrides])
+        world_pipeline = api.Pipeline.from_file(variant.pipeline, overrides=[*base, *world_overrides])
         simulator = world_pipeline.execution_world(context)
         for k in range(executions):
             policy = PartialPolicy.from_dict(saved)      # every execution starts from the planned policy
@@ -226,13 +222,13 @@ def replay_task(variant: Variant, record: dict, executions: int, exec_time: floa
     simulator measures the same policies again.
     """
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-    import pliant
+    from pliant import api
 
     from pliant_belief.policy import PartialPolicy
 
     seed = int(record["seed"])
     base = [*variant.overrides, "planner.progress=false", f"seed={seed}"]
-    context = pliant.Pipeline.from_file(variant.pipeline, overrides=base).build()
+    context = api.Pipeline.from_file(variant.pipeline, overrides=base).build()
     policy = PartialPolicy.load(Path(record["policy_file"]))
     o = context.extras["planner"].options
     if not policy.match_thresholds and o.mode != "simple":
@@ -345,9 +341,8 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
 
 
 def _version() -> str:
-    import pliant
-
-    return pliant.__version__
+    from pliant import api
+    return api.__version__
 
 
 def _replay(records: list[dict], variants: list[Variant], executions: int, exec_time: float, jobs: int, log: Path,
@@ -383,7 +378,7 @@ def _replay(records: list[dict], variants: list[Variant], executions: int, exec_
 def _summary(name: str, records: list[dict], variants: list[Variant], settings: dict,
              directory: Path) -> list[dict]:
     """Summarise the records and write ``summary.json`` (atomically, strict JSON) with the run's settings."""
-    from pliant.files import write_json
+    from pliant.api import write_json
 
     rows = summarise(records, variants)
     write_json(directory / "summary.json", {"experiment": name, "settings": settings, "tasks": len(records),

@@ -18,7 +18,7 @@ def draw_policy(run, directory: Path) -> list[Path] | None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from pliant.geometry.voxelgrid import VoxelGrid
+    from pliant.api import VoxelGrid
 
     policy = run.result.policy
     scene = run.context.scene

@@ -15,8 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.execution.actuation import angular_mask
-from pliant.interfaces import PlanningProblem
+from pliant.api import PlanningProblem, angular_mask
 
 from pliant_belief.belief import BeliefNode, BeliefTree, effective_probability
 

@@ -26,15 +26,25 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.geometry.rotations import quat_from_axis_angle, quat_multiply, wrap_angle
-from pliant.geometry.voxelgrid import VoxelGrid
-from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
-from pliant.options import option
-from pliant.planning.warmup import warm_up
-from pliant.progress import ProgressLine
-from pliant.results import Path, PlanResult, Status
-from pliant.termination import BudgetExpired, Termination, time_left
+from pliant.api import (
+    BudgetExpired,
+    ConfigError,
+    Path,
+    Planner,
+    PlannerSpecs,
+    PlanningProblem,
+    PlanResult,
+    ProgressLine,
+    Status,
+    Termination,
+    VoxelGrid,
+    option,
+    quat_from_axis_angle,
+    quat_multiply,
+    time_left,
+    warm_up,
+    wrap_angle,
+)
 from scipy.special import erf
 
 from pliant_belief.belief import BeliefNode, BeliefTree
@@ -116,7 +126,7 @@ class BeliefPlanner(Planner):
         simulator included; and the clustering module's scipy imports): one-off loading when the pipeline is built,
         not inside ``max_time``."""
         super().bind(context)
-        import pliant.planning.clustering  # noqa: F401
+        from pliant.api import ClusteringContext  # noqa: F401  (loads the clustering module and its scipy imports)
 
         warm_up(context, simulate=self.options.mode != "simple")
 
@@ -221,7 +231,7 @@ class BeliefPlanner(Planner):
         return policy
 
     def _clusterer(self, problem: PlanningProblem, rng: np.random.Generator):
-        from pliant.planning.clustering import ClusteringContext, cluster_particles
+        from pliant.api import ClusteringContext, cluster_particles
 
         o = self.options
         scene = problem.scene

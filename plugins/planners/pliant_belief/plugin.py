@@ -2,8 +2,7 @@
 
 import os
 
-from pliant.experiments.executor import add_executor_arguments
-from pliant.hookspecs import hookimpl
+from pliant.api import add_executor_arguments, hookimpl
 
 
 @hookimpl

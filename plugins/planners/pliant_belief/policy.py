@@ -75,10 +75,7 @@ from dataclasses import asdict, dataclass, field
 from typing import ClassVar
 
 import numpy as np
-from pliant.errors import ConfigError, DimensionError, PlanningError
-from pliant.options import build_options, option
-from pliant.results import Policy
-from pliant.spaces import Space, space_from_dict
+from pliant.api import ConfigError, DimensionError, PlanningError, Policy, Space, build_options, option, space_from_dict
 
 from pliant_belief.belief import BeliefNode, BeliefTree, effective_probability
 from pliant_belief.execute import execute_policy
@@ -601,7 +598,7 @@ class PartialPolicy(Policy):
 
         Thresholds not given come from :attr:`match_thresholds` (what the planner used, saved with the policy),
         else the clustering defaults (WCR 0.75, distance 8 voxels); the ones used are recorded there."""
-        from pliant.planning.clustering import ClusteringContext, matches
+        from pliant.api import ClusteringContext, matches
 
         if wcr_threshold is None:
             saved = self.match_thresholds.get("wcr_threshold")

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import os
 
-from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
+from pliant.api import Headline, ReproductionRun, Row
+from pliant.api import ReproductionOutcome as Outcome
 
 #: thesis Table 5.1: row -> (P_plan, P_exec, P_exec std)
 THESIS_51 = {"AC": (1.0, 0.97, 0.17), "PC": (1.0, 0.89, 0.19), "WCR 0.125": (1.0, 0.73, 0.42),
@@ -93,8 +94,7 @@ def _table(run: ReproductionRun) -> Outcome:
 def _ompl(run: ReproductionRun, directory, plan_time: float) -> list:
     """The planning runs in OMPL's benchmark log and database: one planner configuration per row, the policy's
     goal probability as the run's ``goal probability``."""
-    from pliant.experiments.ompl import PlannerRuns, ompl_database, run_properties, write_ompl_log
-    from pliant.files import read_jsonl
+    from pliant.api import PlannerRuns, ompl_database, read_jsonl, run_properties, write_ompl_log
 
     records, _ = read_jsonl(directory / "runs.jsonl")
     planners = []
@@ -129,7 +129,7 @@ def table_52(run: ReproductionRun) -> Outcome:
 
 def declarations() -> list:
     """The two reproductions, for the plugin's hook."""
-    from pliant.experiments.reproduce import CATALOGUE, Reproduction
+    from pliant.api import CATALOGUE, Reproduction
 
     runners = {"table-5.1": "table_51", "table-5.2": "table_52"}
     return [Reproduction(name, CATALOGUE[name][0], f"pliant_belief.reproduce:{runner}", modes=MODES[name],

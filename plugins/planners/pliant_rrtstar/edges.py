@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.interfaces import CostModel, PlanningProblem
+from pliant.api import CostModel, PlanningProblem
 
 
 @dataclass

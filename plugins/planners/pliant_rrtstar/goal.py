@@ -13,9 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.interfaces import RobotModel
-from pliant.spaces import Space
+from pliant.api import ConfigError, RobotModel, Space
 
 __all__ = ["TaskSpaceGoal"]
 

@@ -30,14 +30,21 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
-from pliant.options import option
-from pliant.planning.tree import Tree
-from pliant.planning.warmup import warm_up
-from pliant.progress import ProgressLine
-from pliant.results import Path, PlanResult, Status
-from pliant.termination import Termination, time_left
+from pliant.api import (
+    ConfigError,
+    Path,
+    Planner,
+    PlannerSpecs,
+    PlanningProblem,
+    PlanResult,
+    ProgressLine,
+    Status,
+    Termination,
+    Tree,
+    option,
+    time_left,
+    warm_up,
+)
 
 from pliant_rrtstar.edges import evaluate_edges, state_costs, state_validity
 from pliant_rrtstar.goal import TaskSpaceGoal
@@ -370,8 +377,7 @@ class RRTStarPlanner(Planner):
             raise ConfigError("puncture_check needs a scene and a robot", field="planner.puncture_check", value=True)
         if not (wanted or (wanted is None and available)):
             return None
-        from pliant.geometry.topology import PunctureChecker, arc_margin
-        from pliant.geometry.voxelgrid import VoxelGrid
+        from pliant.api import PunctureChecker, VoxelGrid, arc_margin
 
         checker = PunctureChecker(VoxelGrid.from_scene(problem.scene), problem.robot.body_points,
                                   arc_margin=arc_margin(problem.scene, problem.space))

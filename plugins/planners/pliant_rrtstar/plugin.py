@@ -1,6 +1,6 @@
 """Entry point of the RRT* plugin (the planner is imported only when created)."""
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl

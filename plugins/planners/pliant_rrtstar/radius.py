@@ -15,8 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.spaces import CompoundSpace, RealVectorSpace, SE2Space, SE3Space, Space
+from pliant.api import CompoundSpace, ConfigError, RealVectorSpace, SE2Space, SE3Space, Space
 
 __all__ = ["unit_ball_volume", "space_measure", "rrt_star_gamma", "near_radius"]
 

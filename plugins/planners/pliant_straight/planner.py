@@ -14,10 +14,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
-from pliant.options import option
-from pliant.results import Path, PlanResult, Status
-from pliant.termination import Termination
+from pliant.api import Path, Planner, PlannerSpecs, PlanningProblem, PlanResult, Status, Termination, option
 
 
 @dataclass(frozen=True)

@@ -20,15 +20,23 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
-from pliant.options import option
-from pliant.planning.shortcut import perturb, shortcut
-from pliant.planning.tree import Tree
-from pliant.planning.warmup import warm_up
-from pliant.progress import ProgressLine
-from pliant.results import Path, PlanResult, Status
-from pliant.termination import Termination, time_left
+from pliant.api import (
+    ConfigError,
+    Path,
+    Planner,
+    PlannerSpecs,
+    PlanningProblem,
+    PlanResult,
+    ProgressLine,
+    Status,
+    Termination,
+    Tree,
+    option,
+    perturb,
+    shortcut,
+    time_left,
+    warm_up,
+)
 
 from pliant_trrt.transition import TransitionTest
 
@@ -257,8 +265,7 @@ class TRRTPlanner(Planner):
     def _puncture_checker(self, problem: PlanningProblem):
         if problem.scene is None or problem.robot is None:
             raise ConfigError("puncture_check needs a scene and a robot", field="planner.puncture_check", value=True)
-        from pliant.geometry.topology import PunctureChecker, arc_margin
-        from pliant.geometry.voxelgrid import VoxelGrid
+        from pliant.api import PunctureChecker, VoxelGrid, arc_margin
 
         return PunctureChecker(VoxelGrid.from_scene(problem.scene), problem.robot.body_points,
                                arc_margin=arc_margin(problem.scene, problem.space))

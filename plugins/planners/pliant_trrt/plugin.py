@@ -1,6 +1,6 @@
 """Entry point of the T-RRT plugin (the planners are imported only when created)."""
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl
@@ -14,7 +14,7 @@ def pliant_register(registrar):
 
 @hookimpl
 def pliant_reproductions():
-    from pliant.experiments.reproduce import Reproduction
+    from pliant.api import Reproduction
 
     return [Reproduction("table-3.1", "Table 3.1: T-RRT and GradienT-RRT on the cube-wall",
                          "pliant_trrt.reproduce:table_31",

@@ -9,7 +9,8 @@ sum of the state cost over the path's states one voxel apart (``path_cost / reso
 from __future__ import annotations
 
 import numpy as np
-from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
+from pliant.api import Headline, ReproductionRun, Row
+from pliant.api import ReproductionOutcome as Outcome
 
 #: thesis Table 3.1: (planner, nFailMax) -> time mean, std (s), cost mean, std
 THESIS = {("trrt", 10): (112.0, 45.6, 515.0, 82.3), ("trrt", 20): (736.0, 260.0, 478.0, 56.9),
@@ -26,10 +27,10 @@ def plan_once(planner: str, n_fail_max: int, seed: int, max_time: float) -> dict
     import os
 
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-    import pliant
-    from pliant.interfaces import PlanningProblem
+    from pliant import api
+    from pliant.api import PlanningProblem
 
-    pipeline = pliant.Pipeline.from_file("cube-wall-trrt", overrides=[
+    pipeline = api.Pipeline.from_file("cube-wall-trrt", overrides=[
         f'planner.name="{planner}"', f"planner.n_fail_max={n_fail_max}", f"planner.max_time={max_time}",
         "planner.progress=false", f"seed={seed}"])
     context = pipeline.build()
@@ -55,14 +56,14 @@ def _row_stats(records: list[dict], planner: str, n_fail_max: int) -> dict:
 
 def table_31(run: ReproductionRun) -> Outcome:
     """Plan every (planner, nFailMax) row ``runs`` times; compare means with the thesis's."""
-    from pliant.experiments.runs import check_settings, open_log, run_tasks
+    from pliant.api import check_settings, open_log, run_tasks
 
     runs, fails, max_time = MODES[run.mode]
     settings = {"pipeline": "cube-wall-trrt", "runs": runs, "n_fail_max": list(fails), "max_time": max_time,
                 "seeds": f"0..{runs - 1}"}
     log, records = open_log(run.output, "--output", run.echo)
     if run.fresh:
-        from pliant.files import rewrite_jsonl
+        from pliant.api import rewrite_jsonl
 
         records.clear()
         rewrite_jsonl(log, records)
@@ -104,7 +105,7 @@ def table_31(run: ReproductionRun) -> Outcome:
 
 def _ompl(run: ReproductionRun, records: list[dict], fails, max_time: float):
     """The runs in OMPL's benchmark log and database (Planner Arena reads ``benchmark.db``)."""
-    from pliant.experiments.ompl import PlannerRuns, ompl_database, run_properties, write_ompl_log
+    from pliant.api import PlannerRuns, ompl_database, run_properties, write_ompl_log
 
     planners = [PlannerRuns(f"{planner} nFailMax {n}", {"pipeline": "cube-wall-trrt", "n_fail_max": n},
                             [run_properties(r) for r in records if r["planner"] == planner and r["n_fail_max"] == n])

@@ -12,8 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import ConfigError
-from pliant.options import option
+from pliant.api import ConfigError, option
 
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import CollisionChecker, Footprints

@@ -12,9 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import PlanningError
-from pliant.interfaces import Learner
-from pliant.options import option
+from pliant.api import Learner, PlanningError, option
 
 from pliant_tsrrt import domain
 from pliant_tsrrt.domain import PushOptions

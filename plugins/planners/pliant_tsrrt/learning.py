@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from pliant.errors import PlanningError
+from pliant.api import PlanningError
 
 from pliant_tsrrt.geometry import Footprints
 from pliant_tsrrt.models import Displacement, PushModels, object_class, relative

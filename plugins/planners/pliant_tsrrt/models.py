@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import ConfigError
+from pliant.api import ConfigError
 
 from pliant_tsrrt.geometry import BOX, CIRCLE, Footprints, wrap
 from pliant_tsrrt.pushing import PRIMITIVES
@@ -157,7 +157,7 @@ class PushModels:
 
     def save(self, path: str | Path) -> None:
         """Write the models as JSON (atomically; parent directories are created)."""
-        from pliant.files import write_json
+        from pliant.api import write_json
 
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         write_json(path, self.to_dict())

@@ -22,12 +22,23 @@ from dataclasses import dataclass, replace
 from pathlib import Path as FilePath
 
 import numpy as np
-from pliant.errors import ConfigError, PlanningError, PliantError, SimulationError
-from pliant.interfaces import Planner, PlannerSpecs, PlanningProblem
-from pliant.options import option
-from pliant.planning.warmup import warm_up
-from pliant.results import Path, PlanResult, Policy, Status
-from pliant.termination import Termination, time_left
+from pliant.api import (
+    ConfigError,
+    Path,
+    Planner,
+    PlannerSpecs,
+    PlanningError,
+    PlanningProblem,
+    PlanResult,
+    PliantError,
+    Policy,
+    SimulationError,
+    Status,
+    Termination,
+    option,
+    time_left,
+    warm_up,
+)
 
 from pliant_tsrrt import domain
 from pliant_tsrrt.domain import PushOptions
@@ -382,7 +393,7 @@ class PushPlan(Policy):
 
 
 def options_from_dict(values: dict) -> TSRRTOptions:
-    from pliant.options import build_options
+    from pliant.api import build_options
 
     known = TSRRTOptions.__dataclass_fields__
     return build_options(TSRRTOptions, {k: v for k, v in values.items() if k in known}, source="<plan>")
@@ -450,7 +461,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                  on_step=None, world_name: str = "", noise: float | None = None):
     """Execute ``plan`` in ``world`` with monitoring and replanning (see :meth:`PushPlan.execute`); ``noise``
     overrides the options' paddle placement noise (m)."""
-    from pliant.execution.loop import Recorder
+    from pliant.api import Recorder
 
     o = options_from_dict(plan.options)
     if noise is not None:

@@ -1,7 +1,7 @@
 """Entry point of the TS-RRT plugin (poster ICHR 2010): the planner ``tsrrt``, the learner ``push-models`` and their
 report figures.  Nothing heavy is imported until a component is created or a report is drawn."""
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl

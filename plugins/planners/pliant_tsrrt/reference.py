@@ -12,7 +12,7 @@ so the reference is never worse than an arrangement already known).
 from __future__ import annotations
 
 import numpy as np
-from pliant.errors import PlanningError
+from pliant.api import PlanningError
 
 from pliant_tsrrt.refine import free_descent
 from pliant_tsrrt.search import ObjectSpace

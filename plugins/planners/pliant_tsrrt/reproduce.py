@@ -23,7 +23,8 @@ import json
 import time
 
 import numpy as np
-from pliant.experiments.reproduce import Headline, Outcome, ReproductionRun, Row
+from pliant.api import Headline, ReproductionRun, Row
+from pliant.api import ReproductionOutcome as Outcome
 
 MODES = {"full": "10 random starts, 3,000 tree iterations each, 5 noisy executions per plan, a 6,000-round "
                  "free-placement optimisation per start",
@@ -47,7 +48,7 @@ ACTION_LIMIT = 300
 
 def declarations() -> list:
     """The poster's reproduction, for the ``pliant_reproductions`` hook."""
-    from pliant.experiments.reproduce import Reproduction
+    from pliant.api import Reproduction
 
     return [Reproduction("poster", "The TS-RRT poster (ICHR 2010): object-space planning on three unfamiliar objects",
                          "pliant_tsrrt.reproduce:poster", MODES, MINUTES)]
@@ -56,11 +57,10 @@ def declarations() -> list:
 def world(scene_name: str = SCENE, noise: bool = True):
     """The scene ``scene_name`` and a pymunk world on it, with the docs' bounded actuation noise when ``noise``
     (through the registry: this plugin does not import the simulator's).  The benchmark uses it too."""
-    import pliant
-    from pliant import registry
-    from pliant.interfaces import Context
+    from pliant import api
+    from pliant.api import Context, registry
 
-    scene = pliant.load_scene(scene_name)
+    scene = api.load_scene(scene_name)
     ctx = Context(scene=scene)
     ctx.robot = registry.create("robot", "rigid", ctx)
     extra = {"noise": "bounded", "noise_linear": ACTUATION_NOISE, "noise_angular": ACTUATION_NOISE} if noise else {}
@@ -89,7 +89,7 @@ def centre_offset(poses: np.ndarray, fp, table: tuple[float, float, float, float
 
 def poster(run: ReproductionRun) -> Outcome:
     """Run the poster's demo: learn the push models, plan from random starts, execute with noise and replanning."""
-    from pliant.termination import Termination
+    from pliant.api import Termination
 
     from pliant_tsrrt import domain
     from pliant_tsrrt.figures import draw_models, draw_plan

@@ -50,7 +50,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from pliant.termination import Condition, Termination
+from pliant.api import Condition, Termination
 
 from pliant_tsrrt import kernels
 from pliant_tsrrt.cost import TaskCost

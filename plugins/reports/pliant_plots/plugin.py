@@ -1,6 +1,6 @@
 """Entry point of the report-figure plugin: draws the scene and the planned path."""
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl

@@ -19,7 +19,7 @@ import os
 from pathlib import Path
 
 import numpy as np
-from pliant.interfaces import UrdfDescription
+from pliant.api import UrdfDescription
 
 from pliant_viewer import content
 from pliant_viewer.viewer import Timeline, ViewContent

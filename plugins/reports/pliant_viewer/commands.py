@@ -13,7 +13,7 @@ import sys
 import time
 from pathlib import Path
 
-from pliant.errors import ConfigError
+from pliant.api import ConfigError, load_scene
 
 LOOPBACK = "127.0.0.1"
 #: the most poses of the timeline an export records (each adds the robot's pose updates to the page)
@@ -69,7 +69,6 @@ def add_commands(subparsers) -> None:
 
 def resolve(target: str, scene_name: str | None):
     """``(scene, run data or None, policy JSON or None)`` for a view target (see the command's help)."""
-    import pliant
 
     from pliant_viewer.content import RunData, check_policy, check_result, read_json, read_run
 
@@ -79,7 +78,7 @@ def resolve(target: str, scene_name: str | None):
         name = scene_name or run.scene_name
         if not name:
             raise ConfigError("a run folder needs run.json (or --scene)", source=str(path), field="scene")
-        return _load_scene(pliant, name, path, None if scene_name else run.scene_variant), run, None
+        return _load_scene(name, path, None if scene_name else run.scene_variant), run, None
     if path.is_file() and path.suffix == ".json":
         data = read_json(path)
         sibling = read_run(path.parent) if (path.parent / "run.json").is_file() else RunData()
@@ -88,19 +87,19 @@ def resolve(target: str, scene_name: str | None):
             raise ConfigError("name the scene of this file with --scene", source=str(path), field="scene")
         variant = None if scene_name else sibling.scene_variant
         if "nodes" in data:                                    # a policy file
-            return _load_scene(pliant, name, path.parent, variant), sibling, check_policy(data, path)
+            return _load_scene(name, path.parent, variant), sibling, check_policy(data, path)
         if "status" in data:                                   # a result file
             sibling.result = check_result(data, path)
-            return _load_scene(pliant, name, path.parent, variant), sibling, None
+            return _load_scene(name, path.parent, variant), sibling, None
         raise ConfigError("not a policy or result file (no 'nodes' or 'status')", source=str(path), field="target")
-    return pliant.load_scene(target), None, None
+    return load_scene(target), None, None
 
 
-def _load_scene(pliant, name: str, base: Path, variant: str | None = None):
+def _load_scene(name: str, base: Path, variant: str | None = None):
     candidate = base / name
     if candidate.is_file():
-        return pliant.load_scene(candidate, variant=variant)
-    return pliant.load_scene(name, variant=variant)
+        return load_scene(candidate, variant=variant)
+    return load_scene(name, variant=variant)
 
 
 def check_address(host: str, port: int, prefix: str = "") -> None:
@@ -198,7 +197,7 @@ def cmd_view(args) -> int:
 
             webbrowser.open(viewer.url)
     try:
-        from pliant.geometry.voxelgrid import VoxelGrid
+        from pliant.api import VoxelGrid
 
         from pliant_viewer import cache
         from pliant_viewer.content import check_dimension, voxel_objects
@@ -261,7 +260,7 @@ def run_with_view(args, original) -> int:
     the finished run (path, policy, trajectory with the slider) until ``--view-hold`` runs out or Ctrl-C."""
     if not getattr(args, "view", False):
         return original(args)
-    from pliant.pipeline import Pipeline
+    from pliant.api import Pipeline
 
     from pliant_viewer.content import read_run
     from pliant_viewer.viewer import build_content, make_robot

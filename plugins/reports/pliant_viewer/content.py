@@ -19,9 +19,9 @@ from dataclasses import dataclass, field
 from pathlib import Path as FilePath
 
 import numpy as np
-from pliant import files
-from pliant.errors import ConfigError
-from pliant.geometry.voxelgrid import FREE, VoxelGrid
+from pliant.api import FREE_VOXEL as FREE
+from pliant.api import ConfigError, VoxelGrid
+from pliant.api import read_json as _read_json
 
 RIGID = np.array([70, 90, 160], dtype=np.float64)        # deformability 0
 SOFT = np.array([90, 200, 110], dtype=np.float64)        # deformability 1
@@ -329,7 +329,7 @@ class RunData:
 def read_json(path: FilePath) -> dict:
     """The JSON object in the file at ``path``; a file cut off, not JSON or not an object is one ConfigError naming
     it (:func:`pliant.files.read_json`)."""
-    return files.read_json(path)
+    return _read_json(path)
 
 
 def _array(value, source: FilePath, name: str, ndim: int) -> np.ndarray:

@@ -4,7 +4,7 @@ folder's view cache written with a run's report.
 Light on purpose: viser, yourdfpy and the drawing code load only when a view is opened.
 """
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl

@@ -30,8 +30,7 @@ from functools import partial
 from pathlib import Path as FilePath
 
 import numpy as np
-from pliant.geometry.voxelgrid import VoxelGrid
-from pliant.interfaces import Context
+from pliant.api import Context, VoxelGrid
 
 from pliant_viewer import content, glb
 
@@ -103,7 +102,7 @@ class ViewContent:
 
 def make_robot(scene, robot_name: str | None = None, robot_options: dict | None = None):
     """The scene's robot model through the registry (the pipeline's robot when named, else the scene's default)."""
-    from pliant.registry import create
+    from pliant.api import create
 
     name = robot_name or DEFAULT_ROBOT[scene.robot.kind]
     return create("robot", name, Context(scene=scene), **(robot_options or {}))
@@ -274,7 +273,7 @@ def _pose(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _wxyz(R: np.ndarray) -> np.ndarray:
     # the core's rotations (numpy only): scipy's Rotation took 0.66 s to import on this machine under load
-    from pliant.geometry.rotations import matrix_to_quat
+    from pliant.api import matrix_to_quat
 
     x, y, z, w = matrix_to_quat(np.asarray(R, dtype=np.float64))
     return np.array([w, x, y, z])
@@ -709,7 +708,7 @@ class Viewer:
             for a, b in itertools.pairwise(ts):
                 self.set_time(float(b))
                 serializer.insert_sleep(float(b - a))
-        from pliant.files import write_text
+        from pliant.api import write_text
 
         from pliant_viewer import page
 

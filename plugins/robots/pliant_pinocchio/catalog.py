@@ -12,8 +12,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pliant.errors import SceneError
-from pliant.robot_data import example_robot_data_dir
+from pliant.api import SceneError, example_robot_data_dir
 
 NAMED_ROBOTS = ("baxter", "iiwa", "pr2")
 

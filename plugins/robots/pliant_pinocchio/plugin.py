@@ -1,6 +1,6 @@
 """Entry point of the pinocchio robot plugin (light: pinocchio and coal load only when a robot is created)."""
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl

@@ -25,10 +25,18 @@ from pathlib import Path
 import coal
 import numpy as np
 import pinocchio as pin
-from pliant.errors import ConfigError, DimensionError, PlanningError, SceneError
-from pliant.interfaces import RobotModel, SelfContacts, UrdfDescription, check_batch
-from pliant.options import option
-from pliant.spaces import RealVectorSpace
+from pliant.api import (
+    ConfigError,
+    DimensionError,
+    PlanningError,
+    RealVectorSpace,
+    RobotModel,
+    SceneError,
+    SelfContacts,
+    UrdfDescription,
+    check_batch,
+    option,
+)
 
 from pliant_pinocchio.catalog import RobotEntry, named_robot
 from pliant_pinocchio.kinematics import JointChain

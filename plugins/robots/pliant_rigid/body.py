@@ -10,12 +10,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import PlanningError
-from pliant.geometry.rotations import quat_to_matrix, rotation_z
-from pliant.interfaces import RobotModel, check_batch
-from pliant.options import option
-from pliant.scene import RobotSpec, Scene
-from pliant.spaces import RealVectorSpace, SE2Space, SE3Space, Space
+from pliant.api import (
+    PlanningError,
+    RealVectorSpace,
+    RobotModel,
+    RobotSpec,
+    Scene,
+    SE2Space,
+    SE3Space,
+    Space,
+    check_batch,
+    option,
+    quat_to_matrix,
+    rotation_z,
+)
 
 
 @dataclass(frozen=True)

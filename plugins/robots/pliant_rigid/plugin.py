@@ -1,6 +1,6 @@
 """Entry point of the rigid-body robot plugin (light: names classes as strings)."""
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from pliant.geometry.voxelgrid import VoxelGrid
+from pliant.api import VoxelGrid
 
 from pliant_kinematic.rigid_kernel import ROBOT_FACE_COS
 

@@ -1,6 +1,6 @@
 """Entry point of the kinematic simulator plugin."""
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl

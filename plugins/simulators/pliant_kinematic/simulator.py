@@ -27,14 +27,22 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import DimensionError
-from pliant.execution.actuation import ControlLaw, actuator_limits, angular_mask, limit_velocity
-from pliant.execution.noise import NOISE_MODELS, ActuationNoise
-from pliant.execution.starts import VoxelStartCheck
-from pliant.geometry.voxelgrid import VoxelGrid
-from pliant.interfaces import SimulationBatch, Simulator, check_batch
-from pliant.options import option
-from pliant.termination import checkpoint
+from pliant.api import (
+    NOISE_MODELS,
+    ActuationNoise,
+    ControlLaw,
+    DimensionError,
+    SimulationBatch,
+    Simulator,
+    VoxelGrid,
+    VoxelStartCheck,
+    actuator_limits,
+    angular_mask,
+    check_batch,
+    checkpoint,
+    limit_velocity,
+    option,
+)
 
 from pliant_kinematic.contact import FACE_NORMALS, ContactModel
 from pliant_kinematic.rigid_kernel import (

@@ -19,7 +19,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import SimulationError
+from pliant.api import SimulationError
 
 
 @contextlib.contextmanager

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pliant.errors import SimulationError
+from pliant.api import SimulationError
 
 #: physics steps in which the capped torque drive would bring the body to its commanded orientation
 ANGULAR_STEPS = 2.0

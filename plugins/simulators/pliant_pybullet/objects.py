@@ -8,7 +8,7 @@ not here: the simulator builds them from the voxel grid.
 from __future__ import annotations
 
 import numpy as np
-from pliant.errors import SimulationError
+from pliant.api import SimulationError
 
 
 def _collision_shape(pb, obj, index: int, source: str) -> int:

@@ -1,6 +1,6 @@
 """Entry point of the pybullet backend (pybullet is imported only when the simulator is created)."""
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl

@@ -19,11 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import SimulationError
-from pliant.execution.stepping import SteppedOptions, SteppedSimulator
-from pliant.geometry.voxelgrid import VoxelGrid
-from pliant.interfaces import check_batch
-from pliant.options import option
+from pliant.api import SimulationError, SteppedOptions, SteppedSimulator, VoxelGrid, check_batch, option
 
 
 @dataclass(frozen=True)

@@ -16,8 +16,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from pliant.errors import DimensionError
-from pliant.geometry.tetmesh import box_tetrahedra, box_ticks, tetrahedron_volumes, write_vtk
+from pliant.api import DimensionError, box_tetrahedra, box_ticks, tetrahedron_volumes, write_vtk
 
 __all__ = ["SoftBox", "box_tetrahedra", "box_ticks", "tetrahedron_volumes", "write_vtk"]
 

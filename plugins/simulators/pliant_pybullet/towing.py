@@ -30,8 +30,12 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import ConfigError, DimensionError, SimulationError
-from pliant.geometry.rotations import (
+from pliant.api import (
+    ConfigError,
+    DimensionError,
+    Scene,
+    SimulationError,
+    option,
     quat_angle,
     quat_conjugate,
     quat_multiply,
@@ -39,8 +43,6 @@ from pliant.geometry.rotations import (
     quat_to_matrix,
     quat_to_rotvec,
 )
-from pliant.options import option
-from pliant.scene import Scene
 
 from pliant_pybullet.softbody import SoftBox, box_tetrahedra
 
@@ -183,7 +185,7 @@ class Tower:
     """
 
     def __init__(self, scene: Scene, options: TowingOptions | dict | None = None) -> None:
-        from pliant.options import build_options
+        from pliant.api import build_options
 
         if isinstance(options, TowingOptions):
             options.validate()
@@ -199,7 +201,7 @@ class Tower:
 
     def _build_walls(self) -> None:
         import pybullet
-        from pliant.geometry.voxelgrid import VoxelGrid
+        from pliant.api import VoxelGrid
         from pybullet_utils.bullet_client import BulletClient
 
         self.client = pb = BulletClient(connection_mode=pybullet.DIRECT)

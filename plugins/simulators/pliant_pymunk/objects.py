@@ -21,9 +21,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import SimulationError
-from pliant.geometry.voxelgrid import VoxelGrid
-from pliant.scene import Scene
+from pliant.api import Scene, SimulationError, VoxelGrid
 
 STANDARD_GRAVITY = 9.80665   # m/s^2: the normal force of an object on the table is m g
 

@@ -22,11 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.errors import SimulationError
-from pliant.execution.stepping import SteppedOptions, SteppedSimulator
-from pliant.geometry.voxelgrid import VoxelGrid
-from pliant.interfaces import check_batch
-from pliant.options import option
+from pliant.api import SimulationError, SteppedOptions, SteppedSimulator, VoxelGrid, check_batch, option
 
 from pliant_pymunk.objects import add_object, planar_objects
 from pliant_pymunk.world import check_planar, robot_shapes, static_walls

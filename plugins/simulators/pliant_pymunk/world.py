@@ -9,9 +9,8 @@ robot is a dynamic body made of its parts' boxes and circles.
 from __future__ import annotations
 
 import numpy as np
-from pliant.errors import SimulationError
-from pliant.geometry.voxelgrid import FREE, VoxelGrid
-from pliant.scene import Scene
+from pliant.api import FREE_VOXEL as FREE
+from pliant.api import Scene, SimulationError, VoxelGrid
 
 _QUARTER_TURN_TOL = 1e-9
 
