@@ -17,7 +17,7 @@ from __future__ import annotations
 from importlib import import_module
 from typing import TYPE_CHECKING
 
-__version__ = "0.1.0"
+from pliant.version import __version__
 
 _LAZY = {
     "load_scene": ("pliant.scene", "load_scene"),
@@ -34,8 +34,8 @@ _LAZY = {
 
 if TYPE_CHECKING:
     from pliant import registry
+    from pliant.components import PlanningProblem
     from pliant.errors import PliantError
-    from pliant.interfaces import PlanningProblem
     from pliant.pipeline import Pipeline
     from pliant.results import Outcome, Path, PlanResult, Status
     from pliant.scene import Scene, load_scene

@@ -37,11 +37,10 @@ from typing import Any
 
 import numpy as np
 
-from pliant.contracts import check_planner
+from pliant.components import KINDS, Component, Context, Driver, Planner, PlanningProblem, check_planner
 from pliant.errors import ConfigError, PipelineError, PliantError
 from pliant.execution.loop import ExecutionRecord, StepListener, capture, execute
 from pliant.files import write_json, write_text
-from pliant.interfaces import KINDS, Component, Context, Driver, Planner, PlanningProblem
 from pliant.registry import Registry, default_registry
 from pliant.results import Outcome, PlanResult
 from pliant.scene import Scene, load_scene

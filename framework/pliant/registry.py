@@ -25,9 +25,10 @@ from typing import Any
 
 import pluggy
 
+from pliant.components import BASES, KINDS, Component, Context
 from pliant.errors import PliantError, PluginError
 from pliant.hookspecs import PROJECT, PliantSpec
-from pliant.interfaces import BASES, KINDS, Component, Context
+from pliant.results import Policy
 
 ENTRY_POINT_GROUP = "pliant"
 #: the distribution whose plugins are the built-ins: they load first and win every name collision
@@ -337,3 +338,17 @@ def plugins() -> list[PluginStatus]:
 def entries() -> list[ComponentEntry]:
     """Every registered component."""
     return _REGISTRY.entries()
+
+
+def _load_policy_kinds() -> None:
+    """Import every planner plugin's component (policy kinds register when their module is imported), so that a
+    policy file can be read in a fresh process; plugins that fail to load are skipped (the registry reports them)."""
+    for entry in default_registry().entries():
+        if entry.kind == "planner":
+            try:
+                entry.load()
+            except Exception:  # a broken plugin: `pliant plugins` names it; here its policies stay unknown
+                continue
+
+
+Policy.kind_loader = _load_policy_kinds

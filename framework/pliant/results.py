@@ -9,6 +9,7 @@ from __future__ import annotations
 import enum
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path as FilePath
 from typing import Any, ClassVar
@@ -108,6 +109,9 @@ class Policy:
 
     kind: ClassVar[str] = ""
     _kinds: ClassVar[dict[str, type[Policy]]] = {}
+    #: called once when a file names an unknown kind: imports the installed planners' modules, where policy kinds
+    #: are defined (set by :mod:`pliant.registry` when it is imported; results stay data, importing no registry)
+    kind_loader: ClassVar[Callable[[], None] | None] = None
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
@@ -133,8 +137,8 @@ class Policy:
         if not isinstance(data, dict):
             raise ConfigError("a policy must be a table", field="policy", value=type(data).__name__)
         kind = data.get("kind")
-        if kind not in Policy._kinds:
-            _load_policy_kinds()
+        if kind not in Policy._kinds and Policy.kind_loader is not None:
+            Policy.kind_loader()
         if kind not in Policy._kinds:
             raise ConfigError(f"unknown policy kind (known: {', '.join(sorted(Policy._kinds)) or 'none'}; is the "
                               "plugin that defines it installed?)", field="policy.kind", value=kind)
@@ -238,20 +242,6 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, enum.Enum):
         return value.value
     return value
-
-
-def _load_policy_kinds() -> None:
-    """Import every planner plugin's component (policy kinds register when their module is imported), so that a
-    policy file can be read in a fresh process; plugins that fail to load are skipped (the registry reports them)."""
-    from pliant.registry import default_registry
-
-    registry = default_registry()
-    for entry in registry.entries():
-        if entry.kind == "planner":
-            try:
-                entry.load()
-            except Exception:  # a broken plugin: `pliant plugins` names it; here its policies stay unknown
-                continue
 
 
 def _write_json(path: str | FilePath, data: dict) -> None:

@@ -29,8 +29,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from pliant.components import Controller
 from pliant.errors import DimensionError
-from pliant.interfaces import Controller
 from pliant.results import Path
 
 

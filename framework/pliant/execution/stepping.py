@@ -15,11 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pliant.components import SimulationBatch, Simulator, check_batch
 from pliant.errors import DimensionError
 from pliant.execution.actuation import actuator_limits, angular_mask, limit_velocity
 from pliant.execution.noise import NOISE_MODELS, ActuationNoise
 from pliant.execution.starts import VoxelStartCheck
-from pliant.interfaces import SimulationBatch, Simulator, check_batch
 from pliant.options import option
 from pliant.termination import checkpoint
 

@@ -161,7 +161,7 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
     ``interval`` seconds while it runs; its answer says whether the executor cancelled the task, which then
     terminates every stop condition the task polls (:func:`pliant.termination.task_progress`).  In a local pool's
     worker the pool's queue and event (:func:`worker_init`) do the same."""
-    import pliant
+    from pliant.version import __version__
 
     t0 = time.perf_counter()
     node = _node()
@@ -202,7 +202,7 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
             record = work(*args)
         finally:
             done.set()
-    return record, snapshot(sink), node, time.perf_counter() - t0, pliant.__version__
+    return record, snapshot(sink), node, time.perf_counter() - t0, __version__
 
 
 class ProgressBoard:
@@ -532,7 +532,7 @@ class RayExecutor(Executor):
     def run(self, work: Callable[..., dict], tasks: Sequence[tuple],
             stop: Condition | None = None) -> Iterator[TaskResult]:
         """Submit every task to the cluster; yield results as they finish; cancel what is left when stopped."""
-        import pliant
+        from pliant.version import __version__
 
         ray = self._connect()
         from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
@@ -576,9 +576,9 @@ class RayExecutor(Executor):
                             ray.exceptions.ObjectLostError) as exc:
                         raise ExecutorError(f"task {refs[ref]} failed {self.retries + 1} times on the cluster: "
                                             f"{type(exc).__name__}", field="task", value=tasks[refs[ref]]) from None
-                    if version != pliant.__version__:
+                    if version != __version__:
                         raise ExecutorError(f"the cluster runs pliant {version} on {node}, this machine "
-                                            f"{pliant.__version__}: install the same version on every node",
+                                            f"{__version__}: install the same version on every node",
                                             field="--address", value=self.address)
                     finished += 1
                     yield TaskResult(refs[ref], record, progress, node, seconds)

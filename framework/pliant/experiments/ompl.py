@@ -87,11 +87,11 @@ def write_ompl_log(path: Path, experiment: str, planners: Sequence[PlannerRuns],
     import datetime
     import socket
 
-    import pliant
+    from pliant.version import __version__
 
     if not planners:
         raise ConfigError("needs at least one planner", field="planners", value=[])
-    lines = [f"pliant version {pliant.__version__}", f"Experiment {experiment.replace(' ', '_')}"]
+    lines = [f"pliant version {__version__}", f"Experiment {experiment.replace(' ', '_')}"]
     properties = dict(properties or {})
     if properties:
         lines.append(f"{len(properties)} experiment properties")

@@ -1,4 +1,4 @@
-"""``pliant reproduce``: every thesis table and figure by one command, each with a report of ours beside the
+"""``pliant experiment NAME``: every thesis table and figure by one command, each with a report of ours beside the
 thesis's (docs/experiments.md).
 
 Plugins declare their reproductions through the hook ``pliant_reproductions()`` (a list of
@@ -71,7 +71,9 @@ class Reproduction:
 
     name: the catalogue name (``table-5.1``) or a new one; title: what it reproduces; runner: ``"module:function"``
     called as ``function(run) -> Outcome``; modes: what each mode (``full``, ``quick``, ``ci``) runs, in words --
-    a mode not listed is not offered; minutes: rough duration of each mode on two cores.
+    a mode not listed is not offered; minutes: rough duration of each mode on two cores; arguments: optional
+    ``"module:function"`` adding the reproduction's own options to its ``pliant experiment NAME`` parser (their
+    values reach the runner as ``run.options``; leave a default of None to mean "the mode's setting").
     """
 
     name: str
@@ -79,6 +81,7 @@ class Reproduction:
     runner: str
     modes: dict[str, str]
     minutes: dict[str, float] = field(default_factory=dict)
+    arguments: str | None = None
 
     @property
     def plugin(self) -> str:
@@ -143,14 +146,21 @@ class Outcome:
 
 @dataclass
 class ReproductionRun:
-    """What a runner gets: the reproduction, the mode, the directory to write into, ``echo`` for progress, and
-    ``fresh``: forget the records on file (runners resume from them otherwise)."""
+    """What a runner gets: the reproduction, the mode, the directory to write into, ``echo`` for progress,
+    ``fresh``: forget the records on file (runners resume from them otherwise), and ``options``: the values of the
+    reproduction's own options (:attr:`Reproduction.arguments`; None: the mode's setting)."""
 
     reproduction: Reproduction
     mode: str
     output: Path
     echo: Callable[[str], object] = print
     fresh: bool = False
+    options: dict = field(default_factory=dict)
+
+    def setting(self, name: str, default):
+        """``options[name]`` if given (not None), else ``default`` (the mode's setting)."""
+        value = self.options.get(name)
+        return default if value is None else value
 
 
 def reproductions() -> dict[str, Reproduction]:
@@ -188,9 +198,9 @@ def listing() -> list[dict]:
 def _versions() -> dict:
     import numpy
 
-    import pliant
+    from pliant.version import __version__
 
-    out = {"pliant": pliant.__version__, "python": platform.python_version(), "numpy": numpy.__version__,
+    out = {"pliant": __version__, "python": platform.python_version(), "numpy": numpy.__version__,
            "machine": f"{platform.machine()} {platform.system()}"}
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, timeout=5,
@@ -235,7 +245,7 @@ def render(reproduction: Reproduction, mode: str, outcome: Outcome, versions: di
             return str(p)
 
     lines = [f"# {reproduction.title}", "",
-             f"`pliant reproduce {reproduction.name}{'' if mode == 'full' else ' --' + mode}` -- mode **{mode}**: "
+             f"`pliant experiment {reproduction.name}{'' if mode == 'full' else ' --' + mode}` -- mode **{mode}**: "
              f"{reproduction.modes.get(mode, '')}", "",
              f"Ran in {seconds:.0f} s.  Provided by the plugin `{reproduction.plugin}`.", "",
              "## Ours beside the thesis's", "",
@@ -285,9 +295,10 @@ def check_output(output: str | Path, flag: str = "--output") -> Path:
 
 
 def run_reproduction(name: str, *, mode: str = "quick", output: Path = Path("out/reproduce"),
-                     echo: Callable[[str], object] = print, fresh: bool = False) -> tuple[Outcome, Path]:
+                     echo: Callable[[str], object] = print, fresh: bool = False,
+                     options: dict | None = None) -> tuple[Outcome, Path]:
     """Run one reproduction; writes ``report.md`` and ``outcome.json`` into ``output/<name>/<mode>/``; returns the
-    outcome and that directory."""
+    outcome and that directory.  ``options``: values of the reproduction's own options (``run.options``)."""
     if mode not in MODES:
         raise ConfigError(f"unknown mode (modes: {', '.join(MODES)})", field="mode", value=mode)
     available = reproductions()
@@ -311,7 +322,7 @@ def run_reproduction(name: str, *, mode: str = "quick", output: Path = Path("out
     runner = _load(reproduction.runner)
     echo(f"{name} ({mode}): {reproduction.modes[mode]}")
     t0 = time.perf_counter()
-    outcome = runner(ReproductionRun(reproduction, mode, directory, echo, fresh))
+    outcome = runner(ReproductionRun(reproduction, mode, directory, echo, fresh, dict(options or {})))
     seconds = time.perf_counter() - t0
     versions = _versions()
     write_text(directory / "report.md", render(reproduction, mode, outcome, versions, seconds, directory))
@@ -323,20 +334,30 @@ def run_reproduction(name: str, *, mode: str = "quick", output: Path = Path("out
     return outcome, directory
 
 
+def list_command(args) -> int:
+    """``pliant experiment [list]``: the reproductions (available or waiting) and the plugins' other experiments
+    (``args.experiments``: name -> help, filled in by the command line)."""
+    rows = listing()
+    others = getattr(args, "experiments", {}) or {}
+    width = max([len(r["name"]) for r in rows] + [len(n) for n in others])
+    for r in rows:
+        if r["status"] == "available":
+            modes = ", ".join(f"{m} ~{r['minutes'][m]:g} min" if m in r["minutes"] else m for m in r["modes"])
+            print(f"{r['name']:<{width}}  available  {r['title']}  [{r['plugin']}; {modes}]")
+        else:
+            print(f"{r['name']:<{width}}  waiting    {r['title']}  [waits for {r['waits_for']}]")
+    for name, text in others.items():
+        print(f"{name:<{width}}  experiment {text}")
+    return 0
+
+
 def command(args) -> int:
-    """``pliant reproduce [LIST | NAME] [--quick | --ci] [--output DIR]``."""
-    if not args.name or args.name.lower() == "list":
-        rows = listing()
-        width = max(len(r["name"]) for r in rows)
-        for r in rows:
-            if r["status"] == "available":
-                modes = ", ".join(f"{m} ~{r['minutes'][m]:g} min" if m in r["minutes"] else m for m in r["modes"])
-                print(f"{r['name']:<{width}}  available  {r['title']}  [{r['plugin']}; {modes}]")
-            else:
-                print(f"{r['name']:<{width}}  waiting    {r['title']}  [waits for {r['waits_for']}]")
-        return 0
+    """``pliant experiment NAME [--quick | --ci] [--output DIR] [--fresh] [its own options]``: run one reproduction,
+    print its headline checks; exit status 3 if one is out of range."""
     mode = "ci" if args.ci else "quick" if args.quick else "full"
-    outcome, directory = run_reproduction(args.name, mode=mode, output=check_output(args.output), fresh=args.fresh)
+    options = {dest: getattr(args, dest) for dest in getattr(args, "reproduction_options", ())}
+    outcome, directory = run_reproduction(args.name, mode=mode, output=check_output(args.output), fresh=args.fresh,
+                                          options=options)
     failed = [h for h in outcome.headlines if not h.ok]
     for h in outcome.headlines:
         print(f"  {h.name}: {_fmt(h.ours)} (within [{_fmt(h.low)}, {_fmt(h.high)}]: {'ok' if h.ok else 'NO'}; "
@@ -348,22 +369,3 @@ def command(args) -> int:
               file=sys.stderr)
         return 3
     return 0
-
-
-def add_command(subparsers) -> None:
-    """Add ``pliant reproduce`` to the command line."""
-    from pliant.experiments.executor import add_executor_arguments
-
-    parser = subparsers.add_parser(
-        "reproduce", help="reproduce a thesis table or figure (LIST: what exists and what waits)",
-        description="Run one reproduction and write out/reproduce/NAME/MODE/report.md: our table beside the "
-                    "thesis's with the differences marked, the headline numbers checked against documented "
-                    "tolerances (exit status 3 if one is out of range), settings, versions, figures and raw records.")
-    parser.add_argument("name", nargs="?", help="a reproduction (figure-3.5, table-5.1, ...) or LIST")
-    size = parser.add_mutually_exclusive_group()
-    size.add_argument("--quick", action="store_true", help="CI-sized: minutes")
-    size.add_argument("--ci", action="store_true", help="smaller still, for reproductions whose --quick is long")
-    parser.add_argument("--output", default="out/reproduce", help="directory (default out/reproduce)")
-    parser.add_argument("--fresh", action="store_true", help="forget the records on file (a second run resumes)")
-    add_executor_arguments(parser)
-    parser.set_defaults(handler=command)

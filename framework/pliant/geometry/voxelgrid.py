@@ -5,18 +5,29 @@ centred at ``lower + (idx + 0.5) * resolution``), the deformability, the sensiti
 the object occupying it (-1: free space, deformability 1, sensitivity 0).  Later objects override
 earlier ones where they overlap.  The signed distance field (metres, negative inside objects) is
 computed on first use with an exact Euclidean distance transform.
+
+Both are kept in the content-addressed cache (:mod:`pliant.cache`): a grid under a hash of the scene's objects,
+bounds and resolution, the padding and the flags; a distance field under a hash of the occupancy and the
+resolution.  A second run over the same scene loads them instead of voxelising again.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pliant import cache
 from pliant.errors import DimensionError
-from pliant.scene import Scene
+
+if TYPE_CHECKING:
+    from pliant.scene import Scene
 
 FREE = -1
+#: versions of the cached builds: change one whenever its algorithm's output changes
+GRID_VERSION = "voxelgrid-1"
+SDF_VERSION = "sdf-1"
 
 
 @dataclass
@@ -75,18 +86,14 @@ class VoxelGrid:
         half a voxel, so the zero level set lies on voxel faces.
         """
         if self._sdf is None:
-            from scipy.ndimage import distance_transform_edt
-
             occ = self.occupied
             if not occ.any():
                 self._sdf = np.full(self.shape, np.inf)
             elif occ.all():
                 self._sdf = np.full(self.shape, -np.inf)
             else:
-                outside = distance_transform_edt(~occ, sampling=self.resolution)  # free: to the nearest object
-                inside = distance_transform_edt(occ, sampling=self.resolution)    # object: to the nearest free
-                half = 0.5 * self.resolution
-                self._sdf = np.where(occ, half - inside, outside - half)
+                self._sdf = cache.cached_arrays("sdf", SDF_VERSION, (occ, float(self.resolution)),
+                                                lambda: {"sdf": _signed_distance(occ, self.resolution)})["sdf"]
         return self._sdf
 
     @property
@@ -186,6 +193,20 @@ class VoxelGrid:
         """
         if padding < 0 or not np.isfinite(padding):
             raise DimensionError("padding must be a finite distance >= 0", field="padding", value=padding)
+        inputs = (np.asarray(scene.lower, dtype=np.float64), np.asarray(scene.upper, dtype=np.float64),
+                  float(scene.resolution), tuple(scene.shape), list(scene.objects), float(padding), bool(static_only))
+        arrays = cache.cached_arrays("voxelgrid", GRID_VERSION, inputs,
+                                     lambda: cls._build(scene, padding, static_only).arrays())
+        return cls(scene.lower.copy(), scene.resolution, arrays["deformability"], arrays["sensitivity"],
+                   arrays["object_id"], [o.name for o in scene.objects])
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The per-voxel arrays by name (what the cache keeps of a grid)."""
+        return {"deformability": self.deformability, "sensitivity": self.sensitivity, "object_id": self.object_id}
+
+    @classmethod
+    def _build(cls, scene: Scene, padding: float, static_only: bool) -> VoxelGrid:
+        """:meth:`from_scene` without the cache."""
         shape = scene.shape
         res = scene.resolution
         axes = [scene.lower[i] + (np.arange(shape[i]) + 0.5) * res for i in range(3)]
@@ -226,6 +247,16 @@ class VoxelGrid:
         for arr in (self.deformability, self.sensitivity, self.object_id):
             arr[grow] = arr[ix[grow], iy[grow], iz[grow]]
         self._sdf = self._sdf_gradient = None
+
+
+def _signed_distance(occ: np.ndarray, resolution: float) -> np.ndarray:
+    """The signed distance field of occupancy ``occ`` (some voxels occupied, some free); see :attr:`VoxelGrid.sdf`."""
+    from scipy.ndimage import distance_transform_edt
+
+    outside = distance_transform_edt(~occ, sampling=resolution)  # free: to the nearest object
+    inside = distance_transform_edt(occ, sampling=resolution)    # object: to the nearest free
+    half = 0.5 * resolution
+    return np.where(occ, half - inside, outside - half)
 
 
 def _trilinear(field_: np.ndarray, u: np.ndarray) -> np.ndarray:

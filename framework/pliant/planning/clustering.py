@@ -40,9 +40,9 @@ from functools import cached_property, lru_cache
 import numpy as np
 from scipy.cluster.hierarchy import linkage
 
+from pliant.components import RobotModel, Simulator
 from pliant.errors import ConfigError, DimensionError
 from pliant.geometry.voxelgrid import VoxelGrid
-from pliant.interfaces import RobotModel, Simulator
 from pliant.spaces import Space
 
 CLUSTERING_METHODS = ("pc", "wcr", "ac", "distance")

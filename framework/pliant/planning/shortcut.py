@@ -14,8 +14,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from pliant.components import PlanningProblem
 from pliant.errors import DimensionError
-from pliant.interfaces import PlanningProblem
 
 
 def _segment_costs(problem: PlanningProblem, dense: np.ndarray, length_weight: float) -> np.ndarray:

@@ -22,7 +22,7 @@ def warm_up(context, *, simulate: bool = False) -> float:
     """Evaluate validity (states and a one-voxel motion), cost and gradient at the scene's start, and with
     ``simulate`` one control period of the simulator from there; returns the seconds spent.  Errors are left to
     planning, which reports them (a pipeline without a scene or robot warms nothing)."""
-    from pliant.interfaces import PlanningProblem
+    from pliant.components import PlanningProblem
 
     t0 = time.perf_counter()
     if getattr(context, "scene", None) is None or getattr(context, "robot", None) is None:

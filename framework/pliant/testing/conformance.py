@@ -10,9 +10,7 @@ import time
 
 import numpy as np
 
-from pliant.errors import PliantError
-from pliant.hardware.state import JointState, RobotStatus
-from pliant.interfaces import (
+from pliant.components import (
     Component,
     Context,
     Controller,
@@ -25,6 +23,8 @@ from pliant.interfaces import (
     RobotModel,
     Simulator,
 )
+from pliant.errors import PliantError
+from pliant.hardware.state import JointState, RobotStatus
 from pliant.registry import Registry, default_registry
 from pliant.results import Path, PlanResult, Status
 from pliant.scene import load_scene

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
+from pliant.components import Driver, DriverOptions
 from pliant.hardware.limits import JointLimits
 from pliant.hardware.state import JointState, RobotStatus
-from pliant.interfaces import Driver, DriverOptions
 from pliant.options import option
 
 
