@@ -459,9 +459,8 @@ def run_table42(*, max_time: float | None = None, max_iterations: int | None = N
     from pliant import api
 
     from pliant_piirl.demonstration import Demonstration, DemonstrationTask, save_demonstrations
-    from pliant_piirl.expert import PlannerExpert
     from pliant_piirl.features import DeformationFeatures, true_sensitivities
-    from pliant_piirl.verification import plan_task
+    from pliant_piirl.verification import PlannerExpert, plan_task
 
     if (max_time is None) == (max_iterations is None):
         raise ConfigError("give exactly one budget: --max-time or --max-iterations", field="--max-time",

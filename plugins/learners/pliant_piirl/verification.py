@@ -22,8 +22,9 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from pliant.api import PlanningError
 
-from pliant_piirl.demonstration import Demonstration
+from pliant_piirl.demonstration import Demonstration, DemonstrationTask
 
 
 def scene_with(scene, sensitivities: dict[str, float]):
@@ -224,3 +225,40 @@ def compare(features, truth: dict[str, float], demonstration: Demonstration, pla
             "demonstrated_objects": [n for n, v in zip(names, shown) if v > deformed],
             "planned_objects": [n for n, v in zip(names, planned) if v > deformed],
             "demonstrated_cost": float(shown @ weights), "planned_cost": float(planned @ weights)}
+
+
+class PlannerExpert:
+    """A simulated expert for tasks that end at a goal configuration (the planar environment): the registered
+    ``rrtstar`` planner with the scene's true sensitivities for ``max_time`` s (None: no time limit, for an
+    iteration budget in ``planner_options``), shortcut (see
+    :mod:`pliant_piirl.verification`), then perturbed once by the smooth noise of the sample paths with largest
+    standard deviations ``noise`` m and ``10 * noise`` rad (its documented sub-optimality; 0 for none)."""
+
+    def __init__(self, features, sensitivities: dict[str, float], *, max_time: float | None = 60.0,
+                 noise: float = 0.002, planner_options: dict | None = None, shortcut_iterations: int = 500) -> None:
+        self.features, self.sensitivities = features, dict(sensitivities)
+        self.max_time = None if max_time is None else float(max_time)     # None: planner_options' budget
+        self.noise = float(noise)
+        self.planner_options, self.shortcut_iterations = dict(planner_options or {}), int(shortcut_iterations)
+
+    def demonstrate(self, task: DemonstrationTask, rng: np.random.Generator) -> Demonstration:
+        from pliant_piirl.sampling import PathSampler, SampleOptions
+
+        seed = Demonstration(task, np.array([task.start, task.goal]), "simulated-expert")
+        result, path = plan_task(self.features.scene, self.sensitivities, seed, (0.0, 0.0, 0.0), rng,
+                                 max_time=self.max_time, planner_options=self.planner_options,
+                                 shortcut_iterations=self.shortcut_iterations)
+        if path is None:
+            if result.path is None:
+                raise PlanningError(f"the expert's planner found no path ({result.status.value})", field="task",
+                                    value=task.goal.tolist())
+            path = result.path.configurations
+        shown = Demonstration(task, path, "simulated-expert")
+        if self.noise > 0:
+            sampler = PathSampler(self.features, (0.0, 0.0, 0.0),
+                                  SampleOptions(samples=1, translation=self.noise, rotation=10 * self.noise,
+                                                waypoints=max(3, min(len(path), 12))))
+            drawn = sampler.draw(shown, rng, 1)
+            if drawn:
+                shown = Demonstration(task, drawn[0], "simulated-expert")
+        return shown

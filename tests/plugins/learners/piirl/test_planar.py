@@ -47,7 +47,7 @@ def test_samples_around_a_goal_task_keep_both_ends(planar):
 @pytest.mark.slow
 def test_the_planner_expert_reaches_the_goal_and_piirl_learns_from_it(planar):
     from pliant_piirl.experiments import PLANAR_PLANNER
-    from pliant_piirl.expert import PlannerExpert
+    from pliant_piirl.verification import PlannerExpert
 
     scene, features, task = planar
     expert = PlannerExpert(features, true_sensitivities(scene), max_time=10.0, planner_options=PLANAR_PLANNER)
@@ -82,7 +82,7 @@ def test_table_42_takes_exactly_one_valid_budget(budget, field, tmp_path):
 
 def test_an_iteration_budget_makes_the_expert_a_function_of_the_seed(planar):
     from pliant_piirl.experiments import PLANAR_PLANNER
-    from pliant_piirl.expert import PlannerExpert
+    from pliant_piirl.verification import PlannerExpert
 
     scene, features, task = planar
     options = {**PLANAR_PLANNER, "max_time": None, "max_iterations": 2000}
