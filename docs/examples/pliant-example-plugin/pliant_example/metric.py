@@ -5,9 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.interfaces import PathMetric, PlanningProblem
-from pliant.options import option
-from pliant.results import Path
+from pliant.api import Path, PathMetric, PlanningProblem, option
 
 
 @dataclass(frozen=True)

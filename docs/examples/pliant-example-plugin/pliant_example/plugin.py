@@ -1,6 +1,6 @@
 """Entry point: registers the ``path-length`` metric.  Light on purpose: the class is named as a string."""
 
-from pliant.hookspecs import hookimpl
+from pliant.api import hookimpl
 
 
 @hookimpl
