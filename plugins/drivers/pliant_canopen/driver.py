@@ -91,9 +91,8 @@ class CanopenDriverOptions(DriverOptions):
                                         "feed-forward); off: RPDO1 holds only the target position 0x607A")
     master_node_id: int = option(127, "node id of the master's heartbeat (COB-ID 0x700 + id) that the drives "
                                  "consume through 0x1016; 0: no master heartbeat", minimum=0, maximum=127)
-    stream_timeout: float = option(0.5, "a moving command stream (its last command moved) silent this long has "
-                                   "ended: the keep-alive SYNC then holds its last target; a shorter silence is a "
-                                   "late command, waited for (repeating a moving target is a one-cycle stand-still)",
+    stream_timeout: float = option(0.5, "a moving command stream silent this long has ended (s): the keep-alive "
+                                   "SYNC then holds its last target; a shorter silence is a late command, waited for",
                                    minimum=0.001)
     reset_faults: bool = option(False, "on open, reset drive faults left from an earlier session (controlword "
                                 "fault reset); off: a faulted drive refuses to connect")

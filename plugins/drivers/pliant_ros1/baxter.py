@@ -38,8 +38,8 @@ class BaxterOptions(RosDriverOptions):
 
     side: str = option("right", "which arm: right or left (/robot/limb/<side>/...)", choices=("right", "left"))
     speed_ratio: float = option(1.0, "the robot's position-mode speed ratio, published when connecting: the "
-                                "fraction of its joint speed limits it may use to follow each command (the robot "
-                                "starts at 0.3; below 1 the arm lags the core's reference)", minimum=0.0,
+                                "fraction of its joint speed limits it may use to follow each command (fraction)",
+                                minimum=0.0,
                                 maximum=1.0)
 
 

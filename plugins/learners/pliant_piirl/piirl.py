@@ -83,8 +83,8 @@ class RecoveryOptions:
     """Options of the recovery's minimisation."""
 
     objective: str = option("ranking", "ranking: every sample should cost more than its demonstration (logistic "
-                            "loss of the relative margin); likelihood: PIIRL's likelihood with PI^2's cost "
-                            "normalisation (the form eq. 4.1 modifies); ratio: eq. 4.1 as printed",
+                            "loss of the relative margin); likelihood: PIIRL's likelihood with PI^2's "
+                            "normalisation; ratio: eq. 4.1",
                             choices=OBJECTIVES)
     temperature: float | None = option(None, "h of the likelihood or the ranking (None: 30 for likelihood, 10 for "
                                        "ranking; PI^2 uses 10 with its normalisation; unused by ratio)", minimum=1e-9)

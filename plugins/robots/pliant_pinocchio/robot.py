@@ -48,9 +48,7 @@ class PinocchioOptions:
     """Options of :class:`PinocchioRobot` (units in each ``doc``)."""
 
     model: str | None = option(None, "the URDF robot: a name (baxter, pr2, iiwa) or a .urdf path; default the "
-                               "scene's robot.model.  Another model than the scene's works where the scene's start "
-                               "and goal are configurations of its group (as many joints, inside its limits); the "
-                               "scene's robot.weights then do not apply (unit weights)")
+                               "scene's robot.model (another model needs the scene's start and goal to fit its group)")
     group: str | None = option(None, "joint group to plan for (default: the scene's robot.group, else 'all')")
     resolution: float | None = option(None, "spacing of the body's surface points (m); default the scene "
                                       "resolution", minimum=1e-4)

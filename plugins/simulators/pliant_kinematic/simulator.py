@@ -81,8 +81,8 @@ class KinematicOptions:
     max_halvings: int = option(4, "adaptive step scaling: halvings before a particle gives up", minimum=0)
     clearance: float = option(0.01, "points are pushed this far past the surface, in voxels", minimum=0.0)
     solver: str = option("effort", "contact correction: effort (minimum dissipation against the controller's "
-                         "force and torque limits, see pliant_kinematic.rigid_kernel), least-squares (eq. 8.5 as "
-                         "in the thesis) or qp (eq. 8.5 with no first-order penetration)",
+                         "force and torque limits), least-squares (eq. 8.5) or qp (eq. 8.5, no first-order "
+                         "penetration)",
                          choices=("effort", "least-squares", "qp"))
     effort_length: float | None = option(None, "effort solver, rigid bodies: the controller's torque limit over "
                                          "its force limit (m), the lever arm beyond which contact turns the body; "

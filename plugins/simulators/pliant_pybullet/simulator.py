@@ -29,9 +29,9 @@ class PybulletOptions(SteppedOptions):
     density: float = option(100.0, "free-flying robot's mass per volume (kg/m^3)", minimum=1e-9)
     max_force: float = option(200.0, "largest force the free-flying robot's pulling constraint applies (N)",
                               minimum=0.0)
-    max_torque: float | None = option(None, "free-flying robot: largest torque (N m) turning it toward the commanded "
-                                      "orientation, separate from max_force; default: the fixed constraint caps "
-                                      "its rotation at max_force read in N m (pliant_pybullet.free_flyer)",
+    max_torque: float | None = option(None, "free-flying robot: largest torque turning it toward the commanded "
+                                      "orientation (N m); default: max_force read in N m "
+                                      "(pliant_pybullet.free_flyer)",
                                       minimum=0.0)
     gravity: float = option(0.0, "gravity along -z (m/s^2)", minimum=0.0)
     effort_scale: float = option(1.0, "URDF robots: joint torque caps = this x the URDF's effort limits",

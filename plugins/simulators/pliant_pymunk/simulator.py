@@ -40,8 +40,8 @@ class PymunkOptions(SteppedOptions):
     table_friction: float = option(0.5, "Coulomb friction coefficient between movable objects and the table "
                                    "(force mu m g, torque mu m g r_mean); 0 lets them glide", minimum=0.0)
     placed_tolerance: float = option(1.0, "deepest a movable object placed by set_object_poses may lie in the robot "
-                                     "when the next step starts, in voxels: the contact solver pushes it out (a "
-                                     "placement error makes the paddle touch, not pass through); deeper is refused",
+                                     "when the next step starts (voxels): the contact solver pushes it out; deeper "
+                                     "is refused",
                                      minimum=0.0, maximum=2.0)
 
 
