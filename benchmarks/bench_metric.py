@@ -87,7 +87,7 @@ def main(argv=None) -> int:
     parser.add_argument("--set", action="append", default=[], help="metric option KEY=VALUE for every method")
     parser.add_argument("--alone", action="store_true", help="time only the proposed metric, one cell at a time")
     parser.add_argument("--ground-truth", type=Path, metavar="RUNS_JSONL",
-                        help="a pliant metric-table runs.jsonl with ground-truth records: every method's mean "
+                        help="a pliant experiment metric-tables runs.jsonl with ground-truth records: every method's mean "
                              "absolute error against them and the cells it overestimates by more than 0.05")
     parser.add_argument("--replay", type=Path, metavar="JSON",
                         help="print the tables of a previous run (out/bench/metric.json) instead of running")
@@ -158,12 +158,12 @@ def _report(name: str, records: list[dict], truth: dict[int, float]) -> None:
 
 
 def _ground_truth(path: Path) -> dict[str, dict[int, float]]:
-    """``task -> cell -> P_exec`` of the ground-truth records in a ``pliant metric-table`` ``runs.jsonl``."""
+    """``task -> cell -> P_exec`` of the ground-truth records in a ``pliant experiment metric-tables`` ``runs.jsonl``."""
     from pliant.errors import ConfigError
     from pliant.files import read_jsonl
 
     if not path.exists():
-        raise ConfigError("no such file (a runs.jsonl of pliant metric-table)", field="--ground-truth",
+        raise ConfigError("no such file (a runs.jsonl of pliant experiment metric-tables)", field="--ground-truth",
                           value=str(path))
     records, _ = read_jsonl(path)
     values: dict[str, dict[int, list[float]]] = {}

@@ -10,7 +10,7 @@ with other work the wall time is the larger.  Also shown, for comparison with th
 paths read again on their own (``of_paths``), the other objectives' solves on the same features (``likelihood``, the
 normalised PIIRL likelihood, and eq. 4.1, ``ratio``), and the local optimiser's extra rounds.  Figure to reach: the
 fit <= 1 s (the thesis used MATLAB's minimiser and gave no time).
-The whole active-learning trial is timed by `pliant learn-active` (its report gives seconds per trial).
+The whole active-learning trial is timed by `pliant experiment active-learning` (its report gives seconds per trial).
 
     pliant bench piirl [-- --samples 100 --repeats 5]
 """

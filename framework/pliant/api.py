@@ -49,6 +49,11 @@ _NAMES: dict[str, tuple[str, str]] = {
     "time_left": ("pliant.termination", "time_left"),
     # --- registry, hooks and pipelines
     "add_executor_arguments": ("pliant.experiments.executor", "add_executor_arguments"),
+    "add_common_arguments": ("pliant.cli.commands", "add_common_arguments"),
+    "add_page_arguments": ("pliant.cli.commands", "add_page_arguments"),
+    "Alias": ("pliant.cli.commands", "Alias"),
+    "Command": ("pliant.cli.commands", "Command"),
+    "LOOPBACK": ("pliant.cli.commands", "LOOPBACK"),
     "CATALOGUE": ("pliant.experiments.reproduce", "CATALOGUE"),
     "check_settings": ("pliant.experiments.runs", "check_settings"),
     "create": ("pliant.registry", "create"),

@@ -11,7 +11,7 @@ def test_help_teaches(capsys):
         main(["--help"])
     assert info.value.code == 0
     out = capsys.readouterr().out
-    for word in ("plugins", "scenes", "run", "bench", "pareto", "examples:"):
+    for word in ("plugins", "scenes", "run", "bench", "experiment", "robot", "learn", "view", "examples:"):
         assert word in out
 
 

@@ -94,17 +94,17 @@ def test_the_override_spelling_is_one_setting(memory_robot, tmp_path):
 
 
 def test_driver_check_prints_the_robot_and_exits_zero(memory_robot, capsys):
-    assert main(["driver", "memory", "--check", "--set", "robot_id=101"]) == 0
+    assert main(["robot", "check", "memory", "--set", "robot_id=101"]) == 0
     out = capsys.readouterr().out
     assert "enabled" in out and "lbr_iiwa_joint_7" in out and "ok:" in out
 
 
 def test_driver_check_says_what_is_wrong_in_one_line(memory_robot, capsys):
     memory_robot.enabled = False
-    assert main(["driver", "memory", "--check", "--set", "robot_id=101"]) == 2
+    assert main(["robot", "check", "memory", "--set", "robot_id=101"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "disabled" in err[0]
     memory_robot.enabled = True
     memory_robot.names = tuple(IIWA[:6]) + ("joint_x",)
-    assert main(["driver", "memory", "--check", "--set", "robot_id=101"]) == 2
+    assert main(["robot", "check", "memory", "--set", "robot_id=101"]) == 2
     assert "lbr_iiwa_joint_7" in capsys.readouterr().err

@@ -106,11 +106,11 @@ CASES = [
     ["plugins", "--options", "no-such-kind", "x"],
     ["scenes", "no-such-scene"],
     ["scenes", "/dev/null"],
-    ["driver", "no-such-driver"],
-    ["driver", "baxter-ros", "--set", "side=middle"],
-    ["driver", "baxter-ros", "--set", "command_rate=-5"],
-    ["driver", "baxter-ros", "--set", "no_such_option=1"],
-    ["driver", "baxter-ros", "--set", "speed_scale=2"],
+    ["robot", "list", "no-such-driver"],
+    ["robot", "check", "baxter-ros", "--set", "side=middle"],
+    ["robot", "list", "baxter-ros", "--set", "command_rate=-5"],
+    ["robot", "check", "baxter-ros", "--set", "no_such_option=1"],
+    ["robot", "list", "baxter-ros", "--set", "speed_scale=2"],
     ["bench", "no-such-benchmark"],
 ]
 
@@ -324,22 +324,22 @@ def test_a_ray_address_where_no_head_answers_fails_within_seconds_writing_nothin
     exited 0.  Now the command stops before its reproduction writes anything."""
     with _Listener(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n") as web, _Listener(None) as mute:
         address = address.format(closed=_closed_port(), web=web.address, mute=mute.address)
-        line = _refused(["reproduce", "figure-3.5", "--ci", "--output", "out", "--executor", "ray", "--address",
+        line = _refused(["experiment", "figure-3.5", "--ci", "--output", "out", "--executor", "ray", "--address",
                          address], tmp_path, "--address", address)
         assert why in line
-        _refused(["reproduce", "list", "--executor", "ray", "--address", address], tmp_path, "--address", address)
     assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("output", ["", " ", "file.txt", "file.txt/below"])
 def test_reproduce_to_an_output_that_is_no_directory_writes_nothing(tmp_path, output):
-    """``pliant reproduce NAME --output ""`` wrote the report into the current directory and exited 0."""
+    """``pliant experiment NAME --output ""`` wrote the report into the current directory and exited 0."""
     (tmp_path / "file.txt").write_text("kept")
-    _refused(["reproduce", "figure-3.5", "--ci", "--output", output], tmp_path, "--output", output)
+    _refused(["experiment", "figure-3.5", "--ci", "--output", output], tmp_path, "--output", output)
 
 
-@pytest.mark.parametrize("command", [["metric-table"], ["belief-experiment", "table-5.1"], ["learn-table"],
-                                     ["learn-active"], ["pareto", "triple-wall"]])
+@pytest.mark.parametrize("command", [["experiment", "metric-tables"], ["experiment", "table-5.1"],
+                                     ["experiment", "table-4.1"], ["experiment", "active-learning"],
+                                     ["experiment", "belief", "maze"], ["experiment", "pareto", "triple-wall"]])
 def test_every_command_refuses_an_empty_output_before_writing(tmp_path, command):
     """An empty ``--output`` is the current directory to ``Path``: these commands started hour-long experiments
     writing into it."""

@@ -137,7 +137,7 @@ def test_importing_a_recording_out_of_the_workspace_writes_nothing(capsys, tmp_p
             message = types["geometry_msgs/msg/PoseStamped"](header=header, pose=pose)
             writer.write(connection, (k + 1) * 10**8, store.serialize_ros1(message, "geometry_msgs/msg/PoseStamped"))
     out = tmp_path / "demos.json"
-    line = _one_line_error(capsys, ["import-demonstration", str(bag), "--topic", "/probe/pose", "--scene",
+    line = _one_line_error(capsys, ["learn", "import", str(bag), "--topic", "/probe/pose", "--scene",
                                     "hollow-cube", "--target", "0.2", "0.2", "0.2", "--output", str(out)])
     assert "/probe/pose:recording[0].path[2]: waypoint 2 lies outside the workspace bounds" in line, line
     assert not out.exists()

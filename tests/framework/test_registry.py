@@ -212,31 +212,26 @@ def _reporting_module(name, *, fails):
             raise ValueError(f"{name} cannot draw")
         return [f"{directory}/{name}.png"]
 
-    def pliant_add_commands(subparsers):
+    def pliant_commands():
         if fails:
             raise RuntimeError(f"{name} has no commands today")
-        subparsers.add_parser(f"{name}-command")
+        return [f"{name}-command"]
 
     module.pliant_report = pliant_report
-    module.pliant_add_commands = pliant_add_commands
+    module.pliant_commands = pliant_commands
     return module
 
 
 def test_a_failing_report_or_command_hook_is_isolated_and_reported(monkeypatch):
-    import argparse
-
     _fake_plugins(monkeypatch, [_EntryPoint("bad", _reporting_module("bad", fails=True)),
                                 _EntryPoint("fine", _reporting_module("fine", fails=False))])
     reg = Registry()
     assert reg.report_hook()(run=None, directory="out") == [["out/fine.png"]]     # one result per plugin
-    parser = argparse.ArgumentParser()
-    sub = parser.add_subparsers(dest="command")
-    reg.call_isolated("pliant_add_commands", subparsers=sub)
-    assert parser.parse_args(["fine-command"]).command == "fine-command"
+    assert reg.call_isolated("pliant_commands") == [["fine-command"]]
     status = {p.name: p for p in reg.plugins()}
     assert status["fine"].status == "loaded"
     assert status["bad"].status == "failed"
-    assert "pliant_add_commands raised RuntimeError: bad has no commands today" in status["bad"].error
+    assert "pliant_commands raised RuntimeError: bad has no commands today" in status["bad"].error
     assert reg.available("metric") == ["bad-metric", "fine-metric"]    # its components loaded fine
 
 

@@ -39,7 +39,7 @@ from pliant.files import write_json, write_text
 
 MODES = ("full", "quick", "ci")
 
-#: every thesis table and figure `pliant reproduce` knows, with what a missing one waits for
+#: every thesis table and figure `pliant experiment` knows, with what a missing one waits for
 CATALOGUE: dict[str, tuple[str, str]] = {
     "figure-3.5": ("Figure 3.5: A* path classes on the triple-wall over p", "the A* planner (pliant_astar)"),
     "table-3.1": ("Table 3.1: T-RRT and GradienT-RRT on the cube-wall", "the T-RRT planners (pliant_trrt)"),

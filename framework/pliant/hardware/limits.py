@@ -132,7 +132,7 @@ class JointLimits:
                        velocity=self.velocity[index], acceleration=self.acceleration[index], jerk=self.jerk[index])
 
     def describe(self) -> list[tuple[str, str, str, str, str, str]]:
-        """One row per joint: name, lower, upper, velocity, acceleration, jerk (for ``pliant driver --check``)."""
+        """One row per joint: name, lower, upper, velocity, acceleration, jerk (for ``pliant robot check``)."""
         return [(n, f"{lo:.4f}", f"{hi:.4f}", f"{v:.3f}", f"{a:.3f}", f"{j:.1f}") for n, lo, hi, v, a, j in
                 zip(self.names, self.lower, self.upper, self.velocity, self.acceleration, self.jerk)]
 

@@ -31,7 +31,7 @@ class RobotStatus:
     """The robot's readiness: ``enabled`` (motors on), ``estop`` (emergency stop engaged), ``fault`` (a drive or
     controller fault, in words; empty when none), ``lost`` (the link to the robot or part of it is gone: a ROS master
     or node that died, a CAN drive's heartbeat that stopped, frames that cannot be decoded; in words, empty when
-    fine) and a free-text ``detail`` for ``pliant driver --check``."""
+    fine) and a free-text ``detail`` for ``pliant robot check``."""
 
     enabled: bool = True
     estop: bool = False

@@ -500,7 +500,7 @@ class CommandStream:
         return self.measured().positions
 
     def report(self) -> dict[str, Any]:
-        """State, status, limits and rates for ``pliant driver --check``; raises the stream's error if any."""
+        """State, status, limits and rates for ``pliant robot check``; raises the stream's error if any."""
         self._check()
         status = self.driver.robot_status()
         measured = self.measured()
@@ -526,7 +526,7 @@ class CommandStream:
 
 def inspect_robot(driver: Any, limits: JointLimits, *, connect_timeout: float = 5.0,
                   duration: float = 0.5, enable: bool = False) -> dict[str, Any]:
-    """Look at a robot without commanding it (``pliant driver NAME --check``): open the connection, wait for its
+    """Look at a robot without commanding it (``pliant robot check NAME``): open the connection, wait for its
     joint states, check them (names, order, stamps, freshness) for ``duration`` s and the robot's status, and
     report state, status, limits and rates.  With ``enable``, enable a disabled robot first (its motors hold; no
     command is sent).  Raises the first problem as a one-line :class:`~pliant.errors.DriverError` (master

@@ -1,9 +1,9 @@
 """Entry point of the ROS 1 plugin: the ``pr2-ros``, ``baxter-ros`` and ``iiwa-ros`` drivers and the
-``pliant ros-peer`` command.  Light: rospy and the drivers are imported only when a component is created."""
+``pliant robot ros-peer`` command.  Light: rospy and the drivers are imported only when a component is created."""
 
 from __future__ import annotations
 
-from pliant.api import hookimpl
+from pliant.api import Alias, Command, hookimpl
 
 
 @hookimpl
@@ -19,22 +19,16 @@ def pliant_register(registrar):
 
 
 @hookimpl
-def pliant_add_commands(subparsers):
-    """Add ``pliant ros-peer``: a ROS node that behaves as a robot's controller (docs/plugins/ros1.md)."""
-    parser = subparsers.add_parser(
-        "ros-peer", help="emulate a ROS 1 robot's controller (Baxter, PR2, iiwa) moving a simulated arm",
-        description="Run a ROS node that speaks a robot's own topics, types and rates (joint states, commands, "
-                    "Baxter's enabling and /robot/state), moving the arm in a pliant simulator, until Ctrl-C. "
-                    "Fault switches arrive as std_msgs/String on /pliant_peer/fault (stale, names-wrong, "
-                    "names-shuffle, names-duplicate, stamps-backwards, stamps-repeat, flood, disable, estop, die, "
-                    "clear).  Start a master first, e.g. `rosmaster --core` or pliant_ros1.master.RosMaster.")
-    from pliant_ros1.peer import add_arguments
-
-    add_arguments(parser)
-    parser.set_defaults(handler=_peer_command)
-
-
-def _peer_command(args) -> int:
-    from pliant_ros1.peer import run_from_args
-
-    return run_from_args(args)
+def pliant_commands():
+    """``pliant robot ros-peer``: a ROS node that behaves as a robot's controller (docs/plugins/ros1.md)."""
+    return [Command("robot", "ros-peer",
+                    "emulate a ROS 1 robot's controller (Baxter, PR2, iiwa) moving a simulated arm",
+                    run="pliant_ros1.testing.command:run_from_args",
+                    arguments="pliant_ros1.testing.command:add_arguments",
+                    description="Run a ROS node that speaks a robot's own topics, types and rates (joint states, "
+                                "commands, Baxter's enabling and /robot/state), moving the arm in a pliant "
+                                "simulator, until Ctrl-C.  Fault switches arrive as std_msgs/String on "
+                                "/pliant_peer/fault (stale, names-wrong, names-shuffle, names-duplicate, "
+                                "stamps-backwards, stamps-repeat, flood, disable, estop, die, clear).  Start a master "
+                                "first, e.g. `rosmaster --core` or pliant_ros1.master.RosMaster."),
+            Alias("ros-peer", "robot ros-peer")]

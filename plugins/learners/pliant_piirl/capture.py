@@ -25,8 +25,8 @@ world z axis, and turns out of the plane do nothing.  For a task with a goal con
 within ``tolerance`` of it in the space's metric (the thesis's planar environment, captured in the kinematic
 model the planners use).
 
-Front ends: the browser page of :mod:`pliant_piirl.capture_server` (``pliant capture``), and a scripted key
-sequence (``pliant capture --keys``), which is also how the tool is tested headless.
+Front ends: the browser page of :mod:`pliant_piirl.capture_server` (``pliant learn capture``), and a scripted key
+sequence (``pliant learn capture --keys``), which is also how the tool is tested headless.
 """
 
 from __future__ import annotations

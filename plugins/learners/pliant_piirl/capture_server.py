@@ -1,4 +1,4 @@
-"""The capture tool's browser page, served on loopback (``pliant capture``).
+"""The capture tool's browser page, served on loopback (``pliant learn capture``).
 
 A standard-library HTTP server (no extra dependency) bound to 127.0.0.1 by default serves one page: a top view
 (the horizontal slice of the scene through the target) and a side view (the vertical slice through it), the
@@ -24,10 +24,10 @@ from pliant_piirl.capture import KEYS, CaptureSession
 from pliant_piirl.demonstration import load_demonstrations, save_demonstrations
 
 PAGE = """<!doctype html>
-<html><head><meta charset="utf-8"><title>pliant capture</title>
+<html><head><meta charset="utf-8"><title>pliant learn capture</title>
 <style>body{font-family:sans-serif;margin:1em} canvas{border:1px solid #999;margin-right:1em}
 #state{white-space:pre;font-family:monospace}</style></head>
-<body><h1>pliant capture: __SCENE__</h1>
+<body><h1>pliant learn capture: __SCENE__</h1>
 <p>Touch the red target with the probe's tip. Keys: __KEYS__; Enter saves.</p>
 <canvas id="top" width="480" height="480"></canvas><canvas id="side" width="480" height="480"></canvas>
 <div id="state">loading...</div>

@@ -1,4 +1,4 @@
-"""``pliant learn-active``: thesis 4.4.1-4.4.2 on the hollow cube, as seeded, resumable, parallel trials.
+"""``pliant experiment active-learning``: thesis 4.4.1-4.4.2 on the hollow cube, as seeded, resumable, parallel trials.
 
 Each trial runs the ``active-piirl`` learner with its own seed: Algorithm 2 asks for demonstrations, the
 simulated expert shows them, PIIRL recovers the sensitivities.  ``--all-pairs`` asks for every adjacent pair

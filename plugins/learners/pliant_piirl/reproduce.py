@@ -1,5 +1,5 @@
-"""``pliant reproduce table-4.1`` / ``table-4.2`` / ``table-8.1``: the learners' tables (thesis ch. 4 and appendix A)
-through ``pliant learn-table``, ``learn-planar`` and ``learn-deformability``, ours beside the thesis's."""
+"""``pliant experiment table-4.1`` / ``table-4.2`` / ``table-8.1``: the learners' tables (thesis ch. 4 and appendix
+A), ours beside the thesis's; each takes its own options (:mod:`pliant_piirl.commands`) over the mode's settings."""
 
 from __future__ import annotations
 
@@ -13,8 +13,7 @@ MODES = {
                           "of local search in the recovered cost (the thesis: 30 and 15 RRT* plans of 30 and 60 "
                           "minutes, no local search)",
                   "quick": "3 tasks, 1 plan each: 3,000 RRT* iterations, shortcut, 60 rounds of local search "
-                           "(iteration budgets: the headlines depend on the seed only), a coarser expert "
-                           "(learn-table --quick)"},
+                           "(iteration budgets: the headlines depend on the seed only), a coarser expert"},
     "table-4.2": {"full": "the expert, the uniform and the recovered plans with 300 s each (the thesis's 5 minutes)",
                   "quick": "25,000 RRT* iterations per plan (about 60 s on an idle 2-core machine; an iteration "
                            "budget, so the result depends on the seed only)",
@@ -29,14 +28,22 @@ MINUTES = {"table-4.1": {"full": 15, "quick": 1}, "table-4.2": {"full": 16, "qui
 
 def table_41(run: ReproductionRun) -> Outcome:
     """Table 4.1: recovered sensitivities from 12 demonstrations, then plans per task against the demonstration."""
+    from pliant.api import parse_override
+
     from pliant_piirl.experiments import TABLE_FULL, TABLE_QUICK, THESIS_ALL_PAIRS, THESIS_TABLE_41, run_table41
 
     quick = run.mode != "full"
     mode = TABLE_QUICK if quick else TABLE_FULL
-    budget = {"max_time": None, "max_iterations": mode["max_iterations"], "refine": mode["refine"]}
-    plans = mode["plans"]
-    summary = run_table41(plans=plans, **budget, jobs=os.cpu_count() or 1, output=run.output, quick=quick,
-                          fresh=run.fresh, echo=run.echo)
+    max_time = run.setting("max_time", None)
+    budget = {"max_time": max_time,
+              "max_iterations": None if max_time is not None else run.setting("max_iterations",
+                                                                              mode["max_iterations"]),
+              "refine": run.setting("refine", mode["refine"])}
+    plans = run.setting("plans", mode["plans"])
+    options = dict(parse_override(item, "--set") for item in run.setting("set", []))
+    summary = run_table41(plans=plans, **budget, jobs=run.setting("jobs", os.cpu_count() or 1), output=run.output,
+                          quick=quick, fresh=run.fresh, echo=run.echo, options=options,
+                          straight=run.setting("straight", True))
     values = summary["sensitivities"]
     rows = [Row(f"recovered sensitivity {k}", THESIS_ALL_PAIRS.get(k), v) for k, v in values.items()]
     for r in summary["rows"]:
@@ -86,7 +93,8 @@ def table_41(run: ReproductionRun) -> Outcome:
                  (thesis_ratios[5] + thesis_ratios[6]) / 2,
                  "a plan at the demonstration's cost is 1; the thesis's 30-minute RRT* plans 1.55")]
     directory = run.output / f"learn-table-4.1{'-quick' if quick else ''}"
-    return Outcome(rows, headlines, {"plans": plans, **budget, "quick": quick},
+    settings = {"plans": plans, **budget, "quick": quick, **({"options": options} if options else {})}
+    return Outcome(rows, headlines, settings,
                    records=[directory / "runs.jsonl", directory / "learned.json", directory / "summary.json"],
                    notes="The thesis's tasks are its own (its object layout); costs are volume change times the true "
                          "sensitivity in both. Thesis's planned costs come from 30-minute RRT* plans without local "
@@ -100,7 +108,12 @@ def table_42(run: ReproductionRun) -> Outcome:
 
     budget = {"full": {"max_time": 300.0}, "quick": {"max_iterations": 25_000},
               "ci": {"max_iterations": 12_000}}[run.mode]
-    summary = run_table42(**budget, seed=0, output=run.output, echo=run.echo)
+    if run.setting("max_time", None) is not None:
+        budget = {"max_time": run.options["max_time"]}
+    elif run.setting("max_iterations", None) is not None:
+        budget = {"max_iterations": run.options["max_iterations"]}
+    seed = run.setting("seed", 0)
+    summary = run_table42(**budget, seed=seed, output=run.output, echo=run.echo)
     names = list(summary["truth"])
     rows = []
     for path, row in summary["rows"].items():
@@ -116,7 +129,7 @@ def table_42(run: ReproductionRun) -> Outcome:
                  Headline("recovered O2 below O3 (1 = yes)", float(s["O2"] < s["O3"]), 1.0, 1.0, None,
                           "the demonstration pushes through O2 and avoids O3: PIIRL gives O2 the lower bound")]
     directory = run.output / "learn-table-4.2"
-    return Outcome(rows, headlines, {**budget, "seed": 0},
+    return Outcome(rows, headlines, {**budget, "seed": seed},
                    records=[directory / "summary.json", directory / "demonstration.json"],
                    notes="The thesis's deformation is pixels tracked by a camera in its physical layout; ours is robot "
                          "points in voxels of deformable objects, so the numbers are not comparable, only which "
@@ -127,8 +140,9 @@ def table_81(run: ReproductionRun) -> Outcome:
     """Table 8.1: deformability recovered from presses against a known object."""
     from pliant_piirl.experiments import THESIS_TABLE_81, run_table81
 
-    repetitions = {"full": 30, "quick": 5, "ci": 3}[run.mode]
-    summary = run_table81(repetitions=repetitions, force=1.0, seed=0, output=run.output, echo=run.echo)
+    repetitions = run.setting("repetitions", {"full": 30, "quick": 5, "ci": 3}[run.mode])
+    force, seed = run.setting("force", 1.0), run.setting("seed", 0)
+    summary = run_table81(repetitions=repetitions, force=force, seed=seed, output=run.output, echo=run.echo)
     rows = [Row(f"{name}: recovered (truth {truth:g})", THESIS_TABLE_81["recovered"][k], summary["recovered"][name],
                 tolerance=0.08) for k, (name, truth) in enumerate(summary["truth"].items())]
     rows.append(Row("mean absolute error", summary["thesis_mean_absolute_error"], summary["mean_absolute_error"],
@@ -138,7 +152,7 @@ def table_81(run: ReproductionRun) -> Outcome:
                           "ours 0.038 with 30 presses (target 0.04); a few presses are noisier"),
                  Headline("ranking correct (1 = yes)", float(summary["ranking_correct"]), 1.0, 1.0, 1.0,
                           "the thesis and ours rank the five objects correctly")]
-    return Outcome(rows, headlines, {"repetitions": repetitions, "force": 1.0, "seed": 0},
+    return Outcome(rows, headlines, {"repetitions": repetitions, "force": force, "seed": seed},
                    records=[run.output / "learn-table-8.1" / "summary.json"])
 
 
@@ -148,4 +162,5 @@ def declarations() -> list:
 
     runners = {"table-4.1": "table_41", "table-4.2": "table_42", "table-8.1": "table_81"}
     return [Reproduction(name, CATALOGUE[name][0], f"pliant_piirl.reproduce:{runner}", modes=MODES[name],
+                         arguments=f"pliant_piirl.commands:table{runner[-2:]}_arguments",
                          minutes=MINUTES[name]) for name, runner in runners.items()]

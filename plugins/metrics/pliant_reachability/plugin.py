@@ -1,6 +1,6 @@
 """Entry point of the reachable-volume path-quality metrics (thesis ch. 6)."""
 
-from pliant.api import add_executor_arguments, hookimpl
+from pliant.api import Alias, Command, add_common_arguments, hookimpl
 
 _MODULE = "pliant_reachability.metrics"
 
@@ -18,42 +18,46 @@ def pliant_register(registrar):
 
 
 @hookimpl
-def pliant_add_commands(subparsers):
-    import os
+def pliant_commands():
+    """``pliant experiment metric-tables`` (the grid of every ch. 6 metric on chosen tasks; the thesis's Tables
+    6.1-6.4 are ``pliant experiment table-6.1`` ...) and ``pliant experiment metric-select``."""
+    return [Command("experiment", "metric-tables",
+                    "the path-quality metrics in every cell of the thesis's grid, on chosen tasks",
+                    run=_table_command, arguments=_table_arguments,
+                    description="Evaluate every ch. 6 metric --runs times in every cell (epsilon_reached, alpha) of "
+                                "each task; evaluations are written as they finish and resumed on a second call; "
+                                "tables.md, summary.json and a figure per task are written beside them.  The "
+                                "thesis's Tables 6.1-6.4, checked against its numbers, are pliant experiment "
+                                "table-6.1 ... table-6.4."),
+            Command("experiment", "metric-select",
+                    "plan candidate paths, score them with the metric, execute the best and the worst",
+                    run=_select_command, arguments=_select_arguments,
+                    description="Run the pipeline's planner with seeds 0..N-1, score every path with the pipeline's "
+                                "metric, execute the best and the worst (or all) in the pipeline's execution world, "
+                                "and report whether the metric's choice matched execution success (verdict: matched, "
+                                "reversed, metric does not separate, execution does not separate)."),
+            Alias("metric-table", "experiment metric-tables"),
+            Alias("metric-select", "experiment metric-select")]
 
-    parser = subparsers.add_parser(
-        "metric-table", help="thesis Tables 6.1-6.4: the path-quality metrics in every cell of the thesis's grid",
-        description="Evaluate every ch. 6 metric --runs times in every cell (epsilon_reached, alpha) of each task; "
-                    "evaluations are written as they finish and resumed on a second call; tables.md, summary.json "
-                    "and a figure per task are written beside them.")
+
+def _table_arguments(parser):
     # the default is the thesis's two tasks (pliant_reachability.tasks.THESIS_TASKS), unchanged: runs on file resume
     parser.add_argument("tasks", nargs="*", default=["se3-peg-tight", "se2-through-passage"],
                         help="se3-peg-tight, se2-through-passage and/or se3-peg-in-hole (ours: no thesis numbers) "
                              "(default: the thesis's two, se3-peg-tight and se2-through-passage)")
     parser.add_argument("--runs", type=int, default=30, help="evaluations per method and cell (default 30)")
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="evaluations at a time (default: cores)")
     parser.add_argument("--methods", nargs="*", help="methods to run (default all four)")
-    parser.add_argument("--quick", action="store_true", help="CI-sized: 2 runs, 500 / 300 baseline simulations")
-    parser.add_argument("--fresh", action="store_true", help="forget the evaluations on file for these tasks")
-    parser.add_argument("--output", default="out", help="directory (default out; the tables go in metric-tables/)")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="a metric option for every method (e.g. contact_horizon=12)")
-    add_executor_arguments(parser)
-    parser.set_defaults(handler=_table_command)
+    add_common_arguments(parser, jobs="evaluations", quick="2 runs, 500 / 300 baseline simulations",
+                         fresh="the evaluations of these tasks", output="out",
+                         overrides="a metric option for every method (e.g. contact_horizon=12)", executor=True)
 
-    parser = subparsers.add_parser(
-        "metric-select", help="plan candidate paths, score them with the metric, execute the best and the worst",
-        description="Run the pipeline's planner with seeds 0..N-1, score every path with the pipeline's metric, "
-                    "execute the best and the worst (or all) in the pipeline's execution world, and report whether "
-                    "the metric's choice matched execution success (verdict: matched, reversed, metric does not "
-                    "separate, execution does not separate).")
+
+def _select_arguments(parser):
     parser.add_argument("pipeline", help="a pipeline with a planner, a metric, a controller and an execution world")
     parser.add_argument("--candidates", type=int, default=8, help="candidate paths (default 8)")
     parser.add_argument("--executions", type=int, default=30, help="executions per executed candidate (default 30)")
     parser.add_argument("--all", action="store_true", help="execute every candidate, not only the best and worst")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="pipeline override")
-    parser.add_argument("--output", default="out", help="directory (default out)")
-    parser.set_defaults(handler=_select_command)
+    add_common_arguments(parser, output="out", overrides="pipeline override")
 
 
 def _table_command(args) -> int:

@@ -1,5 +1,5 @@
-"""``pliant reproduce table-6.1 ... table-6.4``: the path-quality metrics' tables (thesis 6.5) through
-``pliant metric-table``'s runs (:func:`pliant_reachability.tables.run_tables`), ours beside the thesis's.
+"""``pliant experiment table-6.1 ... table-6.4``: the path-quality metrics' tables (thesis 6.5) through
+``pliant experiment metric-tables``'s runs (:func:`pliant_reachability.tables.run_tables`), ours beside the thesis's.
 
 Tables 6.1 / 6.3 (P_exec / seconds on se3-peg-tight) come from the same evaluations, as do 6.2 / 6.4 on
 se2-through-passage: the four reproductions share their records (``out/reproduce/_metric-tables/<mode>/<task>/``),

@@ -1,4 +1,4 @@
-"""``pliant metric-select``: does the metric change decisions?  Plan several candidate paths, score each with the
+"""``pliant experiment metric-select``: does the metric change decisions?  Plan several candidate paths, score each with the
 pipeline's metric, execute the best and the worst (or all) in the pipeline's execution world, and report whether
 the metric's ranking matched execution success (issue: "a metric is only worth its cost if it changes decisions").
 

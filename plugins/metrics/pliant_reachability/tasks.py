@@ -42,7 +42,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-#: the tasks of the thesis's Tables 6.1-6.4: what ``pliant metric-table`` and the benchmark run by default
+#: the tasks of the thesis's Tables 6.1-6.4: what ``pliant experiment metric-tables`` and the benchmark run by default
 THESIS_TASKS = ("se3-peg-tight", "se2-through-passage")
 EPSILONS = (0.125, 0.1875, 0.25)
 ALPHAS = (0.0625, 0.125, 0.25)

@@ -1,8 +1,8 @@
-"""Entry point of the A* plugin: planners, the ``pliant pareto`` command and the sweep's report figures."""
+"""Entry point of the A* plugin: planners, the ``pliant experiment pareto`` command and the sweep's report figures."""
 
 from __future__ import annotations
 
-from pliant.api import hookimpl
+from pliant.api import Alias, Command, hookimpl
 
 
 @hookimpl
@@ -23,16 +23,20 @@ def pliant_report(run, directory):
 
 
 @hookimpl
-def pliant_add_commands(subparsers):
-    parser = subparsers.add_parser(
-        "pareto", help="sweep A* over p on a scene: Pareto table and figures",
-        description="Run A* for evenly spaced values of p on a translation scene (cost model: voxel), print the "
-                    "distinct Pareto-optimal paths and write the front and the path classes as pictures.")
+def pliant_commands():
+    return [Command("experiment", "pareto", "sweep A* over p on a scene: Pareto table and figures",
+                    run=_pareto_command, arguments=_pareto_arguments,
+                    description="Run A* for evenly spaced values of p on a translation scene (cost model: voxel), "
+                                "print the distinct Pareto-optimal paths and write the front and the path classes "
+                                "as pictures."),
+            Alias("pareto", "experiment pareto")]
+
+
+def _pareto_arguments(parser):
     parser.add_argument("scene", help="bundled scene name or TOML file (e.g. triple-wall)")
     parser.add_argument("--variant", help="scene variant (e.g. soft-robot-soft-walls)")
     parser.add_argument("--values", type=int, default=101, help="number of p values in [0, 1] (default 101)")
     parser.add_argument("--output", help="report directory (default out/pareto-<scene>)")
-    parser.set_defaults(handler=_pareto_command)
 
 
 def _pareto_command(args) -> int:

@@ -1,4 +1,4 @@
-"""``pliant reproduce figure-3.5``: the triple-wall's A* path classes over p (thesis Figure 3.5), ours beside the
+"""``pliant experiment figure-3.5``: the triple-wall's A* path classes over p (thesis Figure 3.5), ours beside the
 thesis's three paths (length in voxels, deformation)."""
 
 from __future__ import annotations

@@ -1,5 +1,6 @@
-"""``pliant reproduce table-5.1`` / ``table-5.2``: the belief planner's peg-in-hole tables (thesis 5.4.1) through
-``pliant belief-experiment`` (:func:`pliant_belief.experiments.run_experiment`), ours beside the thesis's."""
+"""``pliant experiment table-5.1`` / ``table-5.2``: the belief planner's peg-in-hole tables (thesis 5.4.1) through
+:func:`pliant_belief.experiments.run_experiment`, ours beside the thesis's; the options of ``pliant experiment
+belief`` (``--plans``, ``--plan-time``, ...) override the mode's settings."""
 
 from __future__ import annotations
 
@@ -51,9 +52,12 @@ def _table(run: ReproductionRun) -> Outcome:
 
     name = run.reproduction.name
     settings = dict(SETTINGS[name][run.mode])
+    for key in ("plans", "executions", "plan_time", "plan_iterations", "exec_time", "only", "replay"):
+        if run.options.get(key) is not None:
+            settings[key] = run.options[key]
     thesis = THESIS_51 if name == "table-5.1" else THESIS_52
-    rows_out = run_experiment(name, jobs=os.cpu_count() or 1, fresh=run.fresh, output=run.output, echo=run.echo,
-                              **settings)
+    rows_out = run_experiment(name, jobs=run.setting("jobs", os.cpu_count() or 1), fresh=run.fresh,
+                              output=run.output, echo=run.echo, **settings)
     ours = {r["variant"]: r for r in rows_out}
     rows = []
     for label, r in ours.items():
@@ -133,4 +137,5 @@ def declarations() -> list:
 
     runners = {"table-5.1": "table_51", "table-5.2": "table_52"}
     return [Reproduction(name, CATALOGUE[name][0], f"pliant_belief.reproduce:{runner}", modes=MODES[name],
+                         arguments="pliant_belief.plugin:table_arguments",
                          minutes=MINUTES[name]) for name, runner in runners.items()]

@@ -1,4 +1,4 @@
-"""``pliant reproduce table-3.1``: T-RRT and GradienT-RRT on the cube-wall (thesis Table 3.1), as seeded, resumable
+"""``pliant experiment table-3.1``: T-RRT and GradienT-RRT on the cube-wall (thesis Table 3.1), as seeded, resumable
 tasks through :func:`pliant.experiments.runs.run_tasks` (so ``--executor ray`` spreads them over a cluster).
 
 Every run plans the bundled pipeline ``cube-wall-trrt`` with seed = run index; costs are in the thesis's unit, the

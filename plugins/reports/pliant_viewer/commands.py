@@ -1,10 +1,10 @@
-"""``pliant view TARGET`` and the ``--view`` flag of ``pliant run`` (argparse only; the viewer loads on use)."""
+"""``pliant view TARGET`` and the live view of ``pliant run --view`` (the core's flag; this plugin answers its
+``pliant_run_view`` hook).  Argparse only: the viewer loads on use."""
 
 from __future__ import annotations
 
 import errno
 import ipaddress
-import json
 import math
 import os
 import re
@@ -13,33 +13,17 @@ import sys
 import time
 from pathlib import Path
 
-from pliant.api import ConfigError, load_scene
+from pliant.api import LOOPBACK, ConfigError, add_page_arguments, load_scene
 
-LOOPBACK = "127.0.0.1"
 #: the most poses of the timeline an export records (each adds the robot's pose updates to the page)
 MAX_FRAMES = 10_000
 
 
-def _address_arguments(p, prefix: str = "") -> None:
-    p.add_argument(f"--{prefix}host", default=LOOPBACK,
-                   help="address to serve the page on (default 127.0.0.1, loopback only; 0.0.0.0 exposes it)")
-    p.add_argument(f"--{prefix}port", type=int, default=0, help="port, 1-65535 (default: a free one)")
-    p.add_argument(f"--{prefix}hold", type=float, default=None, metavar="SECONDS",
-                   help="keep serving this long (>= 0), then exit (default: until Ctrl-C)")
-    p.add_argument(f"--{prefix}robot-meshes", choices=("collision", "visual"), default="collision",
-                   help="a URDF robot's meshes: collision (light, the default) or visual (detailed, slow to draw)")
-
-
-def add_commands(subparsers) -> None:
-    p = subparsers.add_parser("view", help="open a 3-D view of a scene, a run folder or a policy in the browser",
-                              description="Serve a local web page (viser) showing TARGET in 3-D: a scene name or "
-                                          "file, a pipeline run folder (out/<name>/), or a policy / result JSON "
-                                          "file.  The page shows the voxel objects coloured by material, the "
-                                          "robot, the planned path, the executed trajectory with a time slider, "
-                                          "the belief tree and a Pareto front.")
+def add_arguments(p) -> None:
+    """The arguments of ``pliant view``."""
     p.add_argument("target", help="scene name or TOML, run folder (out/<name>/), or policy / result JSON")
     p.add_argument("--scene", help="the scene of a policy or result file (default: from the run folder's run.json)")
-    _address_arguments(p)
+    add_page_arguments(p)
     p.add_argument("--export", metavar="FILE.html",
                    help="write a self-contained HTML page of the view (plays the timeline back) and exit")
     p.add_argument("--frames", type=int, default=60,
@@ -48,23 +32,6 @@ def add_commands(subparsers) -> None:
     p.add_argument("--no-cache", action="store_true",
                    help="neither read nor write the run folder's view-cache.npz (kept for articulated robots) nor "
                         "the converted robot meshes (~/.cache/pliant/viewer)")
-    p.set_defaults(handler=cmd_view)
-
-    run = subparsers.choices.get("run")
-    if run is not None:
-        group = run.add_argument_group("live 3-D view (pliant_viewer)")
-        group.add_argument("--view", action="store_true",
-                           help="stream the execution into a 3-D page as it happens (prints its address)")
-        group.add_argument("--view-host", default=LOOPBACK, help="address of the live page (default 127.0.0.1)")
-        group.add_argument("--view-port", type=int, default=0,
-                           help="port of the live page, 1-65535 (default: a free one)")
-        group.add_argument("--view-hold", type=float, default=None, metavar="SECONDS",
-                           help="after the run, keep serving the finished run this long (>= 0; default: until "
-                                "Ctrl-C)")
-        group.add_argument("--view-robot-meshes", choices=("collision", "visual"), default="collision",
-                           help="a URDF robot's meshes in the live page (default collision)")
-        original = run.get_default("handler")
-        run.set_defaults(handler=lambda args: run_with_view(args, original))
 
 
 def resolve(target: str, scene_name: str | None):
@@ -255,40 +222,46 @@ def _hold(seconds: float | None) -> None:
         pass
 
 
-def run_with_view(args, original) -> int:
-    """``pliant run PIPELINE --view``: the scene in the page first, every execution step streamed into it, then
-    the finished run (path, policy, trajectory with the slider) until ``--view-hold`` runs out or Ctrl-C."""
-    if not getattr(args, "view", False):
-        return original(args)
-    from pliant.api import Pipeline
+class LiveView:
+    """``pliant run PIPELINE --view`` (the ``pliant_run_view`` hook): the scene in the page first, every execution
+    step streamed into it (:meth:`on_step`), then the finished run -- path, policy, trajectory with the slider --
+    until ``--view-hold`` runs out or Ctrl-C (:meth:`finish`)."""
 
-    from pliant_viewer.content import read_run
-    from pliant_viewer.viewer import build_content, make_robot
+    def __init__(self, pipeline, args) -> None:
+        from pliant_viewer.viewer import build_content, make_robot
 
-    check_address(args.view_host, args.view_port, "view-")
-    check_hold(args.view_hold, "--view-hold")
-    overrides = list(args.set or [])
-    if args.output is not None:
-        overrides.append(f"output={json.dumps(args.output)}")
-    pipeline = Pipeline.from_file(args.pipeline, overrides=overrides)
-    scene = pipeline.load_scene()
-    spec = pipeline.components.get("robot")
-    robot = make_robot(scene, spec.name if spec and spec.name else None, spec.options if spec else None)
-    viewer = open_viewer(args.view_host, args.view_port, "view-", robot_meshes=args.view_robot_meshes)
-    try:
-        viewer.show(build_content(scene, robot))
-        print(f"viewer: {viewer.url}  (live; the execution streams in when it starts)", flush=True)
-        args.on_step = viewer.on_step                      # cmd_run hands it to Pipeline.run
-        code = original(args)
-        folder = pipeline.output
-        if (folder / "run.json").is_file():
-            viewer.robot_drawing.ready.wait(30)
-            viewer.reset()
-            viewer.show(build_content(scene, robot, run=read_run(folder)))
-        print(f"viewer: {viewer.url}  (the finished run; {len(viewer._live)} steps streamed live; Ctrl-C to stop)",
-              flush=True)
-        sys.stdout.flush()
-        _hold(args.view_hold)
-    finally:
-        viewer.stop()
-    return code
+        check_address(args.view_host, args.view_port, "view-")
+        check_hold(args.view_hold, "--view-hold")
+        self.pipeline, self.hold = pipeline, args.view_hold
+        self.scene = pipeline.load_scene()
+        spec = pipeline.components.get("robot")
+        self.robot = make_robot(self.scene, spec.name if spec and spec.name else None,
+                                spec.options if spec else None)
+        self.viewer = open_viewer(args.view_host, args.view_port, "view-", robot_meshes=args.view_robot_meshes)
+        try:
+            self.viewer.show(build_content(self.scene, self.robot))
+        except BaseException:
+            self.viewer.stop()
+            raise
+        print(f"viewer: {self.viewer.url}  (live; the execution streams in when it starts)", flush=True)
+        self.on_step = self.viewer.on_step
+
+    def finish(self, record) -> None:
+        """Show the finished run (if its folder holds one) and serve it until ``--view-hold`` runs out or Ctrl-C."""
+        from pliant_viewer.content import read_run
+        from pliant_viewer.viewer import build_content
+
+        try:
+            if record is None:
+                return
+            folder = self.pipeline.output
+            if (folder / "run.json").is_file():
+                self.viewer.robot_drawing.ready.wait(30)
+                self.viewer.reset()
+                self.viewer.show(build_content(self.scene, self.robot, run=read_run(folder)))
+            print(f"viewer: {self.viewer.url}  (the finished run; {len(self.viewer._live)} steps streamed live; "
+                  "Ctrl-C to stop)", flush=True)
+            sys.stdout.flush()
+            _hold(self.hold)
+        finally:
+            self.viewer.stop()

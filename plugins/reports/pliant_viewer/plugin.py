@@ -1,22 +1,33 @@
-"""Entry point of the 3-D viewer plugin: the ``pliant view`` command, ``pliant run ... --view`` (live) and the run
-folder's view cache written with a run's report.
+"""Entry point of the 3-D viewer plugin: the ``pliant view`` command, the live view of ``pliant run ... --view`` (the
+``pliant_run_view`` hook) and the run folder's view cache written with a run's report.
 
 Light on purpose: viser, yourdfpy and the drawing code load only when a view is opened.
 """
 
-from pliant.api import hookimpl
+from pliant.api import Command, hookimpl
 
 
 @hookimpl
 def pliant_register(registrar):
-    """This plugin adds no components, only the ``view`` command and the ``--view`` flag of ``run``."""
+    """This plugin adds no components, only the ``view`` command and the live view of ``run --view``."""
 
 
 @hookimpl
-def pliant_add_commands(subparsers):
-    from pliant_viewer.commands import add_commands
+def pliant_commands():
+    return [Command("view", "view", "open a 3-D view of a scene, a run folder or a policy in the browser",
+                    run="pliant_viewer.commands:cmd_view", arguments="pliant_viewer.commands:add_arguments",
+                    description="Serve a local web page (viser) showing TARGET in 3-D: a scene name or file, a "
+                                "pipeline run folder (out/<name>/), or a policy / result JSON file.  The page shows "
+                                "the voxel objects coloured by material, the robot, the planned path, the executed "
+                                "trajectory with a time slider, the belief tree and a Pareto front.")]
 
-    add_commands(subparsers)
+
+@hookimpl
+def pliant_run_view(pipeline, args):
+    """``pliant run PIPELINE --view``: a live page of the run (:class:`pliant_viewer.commands.LiveView`)."""
+    from pliant_viewer.commands import LiveView
+
+    return LiveView(pipeline, args)
 
 
 @hookimpl

@@ -157,7 +157,7 @@ def test_the_pliant_command_passes_the_executor_to_the_experiment(monkeypatch, c
     """``--executor`` reaches run_tasks through the installed executor (a bad address fails before any work)."""
     from pliant.cli import main
 
-    assert main(["metric-table", "se2-through-passage", "--executor", "local", "--address", "h:1"]) == 2
+    assert main(["experiment", "metric-tables", "se2-through-passage", "--executor", "local", "--address", "h:1"]) == 2
     assert "--address" in capsys.readouterr().err
 
 

@@ -63,7 +63,7 @@ def test_the_pliant_command_runs_a_reproduction_on_the_cluster(cluster, tmp_path
 
     RayExecutor(cluster.address).wait_for_cpus(2)
     ray.shutdown()
-    assert main(["reproduce", "table-3.1", "--ci", "--output", str(tmp_path), "--executor", "ray",
+    assert main(["experiment", "table-3.1", "--ci", "--output", str(tmp_path), "--executor", "ray",
                  "--address", cluster.address]) == 0
     out = capsys.readouterr().out
     assert out.count("[node ") == 6 and "report:" in out                  # six runs, each naming its Ray node

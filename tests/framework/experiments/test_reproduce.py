@@ -71,7 +71,7 @@ def test_unknown_waiting_and_missing_modes_are_errors_naming_the_field(tmp_path)
 
 
 def test_the_command_lists_and_exits_3_when_a_headline_is_out_of_range(tmp_path, capsys, monkeypatch):
-    assert main(["reproduce", "list"]) == 0
+    assert main(["experiment", "list"]) == 0
     assert "figure-3.5" in capsys.readouterr().out
     import pliant_astar.reproduce as module
 
@@ -83,7 +83,7 @@ def test_the_command_lists_and_exits_3_when_a_headline_is_out_of_range(tmp_path,
         return outcome
 
     monkeypatch.setattr(module, "figure_35", broken)
-    assert main(["reproduce", "figure-3.5", "--ci", "--output", str(tmp_path)]) == 3
+    assert main(["experiment", "figure-3.5", "--ci", "--output", str(tmp_path)]) == 3
     assert "out of range" in capsys.readouterr().err
 
 
@@ -92,7 +92,7 @@ def test_an_output_that_is_no_directory_is_refused_before_anything_is_written(tm
     """``--output ""`` once wrote the report into the current directory and exited 0."""
     monkeypatch.chdir(tmp_path)
     (tmp_path / "file").write_text("kept")
-    assert main(["reproduce", "figure-3.5", "--ci", "--output", output]) == 2
+    assert main(["experiment", "figure-3.5", "--ci", "--output", output]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: --output:") and "\n" not in err and repr(output) in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"] and (tmp_path / "file").read_text() == "kept"

@@ -281,7 +281,7 @@ def test_driver_check_on_the_command_line_reports_disabled_drives_in_one_line(ma
     from pliant.cli import main
 
     make_peer()
-    assert main(["driver", "canopen", "--check", "--set", f"channel={channel}"]) == 2
+    assert main(["robot", "check", "canopen", "--set", f"channel={channel}"]) == 2
     out, err = capsys.readouterr()
     err = err.strip().splitlines()
     assert len(err) == 1 and "disabled" in err[0] and "Switch on disabled" in err[0]
@@ -291,7 +291,7 @@ def test_driver_check_on_the_command_line_reports_disabled_drives_in_one_line(ma
 def test_the_peer_command_is_added(capsys):
     from pliant.cli import build_parser
 
-    args = build_parser().parse_args(["canopen-peer", "--interface", "virtual", "--channel", "cli-peer",
+    args = build_parser().parse_args(["robot", "canopen-peer", "--interface", "virtual", "--channel", "cli-peer",
                                       "--duration", "0.2"])
     assert args.handler(args) == 0
     assert "emulating 7 CiA 402 drives" in capsys.readouterr().out

@@ -71,7 +71,7 @@ def test_open_without_a_master_is_one_line_connection_lost():
         assert time.monotonic() - start < 2.0
         assert str(info.value) == f"ROS master at {uri} unreachable (connection refused)"
     # the command line says the same in one line, exit status 2
-    result = subprocess.run([sys.executable, "-m", "pliant.cli", "driver", "baxter-ros", "--check", "--set",
+    result = subprocess.run([sys.executable, "-m", "pliant.cli", "robot", "check", "baxter-ros", "--set",
                              f"master_uri={uri}"], capture_output=True, text=True, timeout=120)
     assert result.returncode == 2
     assert result.stderr.strip() == f"error: ROS master at {uri} unreachable (connection refused)"
@@ -175,13 +175,13 @@ def test_a_driver_talks_to_nothing_beyond_loopback(make_peer, make_driver, monke
 
 @pytest.mark.skipif(not HAVE_ROSPY, reason="ROS 1 is not installed: no rospy (Debian: python3-rospy)")
 def test_the_peer_command_line_runs_and_stops(master, tmp_path):
-    """``pliant ros-peer`` (the pliant_add_commands hook) starts a peer that a driver can use, for a set time."""
+    """``pliant robot ros-peer`` (the pliant_commands hook) starts a peer that a driver can use, for a set time."""
     log = tmp_path / "peer.log"
     env = {**os.environ, "ROS_MASTER_URI": master.uri, "ROS_IP": "127.0.0.1"}
     with open(log, "wb") as out:
-        process = subprocess.Popen([sys.executable, "-m", "pliant.cli", "ros-peer", "iiwa", "--simulator", "none",
-                                    "--master", master.uri, "--duration", "3"], stdout=out, stderr=subprocess.STDOUT,
-                                   env=env)
+        process = subprocess.Popen([sys.executable, "-m", "pliant.cli", "robot", "ros-peer", "iiwa", "--simulator",
+                                    "none", "--master", master.uri, "--duration", "3"], stdout=out,
+                                   stderr=subprocess.STDOUT, env=env)
         try:
             assert wait_until(lambda: "pliant-peer ready iiwa" in log.read_text(), timeout=60), log.read_text()
             assert process.wait(30) == 0

@@ -111,15 +111,15 @@ def test_the_headless_command_plays_keys_and_saves(cube, tmp_path):
     features, task = cube                            # the command generates the same task: pair L1 M1, seed 0
     presses = round(CaptureSession(features, task, TIP).state()["distance"] / 0.002)
     out = tmp_path / "demos.json"
-    done = subprocess.run([sys.executable, "-m", "pliant.cli", "capture", "hollow-cube", "--pair", "L1", "M1",
+    done = subprocess.run([sys.executable, "-m", "pliant.cli", "learn", "capture", "hollow-cube", "--pair", "L1", "M1",
                            "--keys", "i" * presses, "--output", str(out)], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "saved to" in done.stdout and load_demonstrations(out)[1][0].source == "capture"
-    done = subprocess.run([sys.executable, "-m", "pliant.cli", "capture", "hollow-cube", "--pair", "L1", "M1",
+    done = subprocess.run([sys.executable, "-m", "pliant.cli", "learn", "capture", "hollow-cube", "--pair", "L1", "M1",
                            "--keys", "i" * (presses // 2), "--output", str(out)], capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 2 and "mm from the target" in done.stderr
-    done = subprocess.run([sys.executable, "-m", "pliant.cli", "capture", "hollow-cube", "--pair", "L1", "M1",
+    done = subprocess.run([sys.executable, "-m", "pliant.cli", "learn", "capture", "hollow-cube", "--pair", "L1", "M1",
                            "--task", str(out), "--output", str(out)], capture_output=True, text=True, timeout=300)
     assert done.returncode == 2 and "--pair" in done.stderr
 
@@ -139,7 +139,7 @@ def test_a_planar_robot_is_driven_in_the_plane_to_its_goal(tmp_path):
     demo = session.demonstration()
     assert np.array_equal(demo.path[0], scene.start) and demo.task.goal is not None
     out = tmp_path / "planar.json"
-    done = subprocess.run([sys.executable, "-m", "pliant.cli", "capture", "planar-objects", "--keys",
+    done = subprocess.run([sys.executable, "-m", "pliant.cli", "learn", "capture", "planar-objects", "--keys",
                            "i" * (len(demo.path) - 1), "--output", str(out)], capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0, done.stderr

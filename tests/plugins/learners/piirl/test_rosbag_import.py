@@ -93,7 +93,7 @@ def test_the_command_adds_to_a_file_and_refuses_another_scene(tmp_path):
     bag = write_bag(tmp_path / "demo.bag", "/probe/pose", "geometry_msgs/msg/PoseStamped",
                     [_pose(k, (0.1, 0.2, 0.3 - 0.05 * k), (0, 0, 0, 1)) for k in range(3)])
     out = tmp_path / "demos.json"
-    command = [sys.executable, "-m", "pliant.cli", "import-demonstration", str(bag), "--topic", "/probe/pose",
+    command = [sys.executable, "-m", "pliant.cli", "learn", "import", str(bag), "--topic", "/probe/pose",
                "--target", "0.1", "0.2", "0.2", "--plane", "0", "0", "1", "1.0", "--output", str(out)]
     for _ in range(2):
         done = subprocess.run([*command, "--scene", "hollow-cube"], capture_output=True, text=True)

@@ -41,7 +41,7 @@ def test_the_thesis_has_no_numbers_for_the_task_and_its_two_tasks_are_unchanged(
     assert thesis_values(THESIS_P_EXEC, "se3-peg-tight", "ground truth")[0] == 0.91
     # what a run of `pliant metric-table` on file (settings.json) was started with: the same again
     assert THESIS_TASKS == ("se3-peg-tight", "se2-through-passage")
-    args = build_parser().parse_args(["metric-table"])
+    args = build_parser().parse_args(["experiment", "metric-tables"])
     assert args.tasks == list(THESIS_TASKS)
     assert {t: TASKS[t].simulations for t in THESIS_TASKS} == {"se3-peg-tight": 10000, "se2-through-passage": 2000}
     assert [TASKS[t].translation_weight for t in THESIS_TASKS] == [10.0, 10.0]

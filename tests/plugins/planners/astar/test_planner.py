@@ -116,7 +116,7 @@ def test_demo_pipeline_end_to_end(tmp_path):
 def test_pareto_command(tmp_path, capsys):
     from pliant.cli import main
 
-    assert main(["pareto", "multi-cost", "--values", "11", "--output", str(tmp_path)]) == 0
+    assert main(["experiment", "pareto", "multi-cost", "--values", "11", "--output", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "length (voxels)" in out and (tmp_path / "pareto_front.png").is_file()
 

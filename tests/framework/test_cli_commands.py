@@ -1,0 +1,207 @@
+"""The ``pliant`` command's tree (framework/pliant/cli): at most ten top-level commands, plugins' sub-commands declared
+through one hook (``pliant_commands``), every old spelling still working with one deprecation line, and the live
+view of ``pliant run --view`` through a hook the core calls (docs/cli.md)."""
+
+from __future__ import annotations
+
+import argparse
+import types
+
+import pytest
+from pliant import cli
+from pliant.api import Alias, Command, add_common_arguments, hookimpl
+from pliant.cli.commands import GROUPS
+from pliant.registry import default_registry
+
+
+def _top_level(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return action.choices
+
+
+def test_help_lists_at_most_ten_commands_the_groups_and_no_old_spelling(capsys):
+    with pytest.raises(SystemExit) as info:
+        cli.main(["--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    top = _top_level(cli.build_parser())
+    assert list(top) == list(GROUPS) and len(top) <= 10
+    listed = [line.split()[0] for line in out.split("positional arguments:")[1].split("options:")[0].splitlines()
+              if line.startswith("    ") and not line.startswith("     ")]
+    assert listed == list(GROUPS)
+    for old in ("pareto", "learn-table", "metric-table", "belief-experiment", "ros-peer", "canopen-peer", "capture",
+                "import-demonstration", "reproduce", "driver"):
+        assert f"    {old} " not in out
+
+
+def _aliases() -> list[Alias]:
+    return cli._declarations()[1]
+
+
+OLD = sorted({a.old for a in _aliases()}) + ["driver", "driver baxter-ros --check", "reproduce LIST"]
+
+
+@pytest.mark.parametrize("old", OLD)
+def test_every_old_spelling_works_with_one_deprecation_line_naming_the_new(old, capsys):
+    words = old.split()
+    argv, note = cli.rewrite([*words, "--help"], _aliases())
+    assert note is not None and note.startswith(f"pliant {words[0]}") and "is deprecated: use pliant " in note
+    new = note.split("use pliant ")[1].split()
+    assert argv[:len(new)] == new and argv[-1] == "--help"
+    with pytest.raises(SystemExit) as info:             # the new spelling parses (its --help)
+        cli.main([*words, "--help"])
+    assert info.value.code == 0
+    captured = capsys.readouterr()
+    assert captured.err.strip().splitlines() == [note]
+    assert f"usage: pliant {' '.join(new)}" in " ".join(captured.out.split())
+
+
+def test_old_spellings_map_to_their_one_new_home():
+    new = {a.old: a.new for a in _aliases()}
+    assert new["learn-table"] == "experiment table-4.1"      # the table once had two commands: now one
+    assert new["belief-experiment table-5.1"] == "experiment table-5.1"
+    assert new["reproduce"] == "experiment" and new["pareto"] == "experiment pareto"
+    assert cli.rewrite(["-v", "pareto", "triple-wall"], _aliases())[0] == ["-v", "experiment", "pareto",
+                                                                          "triple-wall"]
+    assert cli.rewrite(["driver"], _aliases())[0] == ["robot", "list"]
+    assert cli.rewrite(["driver", "x", "--check", "--set", "a=1"], _aliases())[0] == ["robot", "check", "x", "--set",
+                                                                                      "a=1"]
+    assert cli.rewrite(["run", "demo"], _aliases()) == (["run", "demo"], None)
+
+
+def test_an_old_spelling_runs_the_new_command(capsys):
+    assert cli.main(["reproduce", "list"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == "pliant reproduce is deprecated: use pliant experiment\n"
+    assert "figure-3.5" in captured.out and "pareto" in captured.out     # a reproduction and a plugin experiment
+
+
+@pytest.mark.parametrize("argv, choices", [(["nope"], "'run', 'scenes'"),
+                                           (["experiment", "nope"], "'list', 'figure-3.5'"),
+                                           (["robot", "nope"], "'list', 'check'"),
+                                           (["learn", "nope"], "'capture'")])
+def test_an_unknown_command_names_the_choices(argv, choices, capsys):
+    with pytest.raises(SystemExit) as info:
+        cli.main(argv)
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'nope'" in err and choices in err
+
+
+def test_each_table_has_one_home():
+    parser = cli.build_parser()
+    experiments = _top_level(_top_level(parser)["experiment"])
+    assert len(experiments) == len(set(experiments))
+    for table in ("table-4.1", "table-4.2", "table-5.1", "table-8.1"):     # with the knobs its old command had
+        assert table in experiments
+    args = parser.parse_args(["experiment", "table-4.1", "--quick", "--plans", "2", "--max-iterations", "100",
+                              "--no-straight"])
+    assert args.reproduction_options and {"plans", "max_iterations", "straight", "jobs"} <= set(
+        args.reproduction_options)
+    assert (args.plans, args.max_iterations, args.straight, args.max_time) == (2, 100, False, None)
+    assert "table-5.1" not in parser.parse_args(["experiment", "belief", "maze"]).name
+
+
+class _ThirdParty:
+    """A plugin object as a third party writes it: a sub-command under a group, an alias, a broken one."""
+
+    calls: list = []
+
+    @hookimpl
+    def pliant_register(self, registrar):
+        pass
+
+    @hookimpl
+    def pliant_commands(self):
+        def arguments(parser):
+            parser.add_argument("what")
+            add_common_arguments(parser, seed=7, jobs="sweeps")
+
+        def run(args):
+            _ThirdParty.calls.append((args.what, args.seed, args.jobs >= 1))
+            return 0
+
+        def broken(parser):
+            raise RuntimeError("no arguments today")
+
+        return [Command("experiment", "sweep-demo", "a third party's experiment", run=run, arguments=arguments),
+                Command("robot", "demo-arm", "a third party's emulated arm", run=lambda args: 5),
+                Command("learn", "broken", "arguments that raise", run=run, arguments=broken),
+                Command("nowhere", "lost", "an unknown group", run=run),
+                Alias("old-sweep", "experiment sweep-demo")]
+
+
+@pytest.fixture
+def third_party():
+    registry = default_registry()
+    plugin = _ThirdParty()
+    assert registry.add_plugin(plugin, "third-party-cli", "third-party-dist")
+    _ThirdParty.calls.clear()
+    yield plugin
+    registry.manager.unregister(plugin)
+    registry._plugins.pop("third-party-cli", None)
+
+
+def test_a_third_party_plugin_adds_sub_commands_under_groups(third_party, capsys):
+    assert cli.main(["experiment", "sweep-demo", "corner"]) == 0
+    assert _ThirdParty.calls == [("corner", 7, True)]
+    assert cli.main(["robot", "demo-arm"]) == 5
+    assert cli.main(["old-sweep", "again", "--seed", "3"]) == 0
+    assert _ThirdParty.calls[-1] == ("again", 3, True)
+    assert capsys.readouterr().err == "pliant old-sweep is deprecated: use pliant experiment sweep-demo\n"
+    top = _top_level(cli.build_parser())
+    assert "lost" not in top and "nowhere" not in top                   # a plugin adds no top-level command
+    assert "broken" not in _top_level(top["learn"])                     # its parser raised: skipped
+    assert "capture" in _top_level(top["learn"])                        # the others' commands stay
+
+
+class _FakeView:
+    def __init__(self, pipeline, args):
+        self.steps, self.finished, self.port = 0, [], args.view_port
+
+    def on_step(self, *step):
+        self.steps += 1
+
+    def finish(self, record):
+        self.finished.append(record)
+
+
+def test_run_view_is_the_cores_flag_and_a_hook_the_viewer_answers(tmp_path, monkeypatch, capsys):
+    """The viewer patches no parser: ``run``'s handler is the core's, ``--view`` and its page options are the
+    core's, and the live view comes from the ``pliant_run_view`` hook (here the viewer's, with its page faked)."""
+    import pliant_viewer.commands
+
+    parser = cli.build_parser()
+    run = _top_level(parser)["run"]
+    assert run.get_default("handler") is cli.cmd_run
+    args = parser.parse_args(["run", "straight-demo", "--view", "--view-port", "0", "--view-hold", "0"])
+    assert args.view and args.view_hold == 0 and args.view_robot_meshes == "collision"
+    views = []
+    monkeypatch.setattr(pliant_viewer.commands, "LiveView", lambda p, a: views.append(_FakeView(p, a)) or views[-1])
+    assert cli.main(["run", "straight-demo", "--output", str(tmp_path), "--view", "--view-hold", "0"]) == 0
+    assert len(views) == 1 and views[0].finished and views[0].finished[0].output == tmp_path
+    assert cli.main(["run", "straight-demo", "--output", str(tmp_path)]) == 0
+    assert len(views) == 1                                                # no --view: no view
+
+
+def test_run_view_without_a_viewer_is_one_clear_error(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(default_registry(), "call_isolated",
+                        lambda hook, **kw: [] if hook == "pliant_run_view" else original(hook, **kw))
+    original = type(default_registry()).call_isolated.__get__(default_registry())
+    assert cli.main(["run", "straight-demo", "--output", str(tmp_path), "--view"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: --view:") and "no plugin offers a live view" in err and "\n" not in err
+
+
+def test_a_plugin_module_still_implementing_the_old_hook_loads(monkeypatch):
+    module = types.ModuleType("old_style")
+    module.pliant_register = lambda registrar: None
+    module.pliant_add_commands = lambda subparsers: subparsers.add_parser("patched")
+    registry = default_registry()
+    try:
+        with pytest.warns(DeprecationWarning, match="pliant_commands"):
+            assert registry.add_plugin(module, "old-style")
+        assert "patched" not in _top_level(cli.build_parser())           # never called: nothing is patched
+    finally:
+        registry.manager.unregister(module)
+        registry._plugins.pop("old-style", None)
