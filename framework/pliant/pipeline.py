@@ -44,13 +44,15 @@ from pliant.files import write_json, write_text
 from pliant.registry import Registry, default_registry
 from pliant.results import Outcome, PlanResult
 from pliant.scene import Scene, load_scene
+from pliant.seeds import Streams
+from pliant.termination import Budget
 from pliant.validation import check_number, read_toml, safe_name
 
 log = logging.getLogger(__name__)
 
 #: the order in which components are built; each sees the ones before it in its Context
 BUILD_ORDER = ("robot", "cost", "simulator", "controller", "planner", "metric", "learner", "driver")
-TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable", "execution"}
+TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable", "execution", "planning"}
 EXECUTION_KEYS = {"period": 0.1, "time_limit": 60.0, "action_limit": 100}
 #: ``[execution]`` keys that are not numbers: the world to execute in (a simulator or a driver; ``simulator`` is
 #: the older spelling of ``world``), and the scene variant a simulator simulates
@@ -139,7 +141,12 @@ class RunRecord:
             if isinstance(limits, dict) and used is not None:       # recorded by the core (contracts.checked_plan)
                 cap, most = limits.get("max_time"), limits.get("max_iterations")
                 text = "no time limit" if cap is None else f"{cap:g} s"
-                rows.append(("budget", text + (f" or {most} iterations" if most else "") + f", used {used:.2f} s"))
+                rows.append(("budget", text + (f" or {most} {limits.get('unit') or 'iterations'}" if most else "")
+                             + f", used {used:.2f} s"))
+                binding = limits.get("binding")
+                if binding:
+                    rows.append(("budget binding", "time: wall-clock budget, the result depends on the machine and "
+                                 "its load" if binding == "time" else str(binding)))
             for key, value in sorted(r.statistics.items()):
                 if isinstance(value, (int, float, str, np.integer, np.floating)):
                     rows.append((key, f"{value:.6g}" if isinstance(value, (float, np.floating)) else str(value)))
@@ -181,7 +188,7 @@ class Pipeline:
 
     def __init__(self, scene: Any = None, *, name: str = "pipeline", seed: int = 0, output: str | Path | None = None,
                  disable: tuple[str, ...] | list[str] = (), description: str = "", execution: dict | None = None,
-                 source: str = "<python>",
+                 planning: dict | Budget | None = None, source: str = "<python>",
                  base_dir: Path | None = None, registry: Registry | None = None, **components: Any) -> None:
         self.source = source
         self.base_dir = base_dir or Path.cwd()
@@ -201,6 +208,11 @@ class Pipeline:
             raise PipelineError("must be a list of plugin names", source=source, field="disable", value=disable)
         self.disable = frozenset(disable)
         self.execution, self.world_settings = _execution_settings(execution, source)
+        try:        # the request's budget ([planning]: max_iterations, max_time, stop_on_first; docs/determinism.md)
+            self.budget = Budget.from_table(planning, source)
+        except ConfigError as exc:
+            raise PipelineError(exc.message, source=source, field=exc.field,
+                                **({"value": exc.value} if exc.has_value else {})) from None
         self.scene_spec = scene
         self.components: dict[str, ComponentSpec] = {}
         self.instances: dict[str, Component] = {}
@@ -241,7 +253,7 @@ class Pipeline:
         components = {k: data[k] for k in KINDS if k in data}
         return cls(data.get("scene"), name=name, seed=data.get("seed", 0), output=output,
                    disable=data.get("disable", ()), description=description, execution=data.get("execution"),
-                   source=source,
+                   planning=data.get("planning"), source=source,
                    base_dir=base_dir, registry=registry, **components)
 
     @classmethod
@@ -378,13 +390,16 @@ class Pipeline:
         if write:                   # built: the input holds; from here on the folder is this run's
             self.clear_previous_run(record.output)
             self._write_run_json(record, "running")
-        rng = np.random.default_rng(self.seed)
+        # one SeedSequence per run, one independent stream per stage (pliant.seeds): adding or removing a stage (a
+        # metric, a learner) changes no other stage's numbers
+        streams = Streams(self.seed)
         learner = context.extras.get("learner")
         if learner is not None:
             record.stage = "learn"
             t0 = time.perf_counter()
             log.info("learning with %s on %s", self.components["learner"].name, context.scene.name)
-            record.learned = learner.fit(None, rng)   # the learner's own options say where its data come from
+            # the learner's own options say where its data come from
+            record.learned = learner.fit(None, streams.rng("learning"))
             timings["learn"] = time.perf_counter() - t0
             if write:
                 self._write_file(record, "learned.json", lambda path: write_json(path, record.learned, default=str))
@@ -392,13 +407,14 @@ class Pipeline:
         result = None
         if planner is not None:
             record.stage = "plan"
-            problem = record.problem = PlanningProblem.from_context(context)
+            problem = record.problem = PlanningProblem.from_context(context, budget=self.budget)
             t0 = time.perf_counter()
             log.info("planning with %s on %s", self.components["planner"].name, context.scene.name)
-            result = record.result = planner.plan(problem, rng)
+            result = record.result = planner.plan(problem, streams.rng("planning"))
             timings["plan"] = time.perf_counter() - t0
             if result.seed is None:
                 result.seed = self.seed
+            result.streams = streams.stages()
             if write:                                # the plan is on file before anything else can go wrong
                 self._write_file(record, "result.json", result.save)
             if result.statistics.get("interrupted") is True:
@@ -410,7 +426,7 @@ class Pipeline:
             if metric is not None and result.path is not None and result.solved:   # a refused path is not scored
                 record.stage = "metric"
                 t0 = time.perf_counter()
-                record.metrics = dict(metric.evaluate(result.path, problem, rng))
+                record.metrics = dict(metric.evaluate(result.path, problem, streams.rng("metrics")))
                 timings["metric"] = time.perf_counter() - t0
             if not result.solved:
                 record.stage, record.outcome = "done", Outcome.NOT_PLANNED
@@ -419,7 +435,7 @@ class Pipeline:
                 return
         if result is not None and (result.path is not None or result.policy is not None) and world is not None:
             record.stage = "execute"
-            self._execute(record, world, rng, on_step)
+            self._execute(record, world, streams.rng("execution"), on_step)
         record.stage = "done"
         execution = record.execution
         if execution is None:
@@ -487,7 +503,8 @@ class Pipeline:
         writer(path)
 
     def _write_run_json(self, record: RunRecord, outcome: str) -> None:
-        data = {"pipeline": self.to_dict(), "outcome": outcome, "error": record.error, "stage": record.stage,
+        data = {"pipeline": self.to_dict(), "seed": self.seed, "streams": Streams(self.seed).stages(),
+                "outcome": outcome, "error": record.error, "stage": record.stage,
                 "metrics": record.metrics, "timings": record.timings}
         self._write_file(record, "run.json", lambda path: write_json(path, data, default=str))
 
@@ -651,6 +668,9 @@ class Pipeline:
                                "seed": self.seed, "output": str(self.output)}
         if self.disable:
             out["disable"] = sorted(self.disable)
+        planning = {k: v for k, v in self.budget.to_dict().items() if v is not None}
+        if planning:
+            out["planning"] = planning
         out["execution"] = dict(self.execution)
         if "world" in self.world_settings:
             spec = self.world_settings["world"]
@@ -848,6 +868,10 @@ def apply_overrides(data: dict, overrides: list[str] | dict[str, Any], source: s
             continue
         if head == "execution":
             out["execution"] = _override_execution(out.get("execution"), rest, value, source, key)
+            continue
+        if head == "planning":                 # planning.max_iterations=N: the request's budget
+            current = out.get("planning")
+            out["planning"] = {**(current if isinstance(current, dict) else {}), rest: value}
             continue
         if head in TOP_LEVEL:
             raise PipelineError("this field has no sub-fields", source=source, field=key, value=value)

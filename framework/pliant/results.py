@@ -169,7 +169,10 @@ class PlanResult:
     cost: the planner's objective value of ``path`` (NaN when there is none).
     statistics: counters and timings (``iterations``, ``nodes``, ``time``, ``time_to_first`` in
         seconds, ``cost_history`` as ``[[t, cost], ...]``...).
-    seed: the seed of the generator the planner used, for reproduction.
+    seed: the seed of the run the planner's generator came from, for reproduction.
+    streams: the run's stream layout (:mod:`pliant.seeds`): stage -> ``[seed, *spawn_key]``, e.g.
+        ``{"planning": [0, 1], "metrics": [0, 2]}``; the planner drew from ``streams["planning"]``.  ``None`` for a
+        result made outside a pipeline.
     """
 
     status: Status
@@ -181,6 +184,7 @@ class PlanResult:
     planner: str = ""
     options: dict[str, Any] = field(default_factory=dict)
     message: str = ""
+    streams: dict[str, list[int]] | None = None
 
     @property
     def solved(self) -> bool:
@@ -202,7 +206,7 @@ class PlanResult:
                 "policy": None if self.policy is None else self.policy.to_dict(),
                 "cost": None if math.isnan(self.cost) else self.cost, "statistics": _jsonable(self.statistics),
                 "seed": self.seed, "planner": self.planner, "options": _jsonable(self.options),
-                "message": self.message}
+                "message": self.message, **({"streams": self.streams} if self.streams is not None else {})}
 
     @classmethod
     def from_dict(cls, data: dict) -> PlanResult:
@@ -215,7 +219,7 @@ class PlanResult:
                    cost=math.nan if data.get("cost") is None else float(data["cost"]),
                    statistics=dict(data.get("statistics") or {}), seed=data.get("seed"),
                    planner=data.get("planner", ""), options=dict(data.get("options") or {}),
-                   message=data.get("message", ""))
+                   message=data.get("message", ""), streams=data.get("streams"))
 
     def save(self, path: str | FilePath) -> None:
         """Write the result as JSON (parent directories are created)."""

@@ -74,6 +74,7 @@ class Condition:
         self._lock = threading.Lock()
         self._values: dict = {}
         self._start = self._now()
+        self._stopped_by: str | None = None
 
     # -- what subclasses decide --------------------------------------------------------------------------------
     def _rule(self, iteration: int, best_cost: float, solved: bool) -> bool:
@@ -92,6 +93,7 @@ class Condition:
         """Start the clock (of this condition and every condition it combines) and clear a previous ``terminate``."""
         self._start = self._now()
         self._event.clear()
+        self._stopped_by = None
         for child in self._children():
             child.start()
 
@@ -132,14 +134,36 @@ class Condition:
         return self._holds(iteration, best_cost, solved)
 
     def _holds(self, iteration: int, best_cost: float, solved: bool) -> bool:
-        return self._event.is_set() or self._rule(iteration, best_cost, solved)
+        if self._event.is_set():
+            self._stopped_by = self._stopped_by or "interrupted"
+            return True
+        return self._rule(iteration, best_cost, solved)
 
     def expired(self) -> bool:
         """Whether the condition holds whatever the loop's progress: :meth:`terminate` was called (or the executor
         cancelled the task), or its time budget is spent.  What long inner work checks (:func:`checkpoint`)."""
         if _task_cancel is not None and _task_cancel.is_set():
             self._event.set()
-        return self._event.is_set() or self._time_rule()
+        if self._event.is_set():
+            self._stopped_by = self._stopped_by or "interrupted"
+            return True
+        if self._time_rule():
+            self._stopped_by = self._stopped_by or "time"
+            return True
+        return False
+
+    @property
+    def stopped_by(self) -> str | None:
+        """What stopped the loop, once it stopped: ``"iterations"`` (the work budget), ``"time"`` (the wall-clock
+        budget: the result then depends on the machine and its load), ``"solution"`` (the first solution),
+        ``"cost"``, ``"callback"`` or ``"interrupted"``; ``None`` while it has not stopped the loop (a search that ended
+        on its own)."""
+        if self._stopped_by is not None:
+            return self._stopped_by
+        for child in self._children():
+            if child.stopped_by is not None:
+                return child.stopped_by
+        return None
 
     @contextmanager
     def interruptible(self) -> Iterator[Condition]:
@@ -233,15 +257,20 @@ class Termination(Condition):
                 raise ConfigError("must be >= 0", field=f"termination.{name}", value=value)
 
     def _rule(self, iteration: int, best_cost: float, solved: bool) -> bool:
+        reason = None
         if self.stop_on_first and solved:
-            return True
-        if self.max_iterations is not None and iteration >= self.max_iterations:
-            return True
-        if self.max_time is not None and self.elapsed >= self.max_time:
-            return True
-        if self.cost_reached is not None and best_cost <= self.cost_reached:      # False for NaN
-            return True
-        return bool(self.callback and self.callback(iteration, best_cost))
+            reason = "solution"
+        elif self.max_iterations is not None and iteration >= self.max_iterations:
+            reason = "iterations"
+        elif self.max_time is not None and self.elapsed >= self.max_time:
+            reason = "time"
+        elif self.cost_reached is not None and best_cost <= self.cost_reached:      # False for NaN
+            reason = "cost"
+        elif self.callback and self.callback(iteration, best_cost):
+            reason = "callback"
+        if reason is not None:
+            self._stopped_by = self._stopped_by or reason
+        return reason is not None
 
     def _time_rule(self) -> bool:
         return self.max_time is not None and self.elapsed >= self.max_time
@@ -380,6 +409,110 @@ def budget(condition: Condition | None) -> dict:
         return out
     return {"max_time": getattr(condition, "max_time", None), "max_iterations": getattr(condition, "max_iterations",
                                                                                           None)}
+
+
+#: the keys of a pipeline's ``[planning]`` table (and of :class:`Budget`)
+BUDGET_KEYS = ("max_time", "max_iterations", "stop_on_first")
+
+
+class BudgetDeprecationWarning(FutureWarning):
+    """A planner was given a budget option (``max_time``, ``max_iterations``): the budget belongs to the request now
+    (``planning.max_iterations``: the pipeline's ``[planning]`` table, or :attr:`PlanningProblem.budget`).  Shown to
+    users by default; the old spelling keeps working for one release."""
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The budget of a planning request (a pipeline's ``[planning]`` table, :attr:`PlanningProblem.budget`): it
+    bounds the whole ``plan`` call, whatever the planner does inside (set-up, search, post-processing).
+
+    max_iterations: the work budget, in the planner's own unit (its ``PlannerSpecs.work_unit``: RRT*'s samples, a
+    belief planner's or TS-RRT's tree extensions); what a result depends on, so that a seed gives the same result on
+    any machine under any load.
+    max_time: wall-clock seconds, a safety cap (``None``: none).  When it is what stops the planner, the result
+    depends on the machine and says so (``statistics["budget"]["binding"] == "time"``).
+    stop_on_first: stop at the first solution (``None``: the planner's own default).
+
+    A field left ``None`` is not set: :meth:`merged` fills it from a budget of lower precedence.
+    """
+
+    max_time: float | None = None
+    max_iterations: int | None = None
+    stop_on_first: bool | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("max_time", "max_iterations"):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value) or value < 0:
+                raise ConfigError("must be a number >= 0 or omitted", field=f"planning.{name}", value=value)
+            if name == "max_iterations" and (not float(value).is_integer() or value < 1):
+                raise ConfigError("must be a positive integer", field="planning.max_iterations", value=value)
+        if self.max_iterations is not None:
+            object.__setattr__(self, "max_iterations", int(self.max_iterations))
+        if self.stop_on_first is not None and not isinstance(self.stop_on_first, bool):
+            raise ConfigError("must be true or false", field="planning.stop_on_first", value=self.stop_on_first)
+
+    @classmethod
+    def from_table(cls, table, source: str | None = None) -> Budget:
+        """A budget from a ``[planning]`` table (``None``: an empty budget); unknown keys and bad values raise a
+        :class:`~pliant.errors.ConfigError` naming ``planning.<key>``."""
+        if table is None:
+            return cls()
+        if isinstance(table, Budget):
+            return table
+        if not isinstance(table, dict):
+            raise ConfigError(f"must be a table with {', '.join(BUDGET_KEYS)}", source=source, field="planning",
+                              value=table)
+        unknown = sorted(set(table) - set(BUDGET_KEYS))
+        if unknown:
+            raise ConfigError(f"unknown field (fields: {', '.join(BUDGET_KEYS)})", source=source,
+                              field=f"planning.{unknown[0]}", value=table[unknown[0]])
+        try:
+            return cls(**table)
+        except ConfigError as exc:
+            if source is None or exc.source is not None:
+                raise
+            raise ConfigError(exc.message, source=source, field=exc.field,
+                              **({"value": exc.value} if exc.has_value else {})) from None
+
+    def merged(self, over: Budget | None) -> Budget:
+        """This budget with every field ``over`` sets replacing this one's."""
+        if over is None:
+            return self
+        return Budget(**{k: getattr(over, k) if getattr(over, k) is not None else getattr(self, k)
+                         for k in BUDGET_KEYS})
+
+    def termination(self, started: float | None = None, *, stop_on_first: bool = False, **rules) -> Termination:
+        """The :class:`Termination` of this budget for a ``plan`` call that started at ``started`` (a
+        ``time.perf_counter()`` value: the time spent since comes off ``max_time``); ``stop_on_first`` is used when
+        the budget leaves it unset; ``rules``: more :class:`Termination` fields (``cost_reached=...``)."""
+        cap = self.max_time if started is None else time_left(self.max_time, started)
+        first = stop_on_first if self.stop_on_first is None else self.stop_on_first
+        return Termination(max_time=cap, max_iterations=self.max_iterations, stop_on_first=first, **rules)
+
+    def to_dict(self) -> dict:
+        return {k: getattr(self, k) for k in BUDGET_KEYS}
+
+
+def budget_deprecation(options, owner: str = "planner") -> Budget:
+    """The budget a component's options still set under the old spelling (``max_time`` / ``max_iterations`` other
+    than ``None``), with one :class:`BudgetDeprecationWarning` naming the new spelling (``planning.max_iterations``);
+    an empty :class:`Budget` when they set none."""
+    found = {k: getattr(options, k, None) for k in ("max_time", "max_iterations")}
+    found = {k: v for k, v in found.items() if v is not None}
+    if not found:
+        return Budget()
+    import warnings
+
+    names = " and ".join(f"'{owner}.{k}'" for k in found)
+    new = " and ".join(f"'planning.{k}'" for k in found)
+    verb = "are" if len(found) > 1 else "is"
+    warnings.warn(f"{names} {verb} deprecated: the budget belongs to the planning request, use {new} (a [planning] "
+                  "table in the pipeline file, --set planning.max_iterations=N, or PlanningProblem.budget)",
+                  BudgetDeprecationWarning, stacklevel=3)
+    return Budget(**found)
 
 
 def checkpoint() -> None:

@@ -121,16 +121,21 @@ def test_every_plan_result_records_its_budget_and_the_time_used_and_the_report_p
     ctx = pipe.build()
     problem = PlanningProblem.from_context(ctx)
     result = ctx.extras["planner"].plan(problem, np.random.default_rng(0))
-    assert result.statistics["budget"] == {"max_time": None, "max_iterations": None}
+    assert result.statistics["budget"] == {"max_time": None, "max_iterations": None, "unit": "iterations",
+                                           "binding": "done", "source": "options"}
     assert result.statistics["planning_time"] >= 0.0
     capped = ctx.extras["planner"].plan(problem, np.random.default_rng(0), any_of(time_limit(4.0),
                                                                                   iteration_limit(3)))
-    assert capped.statistics["budget"] == {"max_time": 4.0, "max_iterations": 3}
-    record = Pipeline("se2-maze", planner={"name": "rrtstar", "max_time": 30.0, "max_iterations": 5}).run(write=False)
-    assert record.result.statistics["budget"] == {"max_time": 30.0, "max_iterations": 5}
+    assert {k: capped.statistics["budget"][k] for k in ("max_time", "max_iterations", "source")} == \
+        {"max_time": 4.0, "max_iterations": 3, "source": "termination"}
+    record = Pipeline("se2-maze", planner="rrtstar", planning={"max_time": 30.0, "max_iterations": 5}).run(write=False)
+    recorded = record.result.statistics["budget"]
+    assert {k: recorded[k] for k in ("max_time", "max_iterations", "binding", "source")} == \
+        {"max_time": 30.0, "max_iterations": 5, "binding": "iterations", "source": "request"}
     rows = dict(record.summary_rows())
     used = record.result.statistics["planning_time"]
-    assert rows["budget"] == f"30 s or 5 iterations, used {used:.2f} s"
+    assert rows["budget"] == f"30 s or 5 {recorded['unit']}, used {used:.2f} s"
+    assert rows["budget binding"] == "iterations"
 
 
 def test_a_shortcut_stopped_by_the_budget_is_the_shortcut_of_the_iterations_it_ran():

@@ -22,7 +22,7 @@ from pliant.errors import (
     PlanningError,
 )
 from pliant.results import PlanResult, Status
-from pliant.termination import Termination, budget
+from pliant.termination import Budget, Condition, Termination, budget, budget_deprecation
 
 
 def checked_plan(method):
@@ -42,6 +42,7 @@ def checked_plan(method):
                                 field="problem", value=type(problem).__name__)
         check_rng(rng)
         started = time.perf_counter()
+        self.last_termination = None
         if problem.checker is None and problem.scene is not None and problem.robot is None and problem.scene.objects:
             raise PlanningError("the scene has obstacles, and without the robot no path can be checked against them "
                                 "(PlanningProblem.from_context(context) sets both)", field="robot", value=None)
@@ -60,7 +61,9 @@ def checked_plan(method):
         if region is not None:
             problem = dataclasses.replace(problem, goal_region=region)
         result = validated_result(problem, result)
-        _record_budget(self, result, args[0] if args else kwargs.get("termination"), time.perf_counter() - started)
+        given = args[0] if args else kwargs.get("termination")
+        _record_budget(self, result, given if given is not None else getattr(self, "last_termination", None),
+                       time.perf_counter() - started, problem, explicit=given is not None)
         return result
 
     setattr(plan, WRAPPED, True)
@@ -139,19 +142,30 @@ def _goal_checked(problem, result):
                                        f"(tolerance {problem.goal_tolerance:.6g}): approximate")
 
 
-def _record_budget(planner, result, termination, seconds: float) -> None:
-    """Put the budget the plan ran under (``statistics["budget"]``: ``max_time`` s, ``max_iterations``; the
-    termination's if one was passed, else the planner's options) and the wall time of the whole ``plan`` call
-    (``statistics["planning_time"]``, s) on the result, for reports and budget benchmarks (docs/architecture.md)."""
+def _record_budget(planner, result, termination, seconds: float, problem=None, *, explicit: bool = False) -> None:
+    """Put the budget the plan ran under on the result (``statistics["budget"]``: ``max_time`` s, ``max_iterations``
+    in the planner's ``unit``, ``binding`` -- what stopped the planner: ``"iterations"``, ``"time"`` (a wall-clock
+    budget: the result depends on the machine), ``"solution"``, ``"interrupted"``, or ``"done"`` when the search
+    ended on its own -- and ``source``: ``"request"``, ``"termination"`` for a condition passed to ``plan``, or
+    ``"options"`` for a planner that builds its own) and the wall time of the whole ``plan`` call
+    (``statistics["planning_time"]``, s), for reports and budget benchmarks (docs/determinism.md)."""
     from pliant.results import PlanResult
 
     if not isinstance(result, PlanResult):
         return
     if termination is not None:
-        limits = budget(termination)
+        request = getattr(termination, "request", None)
+        limits = budget(termination) if request is None else {"max_time": request.max_time,
+                                                               "max_iterations": request.max_iterations}
+        binding = termination.stopped_by if isinstance(termination, Condition) else None
+        source = "termination" if explicit else "request"
     else:
         options = getattr(planner, "options", None)
         limits = {key: getattr(options, key, None) for key in ("max_time", "max_iterations")}
+        binding, source = None, "options"
+    limits["unit"] = getattr(getattr(planner, "specs", None), "work_unit", "iterations")
+    limits["binding"] = binding or ("interrupted" if result.statistics.get("interrupted") is True else "done")
+    limits["source"] = source
     result.statistics["budget"] = limits
     result.statistics["planning_time"] = seconds
 
@@ -194,6 +208,8 @@ class PlannerSpecs:
     anytime: keeps improving its result until the termination condition stops it.
     spaces: the configuration spaces it plans in, as ``"r3"`` (a space kind and dimension) or a kind (``"rn"``,
     ``"se2"``, ``"se3"``, ``"compound"``); ``None``: any.
+    work_unit: what one iteration of its work budget (``planning.max_iterations``) is, in words (``"samples"``,
+    ``"extensions"``); recorded with the result's budget.
     """
 
     needs_simulator: bool = False
@@ -203,6 +219,7 @@ class PlannerSpecs:
     returns_policy: bool = False
     anytime: bool = False
     spaces: tuple[str, ...] | None = None
+    work_unit: str = "iterations"
 
 
 class Planner(Component):
@@ -214,6 +231,10 @@ class Planner(Component):
 
     kind = "planner"
     SPECS: ClassVar[PlannerSpecs] = PlannerSpecs()
+    #: the budget a request that sets none gets (the request's ``[planning]`` fields replace it field by field)
+    DEFAULT_BUDGET: ClassVar[Budget] = Budget(max_time=60.0)
+    #: the :class:`~pliant.termination.Condition` the last :meth:`plan` call ran under (set by :meth:`stop_condition`)
+    last_termination: Condition | None = None
 
     @property
     def specs(self) -> PlannerSpecs:
@@ -225,6 +246,28 @@ class Planner(Component):
         super().__init_subclass__(**kwargs)
         if "plan" in cls.__dict__:
             cls.plan = checked_plan(cls.__dict__["plan"])
+
+    def request_budget(self, problem: PlanningProblem) -> Budget:
+        """The budget of a ``plan`` call on ``problem``: :attr:`DEFAULT_BUDGET`, replaced field by field by the
+        request's (:attr:`PlanningProblem.budget`, a pipeline's ``[planning]`` table), then by the planner's deprecated
+        ``max_time`` / ``max_iterations`` options where they are set (with a
+        :class:`~pliant.termination.BudgetDeprecationWarning` naming ``planning.max_iterations``)."""
+        options = getattr(self, "options", None)
+        old = budget_deprecation(options) if options is not None else Budget()
+        return self.DEFAULT_BUDGET.merged(problem.budget).merged(old)
+
+    def stop_condition(self, problem: PlanningProblem, termination: Condition | None = None,
+                    started: float | None = None, **rules) -> Condition:
+        """The stop condition of a ``plan`` call: ``termination`` when the caller passed one, else the request's
+        budget (:meth:`request_budget`) for the whole call since ``started`` (its ``time.perf_counter()``; the
+        set-up comes off ``max_time``).  ``rules``: the planner's own defaults (``stop_on_first=...``, used when the
+        request leaves them unset).  Remembered as :attr:`last_termination` for the result's budget record."""
+        if termination is None:
+            request = self.request_budget(problem)
+            termination = request.termination(started, **rules)
+            termination.request = request       # what the result records (max_time as asked, not what was left)
+        self.last_termination = termination
+        return termination
 
     def goal_region(self, problem: PlanningProblem) -> Callable[[np.ndarray], np.ndarray] | None:
         """The goal test the last :meth:`plan` aimed at when the planner replaces ``problem``'s goal (a task-space

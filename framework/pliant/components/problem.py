@@ -18,6 +18,7 @@ from pliant.components.simulator import Simulator
 from pliant.components.validity import ValidityChecker, Verdict
 from pliant.results import Status
 from pliant.spaces import Space
+from pliant.termination import Budget
 
 
 @dataclass
@@ -31,6 +32,9 @@ class PlanningProblem:
     :meth:`from_context` sets it whenever the context has a scene and a robot, so :meth:`is_valid`,
     :meth:`motions_valid` and :meth:`path_verdict` check collisions with or without a cost model.  The core
     re-checks every successful result's path with it (:func:`pliant.contracts.checked_plan`).
+    budget: the request's budget (:class:`pliant.termination.Budget`: ``max_iterations`` in the planner's work unit,
+    ``max_time`` a wall-clock cap, ``stop_on_first``), for the whole ``plan`` call; a pipeline sets it from its
+    ``[planning]`` table.  ``None``: the planner's defaults (docs/determinism.md).
     """
 
     space: Space
@@ -45,11 +49,14 @@ class PlanningProblem:
     validity: Callable[[np.ndarray], np.ndarray] | None = None
     goal_region: Callable[[np.ndarray], np.ndarray] | None = None
     checker: Any = None
+    budget: Budget | None = None
 
     @classmethod
-    def from_context(cls, context: Context, start=None, goal=None) -> PlanningProblem:
+    def from_context(cls, context: Context, start=None, goal=None, budget: Budget | dict | None = None
+                     ) -> PlanningProblem:
         """The scene's task (or the given start/goal) with the context's components and the scene's and robot's
-        collision checker."""
+        collision checker; ``budget``: the request's budget (a :class:`~pliant.termination.Budget` or a
+        ``[planning]`` table)."""
 
         scene = context.scene
         space = context.space
@@ -58,7 +65,8 @@ class PlanningProblem:
         return cls(space=space, start=np.asarray(start, dtype=np.float64), goal=np.asarray(goal, dtype=np.float64),
                    goal_tolerance=scene.goal_tolerance if scene is not None else 0.0, cost=context.cost,
                    robot=context.robot, simulator=context.simulator, controller=context.controller, scene=scene,
-                   checker=ValidityChecker.from_context(context))
+                   checker=ValidityChecker.from_context(context),
+                   budget=None if budget is None else Budget.from_table(budget))
 
     def is_valid(self, q: np.ndarray, collisions: bool = True) -> np.ndarray:
         """Bool ``(n,)``: in the space's bounds, collision-free (:attr:`checker`), feasible for the cost, and

@@ -274,9 +274,10 @@ def check_component(kind: str, name: str, scene: str | None = None, seed: int = 
 
     The scene defaults to the component class's ``example_scene`` attribute, else the built-in test
     scene.  ``components`` names the other components it needs (``cost="voxel"``); the class's
-    ``example_components`` and ``example_options`` (e.g. a small iteration budget for an anytime
-    planner, so the check is quick and deterministic) are used too, and ``example_component_options``
-    (kind -> options of the other components, e.g. the simulator settings a planner's pipelines use).
+    ``example_components``, ``example_options`` and a planner's ``example_budget`` (the request's budget, e.g.
+    ``{"max_iterations": 1500}`` for an anytime planner, so the check is quick and deterministic) are used too, and
+    ``example_component_options`` (kind -> options of the other components, e.g. the simulator settings a planner's
+    pipelines use).
     """
     reg = registry or default_registry()
     cls = reg.entry(kind, name).load()
@@ -295,7 +296,8 @@ def check_component(kind: str, name: str, scene: str | None = None, seed: int = 
         return check_cost(component, ctx.space, seed, who, samples)
     if kind == "planner":
         ctx.extras["planner"] = component
-        problem = PlanningProblem.from_context(ctx)
+        # the class's example_budget: the request's budget ([planning]), e.g. a small iteration budget
+        problem = PlanningProblem.from_context(ctx, budget=getattr(cls, "example_budget", None))
         return check_planner(component, problem, seed, who)
     if kind == "simulator":
         return check_simulator(component, ctx.space, ctx.scene.start, seed, who)

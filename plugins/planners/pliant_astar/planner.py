@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pliant.api import (
+    Budget,
     BudgetExpired,
     ConfigError,
     Path,
@@ -19,7 +20,6 @@ from pliant.api import (
     Status,
     Termination,
     option,
-    time_left,
     warm_up,
 )
 
@@ -35,8 +35,8 @@ class AStarOptions:
 
     p: float = option(0.5, "weight of deformation against path length in f = (1-p)(g+h) + p*DEFORM",
                       minimum=0.0, maximum=1.0)
-    max_time: float | None = option(None, "time budget of the whole plan call (s): the search stops within a "
-                                    "few milliseconds of it, status timeout; None for no limit", minimum=0.0)
+    max_time: float | None = option(None, "deprecated: the request's wall-clock cap, planning.max_time ([planning] "
+                                    "table)", minimum=0.0)
 
 
 @dataclass(frozen=True)
@@ -47,8 +47,8 @@ class ParetoOptions:
     select: str = option("knee", "which Pareto path the result carries: knee (closest to the utopia point "
                          "after normalisation), shortest or least-deformation",
                          choices=("knee", "shortest", "least-deformation"))
-    max_time: float | None = option(None, "time budget of the whole sweep (s): the p values searched by then make "
-                                    "the front (status approximate); None for no limit", minimum=0.0)
+    max_time: float | None = option(None, "deprecated: the request's wall-clock cap, planning.max_time ([planning] "
+                                    "table)", minimum=0.0)
 
 
 class LatticeProblem:
@@ -113,7 +113,9 @@ class AStarPlanner(Planner):
     ``field_time`` and ``search_time`` (s).
     """
 
-    SPECS = PlannerSpecs(needs_cost=True, needs_scene=True, spaces=("r3",))
+    SPECS = PlannerSpecs(needs_cost=True, needs_scene=True, spaces=("r3",),
+                         work_unit="searches (one complete A* search: deterministic, no work budget needed)")
+    DEFAULT_BUDGET = Budget()               # an exact search: it ends on its own; planning.max_time caps it
 
     Options = AStarOptions
     example_components = {"cost": "voxel"}
@@ -134,7 +136,7 @@ class AStarPlanner(Planner):
             return bad
         p = self.options.p
         t1 = time.perf_counter()
-        termination = termination or Termination(max_time=time_left(self.options.max_time, t0))
+        termination = self.stop_condition(problem, termination, t0)
         with termination.watch():
             try:
                 with termination.interruptible():       # the search checks the budget every CHUNK expansions
@@ -166,7 +168,8 @@ class ParetoPlanner(Planner):
     ``(p, length, deformation)`` of the sweep.  Ctrl-C stops the sweep with the front found so far.
     """
 
-    SPECS = PlannerSpecs(needs_cost=True, needs_scene=True, spaces=("r3",))
+    SPECS = PlannerSpecs(needs_cost=True, needs_scene=True, spaces=("r3",), work_unit="p values searched")
+    DEFAULT_BUDGET = Budget()               # the whole sweep; planning.max_iterations stops after that many p values
 
     Options = ParetoOptions
     example_components = {"cost": "voxel"}
@@ -184,7 +187,7 @@ class ParetoPlanner(Planner):
         bad = _check_endpoints(lattice, t0, "astar-pareto")
         if bad is not None:
             return bad
-        termination = termination or Termination(max_time=time_left(self.options.max_time, t0))
+        termination = self.stop_condition(problem, termination, t0)
         with termination.watch():
             runs = sweep(lattice.costs, lattice.start, lattice.goal, np.linspace(0.0, 1.0, self.options.values),
                          termination)

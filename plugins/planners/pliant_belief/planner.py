@@ -41,7 +41,6 @@ from pliant.api import (
     option,
     quat_from_axis_angle,
     quat_multiply,
-    time_left,
     warm_up,
     wrap_angle,
 )
@@ -89,8 +88,10 @@ class BeliefPlannerOptions:
                          "the nearest split (thesis 5.3.1), or the root's whole subtree it starts with (root)",
                          choices=("split", "root"))
     connect: bool = option(True, "RRT-Connect (repeated EXTENDs) until the first solution, then Extend")
-    max_time: float | None = option(60.0, "planning time limit (s); the planner is anytime", minimum=0.0)
-    max_iterations: int | None = option(None, "iteration budget", minimum=1)
+    max_time: float | None = option(None, "deprecated: use planning.max_time (the request's wall-clock "
+                                    "cap, s)", minimum=0.0)
+    max_iterations: int | None = option(None, "deprecated: use planning.max_iterations (the request's "
+                                       "work budget)", minimum=1)
     stop_on_first: bool = option(False, "stop at the first solution")
     progress: bool | None = option(None, "show a progress line (default: on a terminal)")
 
@@ -104,11 +105,13 @@ class BeliefPlanner(Planner):
     ``time_to_first``, ``best_probability``, ``time``, ``interrupted``, ``extension_cut`` (the budget ran out inside
     an extension, whose unfinished simulations were dropped).
 
-    ``max_time`` bounds the whole ``plan`` call: the setup comes off the loop's budget, and the simulator checks the
-    budget every control step of an extension's simulations (docs/architecture.md, "Budgets").
+    The request's budget (``planning.max_iterations``, ``planning.max_time``) bounds the whole ``plan`` call: the
+    setup comes off the time cap, and the simulator checks the cap every control step of an extension's simulations
+    (docs/determinism.md).
     """
 
-    SPECS = PlannerSpecs(needs_simulator=True, returns_policy=True, anytime=True)
+    SPECS = PlannerSpecs(needs_simulator=True, returns_policy=True, anytime=True,
+                         work_unit="iterations (one sampled target, one or more extensions toward it)")
 
     Options = BeliefPlannerOptions
     example_scene = "se2-maze"
@@ -118,7 +121,8 @@ class BeliefPlanner(Planner):
     def specs(self) -> PlannerSpecs:
         """Simple RRT (``mode = "simple"``) checks straight edges and needs no simulator; the others do."""
         return replace(self.SPECS, needs_simulator=self.options.mode != "simple")
-    example_options = {"max_time": None, "max_iterations": 40, "particles": 8}
+    example_options = {"particles": 8}
+    example_budget = {"max_iterations": 40}
 
     def bind(self, context) -> None:
         """Attach to the pipeline and warm up (:func:`pliant.planning.warmup.warm_up`, one control period of the
@@ -157,9 +161,8 @@ class BeliefPlanner(Planner):
                             goal_fraction=goal_fraction(problem, root)))
         counters = {"particles_simulated": 0, "extensions": 0, "splits": 0}
         first = None
-        # max_time bounds the whole call: the setup above (grids, clustering context) is taken off the loop's budget
-        termination = termination or Termination(max_time=time_left(o.max_time, t0), max_iterations=o.max_iterations,
-                                                 stop_on_first=o.stop_on_first)
+        # the request's budget bounds the whole call: the setup above (grids, clustering context) comes off its cap
+        termination = self.stop_condition(problem, termination, t0, stop_on_first=o.stop_on_first)
         progress = ProgressLine("belief", enabled=o.progress)
         cut = False
         with termination.watch():

@@ -42,7 +42,6 @@ from pliant.api import (
     Termination,
     Tree,
     option,
-    time_left,
     warm_up,
 )
 
@@ -82,8 +81,10 @@ class RRTStarOptions:
                                               "values); replaces the goal configuration")
     target_tolerance: float = option(0.01, "task-space goal: largest tip-to-target distance (m)", minimum=0.0)
     goal_samples: int = option(20, "most goal configurations sampled for a task-space target", minimum=1)
-    max_time: float | None = option(60.0, "time budget (s); None for no limit", minimum=0.0)
-    max_iterations: int | None = option(None, "iteration budget; None for no limit", minimum=1)
+    max_time: float | None = option(None, "deprecated: use planning.max_time (the request's wall-clock "
+                                    "cap, s)", minimum=0.0)
+    max_iterations: int | None = option(None, "deprecated: use planning.max_iterations (the request's "
+                                       "work budget)", minimum=1)
     stop_on_first: bool = option(False, "return the first solution instead of improving it to the budget")
     puncture_check: bool | None = option(None, "refuse extensions and rewirings that puncture or cut an object "
                                          "(thesis 4.3.4); default on when the problem has a scene and a robot")
@@ -114,13 +115,13 @@ class RRTStarPlanner(Planner):
     ``interrupted``.
     """
 
-    SPECS = PlannerSpecs(anytime=True)
+    SPECS = PlannerSpecs(anytime=True, work_unit="samples (one tree extension attempt each)")
 
     Options = RRTStarOptions
     name = "rrtstar"
     example_scene = "triple-wall"
     example_components = {"cost": "voxel"}
-    example_options = {"max_time": None, "max_iterations": 1500}     # conformance: quick and deterministic
+    example_budget = {"max_iterations": 1500}     # conformance: quick and deterministic
 
     def bind(self, context) -> None:
         """Attach to the pipeline and warm up (:func:`pliant.planning.warmup.warm_up`: one-off loading when the
@@ -165,9 +166,9 @@ class RRTStarPlanner(Planner):
         self._best_path = None
         history: list[list[float]] = []
         best, best_node, first, radius = math.inf, -1, None, o.max_step
-        # max_time bounds the whole call: the set-up above (puncture checker, goal sampler) comes off the budget
-        termination = termination or Termination(max_time=time_left(o.max_time, t0),
-                                                 max_iterations=o.max_iterations, stop_on_first=o.stop_on_first)
+        # the request's budget bounds the whole call: the set-up above (puncture checker, goal sampler) comes off
+        # its max_time; max_iterations counts samples
+        termination = self.stop_condition(problem, termination, t0, stop_on_first=o.stop_on_first)
         progress = ProgressLine(self.name, enabled=o.progress)
         with termination.watch():
             iteration = 0

@@ -34,7 +34,6 @@ from pliant.api import (
     option,
     perturb,
     shortcut,
-    time_left,
     warm_up,
 )
 
@@ -62,8 +61,10 @@ class TRRTOptions:
     max_cost: float = option(math.inf, "no state of an edge may cost more than this", minimum=0.0)
     refinement_ratio: float = option(0.1, "largest share of refinement nodes (the extension's sample was "
                                      "within max_step of the tree)", minimum=0.0, maximum=1.0)
-    max_time: float | None = option(60.0, "time budget (s); None for no limit", minimum=0.0)
-    max_iterations: int | None = option(None, "iteration budget; None for no limit", minimum=1)
+    max_time: float | None = option(None, "deprecated: use planning.max_time (the request's wall-clock "
+                                    "cap, s)", minimum=0.0)
+    max_iterations: int | None = option(None, "deprecated: use planning.max_iterations (the request's "
+                                       "work budget)", minimum=1)
     stop_on_first: bool = option(True, "return the first solution (else run to the budget and return the "
                                  "cheapest)")
     anytime: str = option("grow", "without stop_on_first: keep growing the same tree (grow) or start a new tree "
@@ -100,13 +101,13 @@ class TRRTPlanner(Planner):
     ``interrupted``.
     """
 
-    SPECS = PlannerSpecs(anytime=True)
+    SPECS = PlannerSpecs(anytime=True, work_unit="samples (one extension attempt each)")
 
     Options = TRRTOptions
     name = "trrt"
     example_scene = "triple-wall"
     example_components = {"cost": "voxel"}
-    example_options = {"max_time": None, "max_iterations": 20000}    # conformance: deterministic budget
+    example_budget = {"max_iterations": 20000}    # conformance: deterministic budget
 
     # --- the gradient hook (GradienT-RRT overrides) --------------------------------------------------
 
@@ -143,10 +144,10 @@ class TRRTPlanner(Planner):
         history: list[list[float]] = []
         best, best_path, best_tree_cost, first, solutions = math.inf, None, math.nan, None, 0
         n_expand = n_refine = 0
-        # max_time bounds the whole call: the set-up above comes off the loop's budget, and the post-processing of
-        # a solution (shortcut, perturbation) stops when the budget has expired, keeping the path so far
-        termination = termination or Termination(max_time=time_left(o.max_time, t0), max_iterations=o.max_iterations,
-                                                 stop_on_first=o.stop_on_first)
+        # the request's budget bounds the whole call: the set-up above comes off its max_time, and the
+        # post-processing of a solution (shortcut, perturbation) stops when that cap has expired, keeping the path so
+        # far; max_iterations counts samples
+        termination = self.stop_condition(problem, termination, t0, stop_on_first=o.stop_on_first)
         self._expired = termination.expired
         progress = ProgressLine(self.name, enabled=o.progress)
         with termination.watch():
@@ -329,7 +330,8 @@ class GradientTRRTPlanner(TRRTPlanner):
     Needs a cost model with a gradient (``has_gradient``), e.g. the voxel cost.
     """
 
-    SPECS = PlannerSpecs(needs_cost=True, needs_gradient=True, anytime=True)
+    SPECS = PlannerSpecs(needs_cost=True, needs_gradient=True, anytime=True,
+                         work_unit="samples (one extension attempt each)")
 
     Options = GradientTRRTOptions
     name = "gradient-trrt"
