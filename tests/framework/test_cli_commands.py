@@ -205,3 +205,15 @@ def test_a_plugin_module_still_implementing_the_old_hook_loads(monkeypatch):
     finally:
         registry.manager.unregister(module)
         registry._plugins.pop("old-style", None)
+
+
+def test_the_robot_group_holds_the_drivers_tools_and_the_ros_demo(capsys):
+    robot = _top_level(_top_level(cli.build_parser())["robot"])
+    assert {"list", "check", "ros-peer", "canopen-peer", "ros-demo"} <= set(robot)
+    args = cli.build_parser().parse_args(["robot", "ros-demo", "iiwa-policy", "--seed", "2", "--set", "a=1"])
+    assert (args.pipeline, args.seed, args.set) == ("iiwa-policy", 2, ["a=1"])
+    from pliant_ros1.demo import main as demo_main        # python -m pliant_ros1.demo: the same command
+
+    with pytest.raises(SystemExit) as info:
+        demo_main(["--help"])
+    assert info.value.code == 0 and "usage: pliant robot ros-demo" in capsys.readouterr().out

@@ -23,7 +23,6 @@ change it.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -157,21 +156,10 @@ def run(pipeline_name: str, seed: int = 0, overrides: list[str] | None = None) -
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pliant_ros1.demo", description=__doc__.split("\n\n")[0])
-    parser.add_argument("pipeline", choices=sorted(PIPELINES), help="a bundled robot pipeline")
-    parser.add_argument("--seed", type=int, default=0, help="the pipeline's seed")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a pipeline override")
-    args = parser.parse_args(argv)
-    from pliant.api import PliantError
+    """``python -m pliant_ros1.demo PIPELINE [--seed N] [--set KEY=VALUE]``: ``pliant robot ros-demo``."""
+    from pliant.api import cli_main
 
-    try:
-        return run(args.pipeline, args.seed, args.set)
-    except PliantError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
+    return cli_main(["robot", "ros-demo", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 """Entry point of the ROS 1 plugin: the ``pr2-ros``, ``baxter-ros`` and ``iiwa-ros`` drivers and the
-``pliant robot ros-peer`` command.  Light: rospy and the drivers are imported only when a component is created."""
+``pliant robot ros-peer`` and ``pliant robot ros-demo`` commands.  Light: rospy and the drivers are imported only when
+a component is created."""
 
 from __future__ import annotations
 
@@ -31,4 +32,26 @@ def pliant_commands():
                                 "/pliant_peer/fault (stale, names-wrong, names-shuffle, names-duplicate, "
                                 "stamps-backwards, stamps-repeat, flood, disable, estop, die, clear).  Start a master "
                                 "first, e.g. `rosmaster --core` or pliant_ros1.master.RosMaster."),
+            Command("robot", "ros-demo",
+                    "plan a bundled robot pipeline and execute it on an emulated robot (a ROS 1 peer on loopback)",
+                    run=_demo_command, arguments=_demo_arguments,
+                    description="Start a ROS master on a free loopback port, plan the pipeline, then start a peer "
+                                "that behaves as the robot's controller and execute on it through the robot's ROS 1 "
+                                "driver; every command the peer received is checked against the robot's limits "
+                                "(docs/plugins/ros1.md; make robot-demo runs iiwa-policy)."),
             Alias("ros-peer", "robot ros-peer")]
+
+
+def _demo_arguments(parser) -> None:
+    from pliant.api import add_common_arguments
+
+    from pliant_ros1.demo import PIPELINES
+
+    parser.add_argument("pipeline", choices=sorted(PIPELINES), help="a bundled robot pipeline")
+    add_common_arguments(parser, seed=0, overrides="a pipeline override, e.g. planner.max_time=180")
+
+
+def _demo_command(args) -> int:
+    from pliant_ros1.demo import run
+
+    return run(args.pipeline, args.seed, args.set)
