@@ -47,6 +47,12 @@ _NAMES: dict[str, tuple[str, str]] = {
     "Condition": ("pliant.termination", "Condition"),
     "Termination": ("pliant.termination", "Termination"),
     "time_left": ("pliant.termination", "time_left"),
+    "Budget": ("pliant.termination", "Budget"),
+    "budget_deprecation": ("pliant.termination", "budget_deprecation"),
+    # --- random streams per stage (one SeedSequence per run)
+    "Streams": ("pliant.seeds", "Streams"),
+    "derived_seed": ("pliant.seeds", "derived_seed"),
+    "stream": ("pliant.seeds", "stream"),
     # --- registry, hooks and pipelines
     "add_executor_arguments": ("pliant.experiments.executor", "add_executor_arguments"),
     "add_common_arguments": ("pliant.cli.commands", "add_common_arguments"),
