@@ -2,6 +2,7 @@
 
 ``pliant_canopen.driver``: :class:`~pliant_canopen.driver.CanopenDriver`, the transport of an arm built from CiA 402
 servo drives in cyclic synchronous position mode.  ``pliant_canopen.jointmap``: the joint-map file (which node
-drives which URDF joint, encoder scaling) and the object dictionary (EDS) checks.  ``pliant_canopen.peer``: CiA 402
-drives emulated on a python-can bus, with fault injection.  ``pliant_canopen.cia402``: the profile's constants.
+drives which URDF joint, encoder scaling) and the object dictionary (EDS) checks.  ``pliant_canopen.testing``: CiA
+402 drives emulated on a python-can bus, with fault injection (for tests and demos).  ``pliant_canopen.cia402``: the
+profile's constants.
 """

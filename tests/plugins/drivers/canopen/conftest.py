@@ -7,7 +7,7 @@ import uuid
 
 import pytest
 from pliant_canopen.driver import CanopenDriver
-from pliant_canopen.peer import CanopenPeer
+from pliant_canopen.testing.peer import CanopenPeer
 
 THREE_JOINT_LIMITS = """robot = "test-arm"
 command_rate = 100.0

@@ -55,7 +55,7 @@ def master(ros_session):
 def make_peer(master, tmp_path):
     """``make_peer(robot, side="right", *extra)`` -> a started :class:`PeerProcess` recording to the test's
     directory (stopped afterwards)."""
-    from pliant_ros1.peer import PeerProcess
+    from pliant_ros1.testing.process import PeerProcess
 
     peers = []
 

@@ -57,7 +57,7 @@ def commands_since(peer, since: float) -> list[dict]:
 
 def assert_within_limits(records: list[dict], limits, tolerance: float = 1e-6) -> int:
     """Every command in ``records`` respects ``limits``; returns how many commands there were."""
-    from pliant_ros1.peer import command_violations
+    from pliant_ros1.testing.record import command_violations
 
     violations = command_violations(records, limits, tolerance=tolerance)
     assert not violations, f"{len(violations)} commands broke a limit: {violations[:5]}"

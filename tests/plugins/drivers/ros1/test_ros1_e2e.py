@@ -38,7 +38,7 @@ DRIVERS = {"pr2": "pr2-ros", "baxter": "baxter-ros", "iiwa": "iiwa-ros"}
 def baxter_peer(ros_session, tmp_path_factory):
     """One Baxter peer (right arm, kinematic simulator) shared by the tests whose faults can be switched off; its
     ``home`` is where its arm started (each test starts there, so that the arm never wanders into the scene)."""
-    from pliant_ros1.peer import PeerProcess
+    from pliant_ros1.testing.process import PeerProcess
 
     if not ros_session.alive():
         ros_session.start()
