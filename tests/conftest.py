@@ -28,6 +28,22 @@ def _context(scene: str, cost: str | None = None) -> Context:
     return ctx
 
 
+@pytest.fixture(scope="session", autouse=True)
+def pliant_cache_dir(tmp_path_factory):
+    """The scene-preprocessing cache (:mod:`pliant.cache`) of this test session: a temporary directory, never
+    ``~/.cache/pliant``; shared by the session's xdist workers and inherited by the processes tests start."""
+    base = tmp_path_factory.getbasetemp()
+    path = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "pliant-cache"
+    path.mkdir(exist_ok=True)
+    previous = os.environ.get("PLIANT_CACHE_DIR")
+    os.environ["PLIANT_CACHE_DIR"] = str(path)
+    yield path
+    if previous is None:
+        os.environ.pop("PLIANT_CACHE_DIR", None)
+    else:
+        os.environ["PLIANT_CACHE_DIR"] = previous
+
+
 @pytest.fixture
 def scene_context():
     """``scene_context(name, cost=None)`` -> a cached Context with the rigid robot (and the cost model)."""

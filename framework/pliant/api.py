@@ -156,8 +156,10 @@ _NAMES: dict[str, tuple[str, str]] = {
     # --- options and validation
     "build_options": ("pliant.options", "build_options"),
     "cached_arrays": ("pliant.cache", "cached_arrays"),
+    "cached_arrays": ("pliant.cache", "cached_arrays"),
     "example_robot_data_dir": ("pliant.robot_data", "example_robot_data_dir"),
     "Fields": ("pliant.validation", "Fields"),
+    "fingerprint": ("pliant.cache", "fingerprint"),
     "fingerprint": ("pliant.cache", "fingerprint"),
     "option": ("pliant.options", "option"),
     "ProgressLine": ("pliant.progress", "ProgressLine"),

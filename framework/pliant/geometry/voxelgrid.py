@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 
 FREE = -1
 #: versions of the cached builds: change one whenever its algorithm's output changes
-GRID_VERSION = "voxelgrid-1"
+GRID_VERSION = "voxelgrid-2"
 SDF_VERSION = "sdf-1"
 
 
@@ -193,12 +193,18 @@ class VoxelGrid:
         """
         if padding < 0 or not np.isfinite(padding):
             raise DimensionError("padding must be a finite distance >= 0", field="padding", value=padding)
+        # the key: what the grid depends on (static_only only through the objects it leaves out, so that a scene
+        # without movable objects has one grid)
+        voxelised = [("left out", o.name) if static_only and o.movable else o for o in scene.objects]
         inputs = (np.asarray(scene.lower, dtype=np.float64), np.asarray(scene.upper, dtype=np.float64),
-                  float(scene.resolution), tuple(scene.shape), list(scene.objects), float(padding), bool(static_only))
+                  float(scene.resolution), tuple(scene.shape), voxelised, float(padding))
+        materials = _material_tables(scene)
         arrays = cache.cached_arrays("voxelgrid", GRID_VERSION, inputs,
-                                     lambda: cls._build(scene, padding, static_only).arrays())
-        return cls(scene.lower.copy(), scene.resolution, arrays["deformability"], arrays["sensitivity"],
-                   arrays["object_id"], [o.name for o in scene.objects])
+                                     lambda: _compact(cls._build(scene, padding, static_only), materials))
+        object_id = arrays["object_id"].astype(np.int32)
+        defo = arrays["deformability"] if "deformability" in arrays else materials[0][object_id + 1]
+        sens = arrays["sensitivity"] if "sensitivity" in arrays else materials[1][object_id + 1]
+        return cls(scene.lower.copy(), scene.resolution, defo, sens, object_id, [o.name for o in scene.objects])
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The per-voxel arrays by name (what the cache keeps of a grid)."""
@@ -247,6 +253,28 @@ class VoxelGrid:
         for arr in (self.deformability, self.sensitivity, self.object_id):
             arr[grow] = arr[ix[grow], iy[grow], iz[grow]]
         self._sdf = self._sdf_gradient = None
+
+
+def _material_tables(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """Deformability and sensitivity by ``object_id + 1`` (free space first): the objects' materials."""
+    defo = np.array([1.0] + [o.material.deformability for o in scene.objects], dtype=np.float64)
+    sens = np.array([0.0] + [o.material.sensitivity for o in scene.objects], dtype=np.float64)
+    return defo, sens
+
+
+def _compact(grid: VoxelGrid, materials: tuple[np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:
+    """What the cache keeps of ``grid``: its object ids in the smallest integer type, and its deformability and
+    sensitivity only where they are not the objects' materials (an object with per-voxel values)."""
+    ids = grid.object_id
+    small = np.int8 if ids.max(initial=0) < 127 else np.int16 if ids.max(initial=0) < 32767 else np.int32
+    out: dict[str, np.ndarray] = {"object_id": ids.astype(small)}
+    for name, table, values in (("deformability", materials[0], grid.deformability),
+                                ("sensitivity", materials[1], grid.sensitivity)):
+        rebuilt = table[ids + 1]
+        if not (np.array_equal(rebuilt, values, equal_nan=True)
+                and np.array_equal(np.signbit(rebuilt), np.signbit(values))):
+            out[name] = values
+    return out
 
 
 def _signed_distance(occ: np.ndarray, resolution: float) -> np.ndarray:

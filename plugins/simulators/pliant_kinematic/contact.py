@@ -26,10 +26,12 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from pliant.api import VoxelGrid
+from pliant.api import VoxelGrid, cached_arrays
 
 from pliant_kinematic.rigid_kernel import ROBOT_FACE_COS
 
+#: version of the cached contact tables: change it whenever _tables' output changes
+TABLES_VERSION = "kinematic-contact-2"
 #: outward normals of the six faces: -x, +x, -y, +y, -z, +z
 FACE_NORMALS = np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1]], dtype=np.float64)
 
@@ -57,33 +59,19 @@ class ContactModel:
         self.upper = grid.lower + np.array(grid.shape) * grid.resolution
         self.res = grid.resolution
         self._shape = np.asarray(grid.shape, dtype=np.int64)
-        # free_clearance (m, float32 rounded down, per voxel): for a free voxel a lower bound on the distance from
-        # any point of it to any obstacle (the grid's boundary included): the distance between its box and the
-        # nearest occupied voxel's box, i.e. the centre distance to the occupancy dilated by one voxel (3 x 3 x 3;
-        # 3 x 3 x 1 in the plane); -1 for an occupied voxel, so that one lookup answers both questions (the fused
-        # kernel's broad phase, rigid_kernel._accumulate)
-        from scipy.ndimage import binary_dilation, distance_transform_edt
-
         self.planar = bool(planar) and occ.shape[2] == 1
-        pad = ((1, 1), (1, 1), (0, 0)) if self.planar else 1
-        solid = np.pad(occ, pad, constant_values=True)
-        near = binary_dilation(solid, structure=np.ones((3, 3, 1) if self.planar else (3, 3, 3), dtype=bool))
-        box = distance_transform_edt(~near, sampling=grid.resolution)
-        box = box[1:-1, 1:-1, :] if self.planar else box[1:-1, 1:-1, 1:-1]
-        bound = box.reshape(-1)
-        single = bound.astype(np.float32)
-        single = np.where(single > bound, np.nextafter(single, np.float32(-np.inf)), single)   # rounded down
-        self.free_clearance = np.where(occ.reshape(-1), np.float32(-1.0), single)
+        # the distance transforms below take seconds on a large grid: kept in the content-addressed cache, under the
+        # occupancy, the grid's placement and resolution and the planar flag (pliant.cache; docs/architecture.md)
+        tables = cached_arrays("kinematic-contact", TABLES_VERSION,
+                               (occ, np.asarray(grid.lower, dtype=np.float64), float(grid.resolution), self.planar),
+                               lambda: _tables(grid, occ, self.exposed, self.planar))
+        self.free_clearance = tables["free_clearance"]
         # voxels with no exposed face: the SDF's normal and depth at their centre
         self.deep_normal = np.zeros((occ.size, 3))
         self.deep_depth = np.zeros(occ.size)
-        deep = np.nonzero(occ.reshape(-1) & ~self.exposed.any(axis=1))[0]
-        if len(deep):
-            idx = np.column_stack(np.unravel_index(deep, occ.shape))
-            centres = grid.centres(idx)
-            g = grid.sdf_gradient_at(centres)
-            self.deep_normal[deep] = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
-            self.deep_depth[deep] = np.maximum(-grid.sdf_at(centres), 0.5 * grid.resolution)
+        deep = tables["deep"].astype(np.int64)
+        self.deep_normal[deep] = tables["deep_normal"]
+        self.deep_depth[deep] = tables["deep_depth"]
 
     def colliding(self, points: np.ndarray) -> np.ndarray:
         """Bool ``(n, k)``: points ``(n, k, 3)`` inside an occupied voxel or outside the grid."""
@@ -165,6 +153,40 @@ class ContactModel:
             exit_ = np.where(along > 1e-9, d[rows] / along, np.inf).min(axis=1)
         normals[ins[rows]] = n
         depth[ins[rows]] = exit_
+
+
+def _tables(grid: VoxelGrid, occ: np.ndarray, exposed: np.ndarray, planar: bool) -> dict[str, np.ndarray]:
+    """What :class:`ContactModel` derives from the occupancy with distance transforms: ``free_clearance`` ``(N,)``
+    float32 and, for the ``deep`` voxels (occupied, no exposed face; flat indices ``(k,)``), the SDF's unit normal
+    ``deep_normal`` ``(k, 3)`` and depth ``deep_depth`` ``(k,)`` at their centres."""
+    from scipy.ndimage import binary_dilation, distance_transform_edt
+
+    # free_clearance (m, float32 rounded down, per voxel): for a free voxel a lower bound on the distance from
+    # any point of it to any obstacle (the grid's boundary included): the distance between its box and the
+    # nearest occupied voxel's box, i.e. the centre distance to the occupancy dilated by one voxel (3 x 3 x 3;
+    # 3 x 3 x 1 in the plane); -1 for an occupied voxel, so that one lookup answers both questions (the fused
+    # kernel's broad phase, rigid_kernel._accumulate)
+    pad = ((1, 1), (1, 1), (0, 0)) if planar else 1
+    solid = np.pad(occ, pad, constant_values=True)
+    near = binary_dilation(solid, structure=np.ones((3, 3, 1) if planar else (3, 3, 3), dtype=bool))
+    box = distance_transform_edt(~near, sampling=grid.resolution)
+    box = box[1:-1, 1:-1, :] if planar else box[1:-1, 1:-1, 1:-1]
+    bound = box.reshape(-1)
+    single = bound.astype(np.float32)
+    single = np.where(single > bound, np.nextafter(single, np.float32(-np.inf)), single)   # rounded down
+    free_clearance = np.where(occ.reshape(-1), np.float32(-1.0), single)
+    deep = np.nonzero(occ.reshape(-1) & ~exposed.any(axis=1))[0]
+    normal = np.zeros((len(deep), 3))
+    depth = np.zeros(len(deep))
+    if len(deep):
+        idx = np.column_stack(np.unravel_index(deep, occ.shape))
+        centres = grid.centres(idx)
+        g = grid.sdf_gradient_at(centres)
+        normal = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
+        depth = np.maximum(-grid.sdf_at(centres), 0.5 * grid.resolution)
+    return {"free_clearance": free_clearance, "deep": deep.astype(np.int32 if occ.size < 2**31 else np.int64),
+            "deep_normal": normal,
+            "deep_depth": depth}
 
 
 @numba.njit(cache=True, nogil=True)
