@@ -158,21 +158,12 @@ def cmd_run(args) -> int:
 
 def _live_view(pipeline, args):
     """``pliant run --view``: the live view a plugin offers through the ``pliant_run_view`` hook (the first that
-    answers), or a :class:`PliantError` naming ``--view`` when none does.  A plugin's input error (a bad
-    ``--view-port``) is the user's error line; any other failure is a :class:`PluginError` naming ``--view``."""
-    from pliant.errors import PluginError
+    answers), or a :class:`PliantError` naming ``--view`` when none does."""
     from pliant.registry import default_registry
 
-    registry = default_registry()
-    registry.load()
-    try:
-        view = registry.manager.hook.pliant_run_view(pipeline=pipeline, args=args)
-    except PliantError:
-        raise
-    except Exception as exc:  # a plugin's bug: one error line, not a traceback
-        raise PluginError(f"the live view failed: {type(exc).__name__}: {exc}", field="--view", value=True) from exc
-    if view is not None:
-        return view
+    for view in default_registry().call_isolated("pliant_run_view", pipeline=pipeline, args=args):
+        if view is not None:
+            return view
     raise PliantError("no plugin offers a live view (the viewer plugin, pliant_viewer, is not loaded: see pliant "
                       "plugins)", field="--view", value=True)
 

@@ -248,13 +248,17 @@ class Planner(Component):
             cls.plan = checked_plan(cls.__dict__["plan"])
 
     def request_budget(self, problem: PlanningProblem) -> Budget:
-        """The budget of a ``plan`` call on ``problem``: :attr:`DEFAULT_BUDGET`, replaced field by field by the
-        request's (:attr:`PlanningProblem.budget`, a pipeline's ``[planning]`` table), then by the planner's deprecated
-        ``max_time`` / ``max_iterations`` options where they are set (with a
-        :class:`~pliant.termination.BudgetDeprecationWarning` naming ``planning.max_iterations``)."""
+        """The budget of a ``plan`` call on ``problem``: the request's (:attr:`PlanningProblem.budget`, a pipeline's
+        ``[planning]`` table), replaced field by field by the planner's deprecated ``max_time`` / ``max_iterations``
+        options where they are set (with a :class:`~pliant.termination.BudgetDeprecationWarning` naming
+        ``planning.max_iterations``); a request that sets neither a work nor a time budget gets
+        :attr:`DEFAULT_BUDGET` (a work budget alone runs without a time cap, as it always did)."""
         options = getattr(self, "options", None)
         old = budget_deprecation(options) if options is not None else Budget()
-        return self.DEFAULT_BUDGET.merged(problem.budget).merged(old)
+        asked = (problem.budget or Budget()).merged(old)
+        if asked.max_iterations is None and asked.max_time is None:
+            return self.DEFAULT_BUDGET.merged(asked)
+        return asked
 
     def stop_condition(self, problem: PlanningProblem, termination: Condition | None = None,
                     started: float | None = None, **rules) -> Condition:

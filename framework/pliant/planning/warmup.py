@@ -44,6 +44,7 @@ def warm_up(context, *, simulate: bool = False) -> float:
                 cost.gradient(start[None])
         simulator = problem.simulator
         if simulate and simulator is not None:
+            # a warm-up (loads and compiles the kernels); its draws influence no result
             simulator.simulate(start[None], np.asarray(near), np.random.default_rng(0), 0.1)
     except PliantError:
         pass

@@ -34,7 +34,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.api import Controller, PlanningError, SimulationError, option
+from pliant.api import Controller, PlanningError, SimulationError, option, stream
 
 
 @dataclass(frozen=True)
@@ -76,9 +76,12 @@ class ContactMotionController(Controller):
         self.adjusted_target: np.ndarray | None = None
         self.closest: float = np.inf            # closest distance to the commanded target in this drive
         self._target: np.ndarray | None = None
-        # the predictions' actuation noise: one reproducible stream per drive (a generator re-seeded every call
-        # would repeat the same draws, a fixed bias of up to the noise bound on every joint, every step)
-        self._prediction_rng = np.random.default_rng(0)
+        # the predictions' actuation noise: one reproducible stream per drive, from the run's seed (pliant.seeds: the
+        # execution stage's sub-stream "contact-prediction", drive k) -- a generator re-seeded every call would
+        # repeat the same draws, a fixed bias of up to the noise bound on every joint, every step
+        self._drives = getattr(self, "_drives", -1) + 1
+        seed = getattr(getattr(self, "context", None), "seed", 0) or 0
+        self._prediction_rng = stream(int(seed), "execution", "contact-prediction", self._drives)
         #: control steps of this drive whose measured configuration the prediction simulator refused as a start
         self.refused_predictions = 0
 

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from pliant.api import ConfigError, check_settings, open_log, run_tasks, write_json, write_text
+from pliant.api import ConfigError, check_settings, open_log, run_tasks, stream, write_json, write_text
 
 SCENE = "hollow-cube"
 #: the probe tip in its body frame (m): the point that must touch a task's target (the learner's ``tip`` default)
@@ -263,7 +263,7 @@ def _plan41(learned_file: str, task: int, plan: int, max_time: float | None, ref
     demonstration = Demonstration.from_dict(learned["demonstrations_shown"][task])
     started = time.perf_counter()
     result, path = plan_task(scene, learned["sensitivities"], demonstration, TIP,
-                             np.random.default_rng(1000 * task + plan), max_time=max_time, refine_rounds=refine,
+                             stream(0, "task", task, plan), max_time=max_time, refine_rounds=refine,
                              planner_options=None if max_iterations is None else {"max_iterations": max_iterations},
                              straight=straight)
     if path is None and result.path is not None:

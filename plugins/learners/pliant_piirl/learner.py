@@ -117,7 +117,7 @@ class PiirlLearner(Learner):
             sample_features.append(drawn_features)
         fitted_at = time.perf_counter()
         result = recover(np.array(demo_features).reshape(len(demonstrations), -1), sample_features,
-                         _part(self.options, RecoveryOptions))
+                         _part(self.options, RecoveryOptions), rng)
         names = self.features.names
         self.timing = {"seconds": time.perf_counter() - started, "samples_seconds": fitted_at - started,
                        "recovery_seconds": time.perf_counter() - fitted_at}

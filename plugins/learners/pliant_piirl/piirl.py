@@ -66,7 +66,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.api import ConfigError, option
+from pliant.api import ConfigError, option, stream
 from scipy.optimize import minimize
 
 OBJECTIVES = ("likelihood", "ratio", "ranking")
@@ -107,10 +107,13 @@ class RecoveryOptions:
                               "with the bounds", field="initial", value=self.initial)
 
 
-def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: RecoveryOptions | None = None) -> dict:
+def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: RecoveryOptions | None = None,
+            rng: np.random.Generator | None = None) -> dict:
     """Recover the sensitivities.  ``demonstrations`` ``(K, n)``; ``samples[k]`` ``(L_k, n)``.  Returns
     ``sensitivities`` ``(n,)``, ``objective``, ``used`` (indices of the informative demonstrations), ``iterations``,
-    ``message``."""
+    ``message``.  ``rng``: draws the screen's candidate starting points (the learner passes its learning stream);
+    without one they are a fixed design (the stream of seed 0's "piirl-screen" task), so that the recovery is a
+    function of its data and options."""
     o = options or RecoveryOptions()
     if not o.lower <= o.initial <= o.upper:
         raise ConfigError("lower <= initial <= upper is required", field="recovery",
@@ -143,7 +146,7 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
     starts = [np.full(n, o.initial)]
     restarts = RESTARTS[o.objective] if o.restarts is None else o.restarts
     if o.screen and restarts:
-        rng = np.random.default_rng(0)
+        rng = rng if rng is not None else stream(0, "task", "piirl-screen")
         points = np.exp(rng.uniform(np.log(o.lower), np.log(o.upper), (o.screen, n)))
         starts += [points[k] for k in np.argsort(batch(points))[:restarts]]
     if log_space:

@@ -48,17 +48,21 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
     and the shortcut RRT* path is cheaper in that cost (a straight insertion with a puncture or cut is not used).
     The choice and both costs are in ``result.statistics["verification"]``."""
     from pliant import api
-    from pliant.api import Context, PlanningProblem
+    from pliant.api import Budget, Context, PlanningProblem
 
     context = Context(scene=scene_with(scene, sensitivities))
     context.robot = api.registry.create("robot", "rigid", context)
     context.cost = api.registry.create("cost", "voxel", context)
     task = demonstration.task
     if planner == "rrtstar":
-        options = {"puncture_check": True, "max_time": max_time, "progress": False, "max_step": 0.02,
-                   **(planner_options or {})}
+        options = {"puncture_check": True, "progress": False, "max_step": 0.02, **(planner_options or {})}
     else:
         options = dict(planner_options or {})
+    # the request's budget: planner_options' max_iterations (a work budget) and max_time (s, a cap; None: none)
+    budget = Budget(max_time=max_time if planner == "rrtstar" else options.pop("max_time", None),
+                    max_iterations=options.pop("max_iterations", None))
+    if planner == "rrtstar":
+        options.pop("max_time", None)
     if task.goal is None:                            # "the tip touches the target", as the chapter plans
         options.update({"target": tuple(task.target), "tip": tuple(tip), "target_tolerance": 0.004})
     planner = api.registry.create("planner", planner, context, **options)
@@ -69,7 +73,8 @@ def plan_task(scene, sensitivities: dict[str, float], demonstration: Demonstrati
 
     goal = task.start if task.goal is None else task.goal
     problem = PlanningProblem(space=context.space, start=task.start, goal=goal, goal_tolerance=scene.goal_tolerance,
-                              cost=context.cost, robot=robot, scene=context.scene, validity=inside_funnel)
+                              cost=context.cost, robot=robot, scene=context.scene, validity=inside_funnel,
+                              budget=budget)
     result = planner.plan(problem, rng)
     straight = straight and task.goal is None and context.space.tangent_dim == 6
     if (result.path is None and not straight) or shortcut_iterations == 0:

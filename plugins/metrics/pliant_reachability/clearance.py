@@ -72,6 +72,7 @@ class Clearance:
         self.shape = np.asarray(grid.shape, dtype=np.int64)
         self.lower = np.asarray(grid.lower, dtype=np.float64)
         # a rigid body's surface points in its frame (they do not depend on the configuration), and their reach
+        # the body-frame points do not depend on the configuration: any sample gives them (no result depends on it)
         placement = robot.rigid_placement(robot.space.sample(np.random.default_rng(0), 1))
         self.local = None if placement is None else np.ascontiguousarray(placement[2][self.surface])
         self.reach = None if self.local is None else \

@@ -1,11 +1,12 @@
-"""``pliant experiment metric-select``: does the metric change decisions?  Plan several candidate paths, score each with the
-pipeline's metric, execute the best and the worst (or all) in the pipeline's execution world, and report whether
-the metric's ranking matched execution success (issue: "a metric is only worth its cost if it changes decisions").
+"""``pliant experiment metric-select``: does the metric change decisions?  Plan several candidate paths, score each
+with the pipeline's metric, execute the best and the worst (or all) in the pipeline's execution world, and report
+whether the metric's ranking matched execution success (issue: "a metric is only worth its cost if it changes
+decisions").
 
-Candidates are the pipeline's planner run with seeds ``0 .. candidates - 1``; the metric scores each with its own
-seeded generator; executions start where the metric assumes the robot is when the path begins (for the ch. 6
-metrics: anywhere free within ``epsilon_reached`` of the first waypoint) and follow the path with the pipeline's
-controller.
+Candidates are the pipeline's runs with seeds ``0 .. candidates - 1``: candidate ``s`` is planned, scored and
+executed with run ``s``'s planning, metrics and execution streams (:mod:`pliant.seeds`); executions start where the
+metric assumes the robot is when the path begins (for the ch. 6 metrics: anywhere free within ``epsilon_reached`` of
+the first waypoint) and follow the path with the pipeline's controller.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from pliant.api import ConfigError, PipelineError, write_json, write_text
 def select(pipeline_name: str, *, candidates: int, executions: int, execute_all: bool = False,
            overrides: list[str] | None = None, output: Path | None = None, echo=print) -> dict:
     """Run the selection experiment; returns (and writes, as ``selection.json`` and ``selection.md``) its report."""
-    from pliant.api import Pipeline, PlanningProblem, safe_name
+    from pliant.api import Pipeline, PlanningProblem, safe_name, stream
     from pliant.api import execute_path as execute
 
     for key, value in (("--candidates", candidates), ("--executions", executions)):
@@ -36,19 +37,21 @@ def select(pipeline_name: str, *, candidates: int, executions: int, execute_all:
     context = pipeline.build()
     world = pipeline.execution_world(context)
     planner, metric = context.extras["planner"], context.extras["metric"]
-    problem = PlanningProblem.from_context(context)
+    problem = PlanningProblem.from_context(context, budget=pipeline.budget)      # the pipeline's [planning] budget
     settings = pipeline.execution
     rows = []
     for seed in range(candidates):
         t0 = time.perf_counter()
-        result = planner.plan(problem, np.random.default_rng(seed))
+        # candidate k is the run of seed k: its stages draw from that seed's streams (pliant.seeds), as
+        # `pliant run PIPELINE --set seed=k` does
+        result = planner.plan(problem, stream(seed, "planning"))
         plan_seconds = time.perf_counter() - t0
         if result.path is None:
             echo(f"candidate {seed}: no path ({result.status.value})")
             rows.append({"seed": seed, "path": None})
             continue
         t0 = time.perf_counter()
-        scores = metric.evaluate(result.path, problem, np.random.default_rng(10_000 + seed))
+        scores = metric.evaluate(result.path, problem, stream(seed, "metrics"))
         rows.append({"seed": seed, "path": result.path.to_dict(), "waypoints": len(result.path),
                      "length": float(problem.space.path_length(result.path.configurations)),
                      "plan_seconds": plan_seconds, "metric_seconds": time.perf_counter() - t0, **scores})
@@ -63,7 +66,7 @@ def select(pipeline_name: str, *, candidates: int, executions: int, execute_all:
     for row in chosen:
         path = PlannedPath.from_dict(row["path"])
         outcomes = []
-        rng = np.random.default_rng(20_000 + row["seed"])
+        rng = stream(row["seed"], "execution")
         starts = _starts(metric, path, rng, executions)
         for k in range(executions):
             waypoints = path.configurations.copy()

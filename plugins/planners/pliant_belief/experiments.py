@@ -161,15 +161,19 @@ def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exe
     from pliant import api
     from pliant.api import PlanningProblem
 
-    base = [*variant.overrides, f"planner.max_time={plan_time}", "planner.progress=false", f"seed={seed}"]
+    # the request's budget ([planning]): a work budget when plan_iterations is given, plan_time then only a cap
+    base = [*variant.overrides, f"planning.max_time={plan_time}", "planner.progress=false", f"seed={seed}"]
     if plan_iterations is not None:
-        base.append(f"planner.max_iterations={plan_iterations}")
+        base.append(f"planning.max_iterations={plan_iterations}")
     pipeline = api.Pipeline.from_file(variant.pipeline, overrides=base)
     context = pipeline.build()
-    problem = PlanningProblem.from_context(context)
+    problem = PlanningProblem.from_context(context, budget=pipeline.budget)
     t0 = time.perf_counter()
-    result = context.extras["planner"].plan(problem, np.random.default_rng(seed))
+    # task (variant, seed) is the run of that seed: its planning stream (pliant.seeds), as `pliant run` draws it
+    result = context.extras["planner"].plan(problem, api.stream(seed, "planning"))
     stats = {k: v for k, v in result.statistics.items() if isinstance(v, (int, float, str, bool)) or v is None}
+    # what stopped the planner: "iterations" (a work budget: the same on any machine) or "time" (the wall clock)
+    stats["budget_binding"] = result.statistics.get("budget", {}).get("binding")
     record = {"variant": variant.label, "seed": seed, "planned": result.status.value == "solved",
               "plan_seconds": time.perf_counter() - t0, "statistics": stats, "executions": {}}
     if result.policy is None:
@@ -183,8 +187,8 @@ def run_task(variant: Variant, seed: int, plan_time: float, executions: int, exe
 
 def _execute(variant: Variant, seed: int, base: list[str], context, planned, executions: int,
              exec_time: float) -> dict:
-    """Execute the policy ``planned`` ``executions`` times in every world of ``variant`` (execution ``k`` with
-    seed ``10,000 seed + k``); the runs by world."""
+    """Execute the policy ``planned`` ``executions`` times in every world of ``variant`` (execution ``k`` draws from
+    the run's execution stream ``k``: ``pliant.seeds.stream(seed, "execution", k)``); the runs by world."""
     from pliant import api
 
     from pliant_belief.policy import PartialPolicy
@@ -205,7 +209,7 @@ def _execute(variant: Variant, seed: int, base: list[str], context, planned, exe
         for k in range(executions):
             policy = PartialPolicy.from_dict(saved)      # every execution starts from the planned policy
             policy.matcher = planned.matcher
-            execution = policy.execute(simulator, context.controller, np.random.default_rng(10_000 * seed + k),
+            execution = policy.execute(simulator, context.controller, api.stream(seed, "execution", k),
                                        context=context, time_limit=exec_time,
                                        action_limit=int(world_pipeline.execution["action_limit"]))
             runs.append({"outcome": execution.outcome, "actions": len(execution.actions),

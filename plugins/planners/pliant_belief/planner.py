@@ -160,7 +160,7 @@ class BeliefPlanner(Planner):
         tree.add(BeliefNode(particles=root, action=None, parent=-1, action_id=0,
                             goal_fraction=goal_fraction(problem, root)))
         counters = {"particles_simulated": 0, "extensions": 0, "splits": 0}
-        first = None
+        first = first_iteration = None
         # the request's budget bounds the whole call: the setup above (grids, clustering context) comes off its cap
         termination = self.stop_condition(problem, termination, t0, stop_on_first=o.stop_on_first)
         progress = ProgressLine("belief", enabled=o.progress)
@@ -188,7 +188,7 @@ class BeliefPlanner(Planner):
                     counters["splits"] += len(new) > 1
                     for index in new:
                         if self._record_solution(tree, index, o.p_goal) and first is None:
-                            first = termination.elapsed
+                            first, first_iteration = termination.elapsed, iteration
                     if not (connecting and len(new) == 1) or tree.solutions or termination.should_stop(iteration):
                         break
                     after = float(space.distance(tree.nodes[new[0]].expected, target))
@@ -205,6 +205,7 @@ class BeliefPlanner(Planner):
                  "particles_stored": int(sum(len(nd.particles) for nd in tree.nodes)),
                  "particles_simulated": counters["particles_simulated"], "extensions": counters["extensions"],
                  "splits": counters["splits"], "solutions": len(tree.solutions), "time_to_first": first,
+                 "iterations_to_first": first_iteration,
                  "time": time.perf_counter() - t0, "interrupted": termination.interrupted, "mode": o.mode,
                  "extension_cut": cut}
         self.tree = tree

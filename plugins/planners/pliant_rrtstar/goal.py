@@ -35,6 +35,7 @@ class TaskSpaceGoal:
         self.tolerance = float(tolerance)
         self.valid = valid
         if tip is not None:
+            # a geometric probe (is the robot rigid?): any configuration answers it, and it influences no result
             if robot.rigid_placement(space.sample(np.random.default_rng(0), 1)) is None:
                 raise ConfigError("a body-frame tip needs a rigid robot (use tip_index for others)",
                                   field="planner.tip", value=list(tip))

@@ -480,7 +480,7 @@ class Viewer:
             # in a fixed shuffled order, so that every prefix is an even sample of them: while the camera moves, a
             # software-WebGL page draws only the first MOTION_POINTS of this cloud, and all of it at rest (page.py)
             order = np.nonzero(parts)[0]
-            order = order[np.random.default_rng(0).permutation(len(order))]
+            order = order[np.random.default_rng(0).permutation(len(order))]     # display order only
             self._add("/policy/particles", s.add_point_cloud(
                 "/policy/particles", tree.particles[order].astype(np.float32),
                 colors=node_colours[tree.particle_node[order]], point_size=radius * 0.35, point_shape="square"))
