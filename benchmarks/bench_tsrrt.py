@@ -28,12 +28,14 @@ import argparse
 import os
 import sys
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import print_table, write_json
+from pliant.options import build_options
 from pliant.termination import Termination
 from pliant_tsrrt.learning import learn_models
 from pliant_tsrrt.planner import (
@@ -42,8 +44,6 @@ from pliant_tsrrt.planner import (
     arena,
     build_space,
     execute_plan,
-    learn_settings,
-    search_settings,
 )
 from pliant_tsrrt.pushing import PRIMITIVES
 from pliant_tsrrt.reference import optimise, random_arrangements
@@ -130,7 +130,7 @@ def reach_pose(space, o: int, pose: np.ndarray, target: np.ndarray, depth: int, 
 def reachability(options, seeds: int, rounds: int) -> None:
     """Whether the free-placement optimum can be reached with the six primitives' quantised steps."""
     scene, sim = world_for("tsrrt-table", noise=True)
-    models, _ = learn_models(arena(sim, scene, options), learn_settings(options), np.random.default_rng(0))
+    models, _ = learn_models(arena(sim, scene, options), options.learning, np.random.default_rng(0))
     names = [o.name for o in scene.objects if o.movable]
     space = build_space(scene, options, models, names)
     ref, ref_cost = optimise(space, np.random.default_rng(0), rounds=rounds)
@@ -186,7 +186,8 @@ def main() -> None:
                         "through the models, the other objects ignored), from each seed's start")
     parser.add_argument("--skip-scaling", action="store_true")
     parser.add_argument("--only-scaling", action="store_true")
-    parser.add_argument("--set", action="append", default=[], help="a TS-RRT option, NAME=VALUE (TOML value)")
+    parser.add_argument("--set", action="append", default=[],
+                        help="a TS-RRT option, NAME=VALUE (TOML value; a group's option as group.NAME)")
     args = parser.parse_args()
     seeds = args.seeds or (3 if args.quick else 10)
     executions = 0 if args.plan_only else (args.executions or (1 if args.quick else 2))
@@ -196,7 +197,7 @@ def main() -> None:
     import tomllib
 
     extra = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (s.split("=", 1) for s in args.set)}
-    options = TSRRTOptions(placement_noise=args.noise, **extra)
+    options = build_options(TSRRTOptions, {"push.placement_noise": args.noise, **extra}, source="--set")
     out: dict = {"budget": args.budget, "iterations": args.iterations, "seeds": seeds, "noise": args.noise,
                  "action_limit": args.action_limit, "action_limit_per_push": args.action_limit_per_push,
                  "options": extra}
@@ -213,7 +214,7 @@ def main() -> None:
         scene, sim = world_for("tsrrt-table", noise=True)
         rng = np.random.default_rng(0)
         t0 = time.perf_counter()
-        models, report = learn_models(arena(sim, scene, options), learn_settings(options), rng, holdout=args.holdout)
+        models, report = learn_models(arena(sim, scene, options), options.learning, rng, holdout=args.holdout)
         learn_time = time.perf_counter() - t0
         rows = []
         for cls, per in models.models.items():
@@ -223,8 +224,9 @@ def main() -> None:
                              f"{np.degrees(d.mean[2]):.1f}", f"{1000 * np.hypot(*d.std[:2]):.1f}",
                              f"{np.degrees(d.std[2]):.2f}", f"{1000 * h['translation_error']:.1f}",
                              f"{np.degrees(h['rotation_error']):.2f}", f"{h['coverage95']:.2f}"))
+        lo = options.learning
         print_table(f"1. LEARN_MODEL on tsrrt-table with noise ({learn_time:.1f} s; sigma_ref "
-                    f"{options.sigma_ref * 1000:.0f} mm / {np.degrees(options.sigma_ref_angle):.2f} deg)",
+                    f"{lo.sigma_ref * 1000:.0f} mm / {np.degrees(lo.sigma_ref_angle):.2f} deg)",
                     ("class", "primitive", "pushes", "dx mm", "dy mm", "dth deg", "sd mm", "sd deg", "held-out err mm",
                      "held-out err deg", "in 95%"), rows)
         out["learning"] = {"time": learn_time, "pushes": report["pushes"], "holdout": report["holdout"],
@@ -241,7 +243,7 @@ def main() -> None:
             term = Termination(max_iterations=args.iterations) if args.iterations else \
                 Termination(max_time=args.budget)
             cpu0 = time.process_time()
-            found = grow(space, s0, rng, search_settings(options), term)
+            found = grow(space, s0, rng, options, term)
             cpu = time.process_time() - cpu0                 # CPU time: what the plan costs on an idle core
             st = found.statistics
             best_at = st["cost_history"][-1][0]
@@ -251,7 +253,7 @@ def main() -> None:
             ratio = found.cost / ref_cost
             collided = bool(space.checker.in_collision(found.states).any())
             redundant = redundant_actions(space, s0, found.actions)
-            plan = PushPlan(names, s0, found.actions, found.states, found.cost, options.__dict__, models)
+            plan = PushPlan(names, s0, found.actions, found.states, found.cost, asdict(options), models)
             ex = []
             limit = max(args.action_limit, int(np.ceil(args.action_limit_per_push * len(found.actions))))
             for e in range(executions):
@@ -339,20 +341,20 @@ def main() -> None:
     # 4. scaling with the number of objects (table setting)
     if not args.skip_scaling:
         scene, sim = world_for("tsrrt-setting", noise=False)
-        o = TSRRTOptions(w_setting=1.0, relations=relations_for(SETTING_ORDER))
-        models, _ = learn_models(arena(sim, scene, o), learn_settings(o), np.random.default_rng(0))
+        o = build_options(TSRRTOptions, {"cost.w_setting": 1.0, "cost.relations": relations_for(SETTING_ORDER)})
+        models, _ = learn_models(arena(sim, scene, o), o.learning, np.random.default_rng(0))
         rows, scaling = [], []
         for k in range(2, 9):
             sub = SETTING_ORDER[:k]
-            ok = TSRRTOptions(**{"w_setting": 1.0, "relations": relations_for(sub), "objects": tuple(sub),
-                                 "max_nodes": args.nodes, **extra})
+            ok = build_options(TSRRTOptions, {"cost.w_setting": 1.0, "cost.relations": relations_for(sub),
+                                              "objects": tuple(sub), "max_nodes": args.nodes, **extra}, source="--set")
             sp = build_space(scene, ok, models, sub)
             times, nodes, costs, starts, best_t, its, tree_t, cpus = [], [], [], [], [], [], [], []
             for seed in range(min(seeds, 3)):
                 rng = np.random.default_rng(2000 + seed)
                 s0 = random_arrangements(sp, rng, 1, clearance=0.02)[0]      # 8 objects do not fit 6 cm apart
                 cpu0 = time.process_time()
-                found = grow(sp, s0, rng, search_settings(ok), Termination(max_time=120.0))
+                found = grow(sp, s0, rng, ok, Termination(max_time=120.0))
                 cpus.append(time.process_time() - cpu0)
                 times.append(found.statistics["time"])
                 tree_t.append(found.statistics["tree_time"])
@@ -372,7 +374,8 @@ def main() -> None:
                          f"{np.median(starts):.2f}", f"{np.median(costs):.2f}"))
             print(f"{k} objects: {np.median(times):.2f} s", flush=True)
         print_table(f"4. scaling on tsrrt-setting (table-setting cost), tree of {args.nodes} nodes, median of "
-                    f"{min(seeds, 3)} random starts{'' if ok.refine else ' (no improvement phase)'}; load average "
+                    f"{min(seeds, 3)} random starts"
+                    f"{'' if ok.improvement.refine else ' (no improvement phase)'}; load average "
                     f"{os.getloadavg()[0]:.2f}", ("objects", "time s", "tree s", "cpu s", "t best s", "nodes",
                                                   "iterations", "ms/iteration", "cpu ms/iteration", "start cost",
                                                   "final cost"), rows)

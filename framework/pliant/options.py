@@ -5,6 +5,12 @@ documentation in ``metadata``: ``doc`` (what it is, with units), and optionally 
 ``maximum`` (inclusive range) and ``choices``.  :func:`build_options` turns a dict from a pipeline
 file, the command line or Python keyword arguments into an instance, converting and checking types
 and ranges and rejecting unknown names.
+
+A large option set is split into *groups*: a field declared with :func:`group` holds another options
+dataclass, set from a nested table (``[planner.improvement] refine_share = 0.5``) or a dotted key
+(``--set planner.improvement.refine_share=0.5``); errors name the full dotted field.  An option that moved
+into a group keeps working under its old flat name (``refine_share = 0.5``), with one
+:class:`OptionDeprecationWarning` line naming the new spelling.
 """
 
 from __future__ import annotations
@@ -13,6 +19,7 @@ import dataclasses
 import math
 import types
 import typing
+import warnings
 from typing import Any
 
 from pliant.errors import ConfigError
@@ -32,17 +39,118 @@ def option(default: Any, doc: str, *, minimum: float | None = None, maximum: flo
     return dataclasses.field(default=default, metadata=meta)
 
 
-def describe_options(options_cls: type) -> list[dict]:
-    """One row per option: name, type, default, doc, range; for ``pliant plugins --options`` and docs."""
+class OptionDeprecationWarning(FutureWarning):
+    """An option was set under an old spelling (shown to users by default; one line naming the new one)."""
+
+
+def group(options_cls: type, doc: str) -> Any:
+    """A dataclass field holding a group of options (another options dataclass; ``doc``: what it groups).
+
+    Set from a nested table or dotted keys; its defaults are ``options_cls()``'s."""
+    return dataclasses.field(default_factory=options_cls, metadata={"doc": doc, "group": True})
+
+
+def option_groups(options_cls: type) -> dict[str, type]:
+    """The group fields of ``options_cls`` (those holding another options dataclass), by name."""
+    hints = typing.get_type_hints(options_cls)
+    return {f.name: hints[f.name] for f in dataclasses.fields(options_cls)
+            if dataclasses.is_dataclass(hints.get(f.name)) and isinstance(hints.get(f.name), type)}
+
+
+def describe_options(options_cls: type, prefix: str = "") -> list[dict]:
+    """One row per option (a group's options as ``group.name``): name, type, default, doc, range; for
+    ``pliant plugins --options`` and docs."""
     rows = []
     hints = typing.get_type_hints(options_cls)
+    groups = option_groups(options_cls)
     for f in dataclasses.fields(options_cls):
+        if f.name in groups:
+            rows += describe_options(groups[f.name], prefix=f"{prefix}{f.name}.")
+            continue
         default = f.default if f.default is not dataclasses.MISSING else (
             f.default_factory() if f.default_factory is not dataclasses.MISSING else None)
-        rows.append({"name": f.name, "type": _type_name(hints.get(f.name)), "default": default,
+        rows.append({"name": prefix + f.name, "type": _type_name(hints.get(f.name)), "default": default,
                      "doc": f.metadata.get("doc", ""), "minimum": f.metadata.get("minimum"),
                      "maximum": f.metadata.get("maximum"), "choices": f.metadata.get("choices")})
     return rows
+
+
+def options_dict(options: Any) -> dict[str, Any]:
+    """An options instance as a plain dict (groups as nested dicts; tuples as lists): what a result records and
+    what :func:`build_options` reads back."""
+    out = {}
+    for f in dataclasses.fields(options):
+        value = getattr(options, f.name)
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            value = options_dict(value)
+        elif isinstance(value, tuple):
+            value = list(value)
+        out[f.name] = value
+    return out
+
+
+def _moved_name(options_cls: type, name: str) -> str | None:
+    """The dotted spelling of an option ``name`` that moved into a group of ``options_cls`` (one group only)."""
+    found = []
+    for group_name, group_cls in option_groups(options_cls).items():
+        if name in {f.name for f in dataclasses.fields(group_cls)} and name not in option_groups(group_cls):
+            found.append(f"{group_name}.{name}")
+        deeper = _moved_name(group_cls, name)
+        if deeper is not None:
+            found.append(f"{group_name}.{deeper}")
+    return found[0] if len(found) == 1 else None
+
+
+def _set_path(tree: dict, path: list[str], value: Any) -> None:
+    for part in path[:-1]:
+        sub = tree.get(part)
+        if not isinstance(sub, dict):
+            sub = {}
+            tree[part] = sub
+        tree = sub
+    tree[path[-1]] = value
+
+
+def _group_values(options_cls: type, values: dict[str, Any], *, source: str, prefix: str) -> dict[str, Any]:
+    """``values`` with dotted keys, old flat spellings and nested tables of groups merged into one nested dict per
+    group (in the order given: a later setting of the same option wins)."""
+    groups = option_groups(options_cls)
+    if not groups:
+        return values
+    names = {f.name for f in dataclasses.fields(options_cls)}
+    out: dict[str, Any] = {}
+    for key, raw in values.items():
+        key = str(key)
+        path = key.split(".")
+        if path[0] not in names and len(path) == 1:
+            moved = _moved_name(options_cls, key)
+            if moved is not None:
+                here = f"{prefix}." if prefix else ""
+                where = f"{source}: " if source and not source.startswith("<") else ""
+                warnings.warn(f"{where}option '{here}{key}' is deprecated: use '{here}{moved}'",
+                              OptionDeprecationWarning, stacklevel=4)
+                path = moved.split(".")
+        if path[0] in groups:
+            sub = out.get(path[0])
+            if not isinstance(sub, dict):
+                sub = {}
+                out[path[0]] = sub
+            if len(path) > 1:
+                _set_path(sub, path[1:], raw)
+            elif isinstance(raw, dict):
+                sub.update(raw)
+            elif dataclasses.is_dataclass(raw) and not isinstance(raw, type):
+                sub.update({f.name: getattr(raw, f.name) for f in dataclasses.fields(raw)})
+            else:
+                raise ConfigError("must be a table of options", source=source,
+                                  field=f"{prefix}.{path[0]}" if prefix else path[0], value=raw)
+        elif len(path) > 1:
+            known = ", ".join(sorted(groups)) or "none"
+            raise ConfigError(f"names no option group (groups: {known})", source=source,
+                              field=f"{prefix}.{key}" if prefix else key, value=raw)
+        else:
+            out[key] = raw
+    return out
 
 
 def build_options(options_cls: type, values: dict[str, Any] | None, *, source: str = "<options>",
@@ -52,17 +160,22 @@ def build_options(options_cls: type, values: dict[str, Any] | None, *, source: s
     Strings from the command line (``"5"``, ``"true"``, ``"0.5,0.2"``) are converted to the declared
     type.  After construction the instance's ``validate()`` (if any) runs for cross-field checks.
     """
-    values = dict(values or {})
     if isinstance(values, options_cls):
         return values
+    values = dict(values or {})
     names = {f.name: f for f in dataclasses.fields(options_cls)}
     hints = typing.get_type_hints(options_cls)
+    groups = option_groups(options_cls)
+    values = _group_values(options_cls, values, source=source, prefix=prefix)
     kwargs = {}
     for key, raw in values.items():
         field_name = f"{prefix}.{key}" if prefix else key
         if key not in names:
             known = ", ".join(sorted(names)) or "none"
             raise ConfigError(f"unknown option (known options: {known})", source=source, field=field_name, value=raw)
+        if key in groups:
+            kwargs[key] = build_options(groups[key], raw, source=source, prefix=field_name)
+            continue
         f = names[key]
         value = _convert(raw, hints[key], source, field_name)
         meta = f.metadata

@@ -1,4 +1,5 @@
-"""Options shared by the ``tsrrt`` planner and the ``push-models`` learner, and the planning domain built from a scene.
+"""The planning domain built from a scene (the options shared by the ``tsrrt`` planner and the ``push-models`` learner
+are in :mod:`pliant_tsrrt.options`).
 
 The scene supplies: the movable objects (a ``mass``; those named in ``objects``, default all), their footprints
 (boxes, and cylinders or spheres as circles) and start poses; the *table*, a ``[[regions]]`` entry named by the
@@ -9,46 +10,20 @@ first part, a box whose x extent is the paddle's thickness and y extent its widt
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
-from pliant.api import ConfigError, option
+from pliant.api import ConfigError
 
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import CollisionChecker, Footprints
 from pliant_tsrrt.models import footprints_from_scene, scene_pose
-from pliant_tsrrt.pushing import PushSettings
+from pliant_tsrrt.options import PushOptions, PushSettings
 
 
-@dataclass(frozen=True)
-class PushOptions:
-    """Options of the objects, the table and the pushes (shared by the planner and the learner)."""
-
-    objects: tuple[str, ...] = option((), "the movable objects to plan for / learn from, by scene name (default all)")
-    table: str = option("table", "the scene region (by name) that is the table top; without it the scene's bounds")
-    push_gap: float = option(0.02, "paddle's distance behind the contact point before a push (m)", minimum=0.0)
-    push_depth: float = option(0.05, "how far the paddle travels beyond the contact point (m)", minimum=1e-3)
-    turn_depth: float = option(0.015, "how far the paddle travels beyond the contact point in a turning push (m)",
-                               minimum=1e-3)
-    push_speed: float = option(0.1, "paddle speed during a push (m/s)", minimum=1e-3)
-    retreat: float = option(0.02, "paddle's back-off after a push (m)", minimum=0.0)
-    settle: float = option(0.2, "time at rest after a push before the objects are observed (s)", minimum=0.0)
-    turn_offset: float = option(1.0, "where turning pushes press, as a fraction of the half side from the middle",
-                                minimum=0.0, maximum=1.0)
-    placement_noise: float = option(0.0, "standard deviation of the paddle's placement error, along and across the "
-                                    "push (m): execution noise besides the simulator's actuation noise", minimum=0.0)
-    control_period: float = option(0.05, "period of the paddle's velocity commands (s)", minimum=1e-3)
-    guard_step: float = option(0.001, "guarded approach: the paddle advances in steps of this length (m) until the "
-                               "object moves, then pushes the depth from there; 0 for a blind push of gap + depth",
-                               minimum=0.0, maximum=0.01)
-
-    def push_settings(self, scene) -> PushSettings:
-        """The :class:`PushSettings` with the paddle's size read from the scene's robot."""
-        thickness, width = paddle_size(scene)
-        return PushSettings(thickness=thickness, width=width, gap=self.push_gap, depth=self.push_depth,
-                            turn_depth=self.turn_depth, speed=self.push_speed, retreat=self.retreat, settle=self.settle,
-                            turn_offset=self.turn_offset, dt=self.control_period,
-                            placement_noise=self.placement_noise, guard=self.guard_step)
+def push_settings(options: PushOptions, scene) -> PushSettings:
+    """The :class:`PushSettings` of ``options``: its ``push`` group with the paddle's size read from the scene's
+    robot."""
+    thickness, width = paddle_size(scene)
+    return PushSettings.from_options(options.push, thickness=thickness, width=width)
 
 
 def paddle_size(scene) -> tuple[float, float]:

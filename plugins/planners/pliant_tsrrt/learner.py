@@ -16,20 +16,23 @@ from pliant.api import Learner, PlanningError, option
 
 from pliant_tsrrt import domain
 from pliant_tsrrt.domain import PushOptions
-from pliant_tsrrt.learning import LearnSettings, learn_models
+from pliant_tsrrt.learning import learn_models
+from pliant_tsrrt.options import LearningOptions
 from pliant_tsrrt.pushing import PRIMITIVES
 
 
 @dataclass(frozen=True)
-class PushModelsOptions(PushOptions):
-    """Options of :class:`PushModelsLearner`."""
+class PushModelsOptions(PushOptions, LearningOptions):
+    """Options of :class:`PushModelsLearner`: the objects, the table and the ``push`` group (shared with the
+    ``tsrrt`` planner), LEARN_MODEL's stopping rule (the planner's ``learning`` group, here at the top level), the
+    held-out test and the output file."""
 
-    sigma_ref: float = option(0.002, "standard error of the mean displacement to reach (m)", minimum=1e-9)
-    sigma_ref_angle: float = option(0.01, "standard error of the mean rotation to reach (rad)", minimum=1e-9)
-    min_pushes: int = option(5, "fewest pushes per class and primitive", minimum=2)
-    max_pushes: int = option(40, "most pushes per class and primitive", minimum=2)
     holdout: int = option(5, "held-out pushes per class and primitive to measure the prediction error", minimum=0)
     output: str = option("", "models file to write (JSON); empty: keep them in the pipeline only")
+
+    def validate(self) -> None:
+        """No cross-field check here: the learner lets ``max_pushes`` cap ``min_pushes`` (a quick run sets only
+        ``max_pushes``); the planner's ``learning`` group refuses ``min_pushes > max_pushes``."""
 
 
 class PushModelsLearner(Learner):
@@ -68,9 +71,7 @@ class PushModelsLearner(Learner):
             names = domain.movable_names(scene, tuple(data))
         else:
             names = domain.movable_names(scene, o.objects)
-        settings = LearnSettings(sigma_ref=o.sigma_ref, sigma_ref_angle=o.sigma_ref_angle, min_pushes=o.min_pushes,
-                                 max_pushes=o.max_pushes)
-        models, report = learn_models(arena(world, scene, o), settings, rng, holdout=o.holdout, only=names)
+        models, report = learn_models(arena(world, scene, o), o, rng, holdout=o.holdout, only=names)
         self.models = models
         if o.output:
             models.save(o.output)

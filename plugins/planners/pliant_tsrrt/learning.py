@@ -4,8 +4,8 @@ that class repeatedly from its current state until the model's variance falls be
 The learning takes place on the table's centre, or the free point of the table farthest from its edges and its fixed
 obstacles (the *spot*): the object learned is put there (keeping its
 orientation), every other object whose footprint could be reached by the paddle is moved out of the way, and the
-object is put back on the spot (still keeping its orientation) whenever it has wandered more than ``wander`` from
-it, so that pushes never run off the table or into another object.  Otherwise each push starts where the last one
+object is put back on the spot (still keeping its orientation) whenever it has wandered more than :data:`WANDER`
+from it, so that pushes never run off the table or into another object.  Otherwise each push starts where the last one
 left the object, as in the pseudo code.  At the end every object is put back where it was.
 """
 
@@ -18,20 +18,11 @@ from pliant.api import PlanningError
 
 from pliant_tsrrt.geometry import Footprints
 from pliant_tsrrt.models import Displacement, PushModels, object_class, relative
+from pliant_tsrrt.options import LearningOptions
 from pliant_tsrrt.pushing import PRIMITIVES, PushSettings, apply_action
 
-
-@dataclass(frozen=True)
-class LearnSettings:
-    """LEARN_MODEL's stopping rule: ``sigma_ref`` (m, for dx and dy) and ``sigma_ref_angle`` (rad, for dtheta) bound
-    the standard error of the model's mean; between ``min_pushes`` and ``max_pushes`` pushes per primitive;
-    ``wander`` (m): how far the object may leave the learning spot before it is put back."""
-
-    sigma_ref: float = 0.002
-    sigma_ref_angle: float = 0.01
-    min_pushes: int = 5
-    max_pushes: int = 40
-    wander: float = 0.12
+#: how far (m) the object learned may leave the learning spot before it is put back
+WANDER = 0.12
 
 
 @dataclass
@@ -70,8 +61,8 @@ class LearningArena:
         poses[name][:2] = self.spot
         radius = self.fp.radius
         s = self.push
-        reach = wander + radius[index] + s.gap + s.depth + s.thickness + 0.5 * s.width + 0.03
-        placed = [(self.spot, radius[index] + s.gap + s.thickness + s.width)]
+        reach = wander + radius[index] + s.push_gap + s.push_depth + s.thickness + 0.5 * s.width + 0.03
+        placed = [(self.spot, radius[index] + s.push_gap + s.thickness + s.width)]
         bx0, by0, bx1, by1 = self.bounds
         for j, other in enumerate(self.names):
             if j == index:
@@ -95,10 +86,11 @@ class LearningArena:
         return poses
 
 
-def learn_models(arena: LearningArena, settings: LearnSettings, rng: np.random.Generator,
+def learn_models(arena: LearningArena, settings: LearningOptions, rng: np.random.Generator,
                  holdout: int = 0, only: list[str] | None = None) -> tuple[PushModels, dict]:
     """LEARN_MODEL for every class among ``arena.names`` (its first object stands for the class; ``only``: the classes
-    of these objects only); returns the models
+    of these objects only) with the stopping rule of ``settings`` (the ``learning`` options, or the learner's own,
+    which hold the same fields); returns the models
     and a report: pushes per class and primitive and, with ``holdout`` > 0, the prediction error of the models on
     that many further pushes per class and primitive (not used for fitting)."""
     world = arena.world
@@ -115,7 +107,7 @@ def learn_models(arena: LearningArena, settings: LearnSettings, rng: np.random.G
         if cls in seen or (only is not None and cls not in {object_class(o) for o in only}):
             continue
         seen[cls] = i
-        poses = arena.clear_spot(i, original, settings.wander, rng)
+        poses = arena.clear_spot(i, original, WANDER, rng)
         world.set_object_poses(poses)
         models.footprints[cls] = (int(arena.fp.kind[i]), arena.fp.half[i].copy())
         learned = []
@@ -146,12 +138,12 @@ def learn_models(arena: LearningArena, settings: LearnSettings, rng: np.random.G
     return models, report
 
 
-def _push(arena: LearningArena, i: int, a: int, poses: dict, settings: LearnSettings, rng, model: Displacement):
+def _push(arena: LearningArena, i: int, a: int, poses: dict, settings: LearningOptions, rng, model: Displacement):
     """One APPLY_ACTION on object ``i`` from its current state (put back on the spot if it wandered off), and
     UPDATE_DISTR with the displacement seen."""
     name = arena.names[i]
-    if np.linalg.norm(poses[name][:2] - arena.spot) > settings.wander:
-        poses = arena.clear_spot(i, poses, settings.wander, rng)
+    if np.linalg.norm(poses[name][:2] - arena.spot) > WANDER:
+        poses = arena.clear_spot(i, poses, WANDER, rng)
     before = poses[name].copy()
     after = apply_action(arena.world, arena.names, arena.fp, i, a, arena.push, rng, poses)
     model.update(relative(before, after[name]))

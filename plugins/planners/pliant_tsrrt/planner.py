@@ -18,7 +18,8 @@ plan's final arrangement.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+import warnings
+from dataclasses import asdict, fields, is_dataclass, replace
 from pathlib import Path as FilePath
 
 import numpy as np
@@ -35,134 +36,21 @@ from pliant.api import (
     SimulationError,
     Status,
     Termination,
-    option,
     time_left,
     warm_up,
 )
 
 from pliant_tsrrt import domain
-from pliant_tsrrt.domain import PushOptions
-from pliant_tsrrt.learning import LearningArena, LearnSettings, learn_models
+from pliant_tsrrt.learning import LearningArena, learn_models
 from pliant_tsrrt.models import PushModels, footprints_from_scene, object_class, scene_pose, wrap
+from pliant_tsrrt.options import PushOptions, TSRRTOptions
 from pliant_tsrrt.pushing import PRIMITIVES, apply_action, paddle_sweeps
 from pliant_tsrrt.reference import random_arrangements
 from pliant_tsrrt.repair import pose_errors
 from pliant_tsrrt.repair import restore as repair_restore
 from pliant_tsrrt.repair import retarget as repair_retarget
 from pliant_tsrrt.repair import toward_goal as repair_toward_goal
-from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow
-
-
-@dataclass(frozen=True)
-class TSRRTOptions(PushOptions):
-    """Options of :class:`TSRRTPlanner` (and of its plan's execution)."""
-
-    models: str = option("auto", "push models: 'auto' (the pipeline's push-models learner, else LEARN_MODEL in the "
-                         "simulator now: poster lines 1-2) or a models file (JSON) written by that learner")
-    start: str = option("scene", "initial arrangement: the scene's poses, or 'random' collision-free poses drawn "
-                        "from the run's generator (placed in the world before execution)", choices=("scene", "random"))
-    start_clearance: float = option(0.06, "random start: the least gap between objects, obstacles and the table's "
-                                    "edge (m), so that the paddle fits between them", minimum=0.0)
-    epsilon: float = option(0.1, "probability of a uniform sample instead of DIRECTGD's (poster line 6)",
-                            minimum=0.0, maximum=1.0)
-    max_nodes: int = option(5000, "tree size limit (poster line 4)", minimum=2)
-    max_time: float | None = option(5.0, "time budget of the tree's growth (s); None for no limit", minimum=0.0)
-    max_iterations: int | None = option(None, "iteration budget; None for no limit", minimum=1)
-    gd_step: float = option(1.0, "DIRECTGD's step along the negative cost gradient, in mean push lengths",
-                            minimum=1e-3)
-    gd_pool: int = option(64, "DIRECTGD descends from one of this many cheapest open nodes", minimum=1)
-    gd_tries: int = option(2, "descents without a cheaper child after which a node is exhausted", minimum=1)
-    gd_noise: float = option(0.7, "standard deviation of a Gaussian added to DIRECTGD's sample, in mean push lengths "
-                             "(a stochastic descent)", minimum=0.0)
-    refine: bool = option(True, "after the tree: the improvement phase (free descent of the task cost to a local "
-                          "minimum, each object pushed toward it by a beam search through the models)")
-    refine_share: float = option(0.75, "share of a time budget (max_time, replan_time) for the improvement phase; "
-                                 "the tree gets the rest", minimum=0.0, maximum=1.0)
-    refine_targets: int = option(4, "improvement: local minima to connect to, per pass", minimum=1)
-    refine_rounds: int = option(800, "improvement: rounds of the free descent", minimum=1)
-    refine_slack: float = option(0.003, "improvement: clearance added to the margin in the free descent (m): room "
-                                 "for the pushes' quantisation", minimum=0.0)
-    refine_depth: int = option(40, "improvement: most pushes per object toward its target", minimum=1)
-    refine_width: int = option(64, "improvement: beam width of the search toward a target", minimum=1)
-    refine_passes: int = option(5, "improvement: most passes (each from the previous one's result; after one "
-                                "without gain the next with a beam twice as wide, up to 4 x refine_width)", minimum=1)
-    refine_branches: int = option(3, "improvement: nodes of the best path (the best node, the root and evenly "
-                                  "between) that connect to the targets", minimum=1)
-    refine_randoms: int = option(128, "improvement: random collision-free arrangements whose free descent adds "
-                                 "targets (basins no variant of the tree's best arrangement lies in)", minimum=0)
-    refine_sweeps: int = option(2, "improvement: sweeps over the objects when pushing them toward a target (a later "
-                                "sweep moves objects that others blocked)", minimum=1)
-    refine_yaw_quota: int = option(4, "improvement: at most this many poses per yaw (0.25 degree bins) in a box's "
-                                   "beam, so that it keeps different numbers of turns (0: no limit)", minimum=0)
-    beam_depth: int = option(4, "improvement: most pushes of the final beam search over every object's "
-                             "primitives, ordered by the task cost (0: none)", minimum=0)
-    beam_width: int = option(128, "improvement: beam width of that final search", minimum=1)
-    push_cost: float = option(0.0002, "the plan length's price (task cost per push; the cost of tsrrt-table's "
-                              "plans is about 0.77, so 0.0002 is 0.026 % of it) after the tree: the improvement "
-                              "phase's connections are compared by final cost plus push_cost x pushes and cut "
-                              "where that is lowest, the final beam and descent append only pushes that gain more, "
-                              "the shortcut drops a push that gains less (shorter plans execute with fewer "
-                              "deviations); 0: the cheapest plan whatever its length", minimum=0.0)
-    margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
-    w_orth: float = option(1.0, "weight of orthogonality, sum of sin^2(2 theta) over box objects", minimum=0.0)
-    w_area: float = option(1.0, "weight of the circumscribed area (fraction of the table's area)", minimum=0.0)
-    w_edge: float = option(1.0, "weight of the edge term, sum of 1 - d/d_ref (d: distance to the table's edge)",
-                           minimum=0.0)
-    w_setting: float = option(0.0, "weight of the table-setting term (relations)", minimum=0.0)
-    relations: tuple[str, ...] = option((), "table setting: 'object reference dx dy' (object's centre at (dx, dy) m "
-                                        "from the reference object's, or from the table's lower-left corner for "
-                                        "reference 'table')")
-    setting_scale: float = option(0.1, "length scale l of the table-setting term (m)", minimum=1e-6)
-    sigma_ref: float = option(0.002, "LEARN_MODEL: standard error of the mean displacement to reach (m)",
-                              minimum=1e-9)
-    sigma_ref_angle: float = option(0.01, "LEARN_MODEL: standard error of the mean rotation to reach (rad)",
-                                    minimum=1e-9)
-    min_pushes: int = option(5, "LEARN_MODEL: fewest pushes per class and primitive", minimum=2)
-    max_pushes: int = option(40, "LEARN_MODEL: most pushes per class and primitive", minimum=2)
-    replan_threshold: float = option(0.02, "execution: replan when an object lies this far from where the plan "
-                                     "predicted it at this step (m)", minimum=0.0)
-    replan_angle: float = option(0.15, "execution: repair or replan when a box is turned this far from the plan's "
-                                 "predicted yaw at this step (rad, modulo its symmetry): about 1.5 standard "
-                                 "deviations of the noisiest turn of tsrrt-table (the block's, 6 degrees), so that a "
-                                 "bad turn is undone by one turn before the side pushes after it carry the box "
-                                 "centimetres off", minimum=0.0)
-    finish_tolerance: float = option(0.05, "execution: when a plan is done and the arrangement costs more than "
-                                     "(1 + this) x the first plan's final cost, replan (toward the first plan's "
-                                     "final arrangement) until it does not or nothing cheaper is found", minimum=0.0)
-    replan_time: float = option(5.0, "time budget of each replanning (s)", minimum=0.0)
-    max_replans: int = option(20, "most replannings in one execution", minimum=0)
-    replan_refine: bool = option(False, "execution: the improvement phase in every replanning; else (default) only "
-                                 "in the replanning after the plan is done, deviations are replanned by the tree")
-    repair: bool = option(True, "execution: before replanning, try to repair the plan: push the displaced objects "
-                          "back to the plan's predicted poses and carry on (after a deviation), or toward the first "
-                          "plan's final arrangement (when the plan is done, or after a deviation that cannot be "
-                          "undone, if that ends within finish_tolerance); replan only when that fails "
-                          "(pliant_tsrrt.repair)")
-    repair_depth: int = option(12, "execution: most pushes per object of a repair (refine_depth toward the first "
-                               "plan's final arrangement after a deviation)", minimum=1)
-    max_repairs: int = option(40, "most repairs in one execution (beside max_replans)", minimum=0)
-    repair_retarget: bool = option(True, "execution: a repair after a deviation may also re-plan the displaced "
-                                   "objects' part of the plan (push them toward the poses the plan leaves them in, "
-                                   "dropping their remaining pushes) instead of pushing them back; the repair with "
-                                   "fewer pushes in all wins (pliant_tsrrt.repair.retarget)")
-    repair_placed: bool = option(True, "execution: after an object's last push of the plan, check it against the "
-                                 "pose the plan leaves it in with the tighter place_threshold / place_angle (yaw "
-                                 "modulo symmetry) and, if it is off, push it there at once (repair.retarget), while "
-                                 "the objects placed after it do not yet box it in")
-    place_threshold: float = option(0.01, "execution, repair_placed: position error (m) of a placed object that is "
-                                    "repaired", minimum=0.0)
-    place_angle: float = option(0.07, "execution, repair_placed: yaw error (rad, modulo symmetry) of a placed box "
-                                "that is repaired (0.07 rad costs 0.019 in orthogonality, 2.5 % of the plans' cost)",
-                                minimum=0.0)
-    replan_shortest: bool = option(True, "execution: a replanning counts every final cost at or below the first "
-                                   "plan's as equally good, so of the plans that get there the one with the fewest "
-                                   "pushes (with push_cost) wins, instead of the cheapest")
-
-    def validate(self) -> None:
-        if self.min_pushes > self.max_pushes:
-            raise ConfigError("must not exceed max_pushes", field="min_pushes", value=self.min_pushes)
-        if self.models not in ("auto", "") and not self.models.endswith(".json"):
-            raise ConfigError("must be 'auto' or a .json models file", field="models", value=self.models)
+from pliant_tsrrt.search import ObjectSpace, grow
 
 
 class TSRRTPlanner(Planner):
@@ -216,11 +104,12 @@ class TSRRTPlanner(Planner):
             s0 = np.array([scene_pose(scene, n) for n in names])
             table = domain.table_rect(scene, o.table)
             obs_fp, obs_poses, obstacle_names = domain.obstacles(scene, names, table, scene.resolution)
-            check = domain.checker(footprints_from_scene(scene, names), obs_fp, obs_poses, table, o.margin)
+            margin = o.planning.margin
+            check = domain.checker(footprints_from_scene(scene, names), obs_fp, obs_poses, table, margin)
             if check.in_collision(s0)[0]:
                 why = domain.start_conflicts(check, s0, names, obstacle_names)
                 return PlanResult(Status.INVALID_START, planner=self.name, options=options,
-                                  message=f"the initial arrangement lacks the clearance margin ({o.margin} m): {why}")
+                                  message=f"the initial arrangement lacks the clearance margin ({margin} m): {why}")
         models, learn_time = self._models(problem, scene, names, rng)
         space = build_space(scene, o, models, names)
         space.warm_up()
@@ -229,7 +118,7 @@ class TSRRTPlanner(Planner):
         # max_time bounds the whole call: learning (models "auto" without a learner), the space's set-up and the
         # kernels' warm-up come off the search's budget (tree, improvement phase, shortcut: pliant_tsrrt.search.grow)
         termination = termination or Termination(max_time=time_left(o.max_time, t0), max_iterations=o.max_iterations)
-        found = grow(space, s0, rng, search_settings(o), termination)
+        found = grow(space, s0, rng, o, termination)
         stats = dict(found.statistics, learn_time=learn_time,
                      start_cost=float(space.cost.cost(s0[None])[0]), total_time=time.perf_counter() - t0)
         policy = PushPlan(names=names, start=s0, actions=found.actions, states=found.states, cost=found.cost,
@@ -240,7 +129,7 @@ class TSRRTPlanner(Planner):
                                                    f"{found.cost:.4g} (start {stats['start_cost']:.4g})")
 
     def _option_dict(self) -> dict:
-        return {k: getattr(self.options, k) for k in self.options.__dataclass_fields__}
+        return asdict(self.options)
 
     def _models(self, problem, scene, names, rng) -> tuple[PushModels, float]:
         o = self.options
@@ -259,7 +148,7 @@ class TSRRTPlanner(Planner):
             raise PlanningError("learning push models needs a simulator that can place objects (pymunk)",
                                 field="simulator", value=type(world).__name__ if world is not None else None)
         t0 = time.perf_counter()
-        models, _ = learn_models(arena(world, scene, o), learn_settings(o), rng, only=names)
+        models, _ = learn_models(arena(world, scene, o), o.learning, rng, only=names)
         return models, time.perf_counter() - t0
 
 
@@ -295,28 +184,12 @@ def paddle_path(space: ObjectSpace, problem: PlanningProblem, states: np.ndarray
     return Path(np.array(poses), space_kind=problem.space.kind)
 
 
-def search_settings(o: TSRRTOptions) -> SearchSettings:
-    return SearchSettings(epsilon=o.epsilon, max_nodes=o.max_nodes, gd_step=o.gd_step, gd_pool=o.gd_pool,
-                          gd_tries=o.gd_tries, gd_noise=o.gd_noise, refine=o.refine, refine_share=o.refine_share,
-                          refine_targets=o.refine_targets, refine_rounds=o.refine_rounds,
-                          refine_slack=o.refine_slack, refine_depth=o.refine_depth, refine_width=o.refine_width,
-                          refine_passes=o.refine_passes, refine_branches=o.refine_branches,
-                          refine_randoms=o.refine_randoms, refine_sweeps=o.refine_sweeps,
-                          refine_yaw_quota=o.refine_yaw_quota,
-                          beam_depth=o.beam_depth,
-                          beam_width=o.beam_width, push_cost=o.push_cost)
-
-
-def replan_settings(o: TSRRTOptions, reason: str) -> SearchSettings:
-    """The search settings of a replanning during execution: the improvement phase only when the plan is done
-    (``reason`` ``finish``) unless ``replan_refine``."""
-    settings = search_settings(o)
-    return settings if o.replan_refine or reason == "finish" else replace(settings, refine=False)
-
-
-def learn_settings(o) -> LearnSettings:
-    return LearnSettings(sigma_ref=o.sigma_ref, sigma_ref_angle=o.sigma_ref_angle, min_pushes=o.min_pushes,
-                         max_pushes=o.max_pushes)
+def replan_settings(o: TSRRTOptions, reason: str) -> TSRRTOptions:
+    """The options of a replanning during execution: the improvement phase only when the plan is done (``reason``
+    ``finish``) unless ``execution.replan_refine``."""
+    if o.execution.replan_refine or reason == "finish":
+        return o
+    return replace(o, improvement=replace(o.improvement, refine=False))
 
 
 def arena(world, scene, o: PushOptions) -> LearningArena:
@@ -326,7 +199,7 @@ def arena(world, scene, o: PushOptions) -> LearningArena:
     fixed_fp, fixed_poses, _ = domain.obstacles(scene, names, table, scene.resolution)
     fixed = [(p[:2].copy(), float(r)) for p, r in zip(fixed_poses, fixed_fp.radius)]
     return LearningArena(world, names, footprints_from_scene(scene, names), table, domain.bounds_rect(scene),
-                         o.push_settings(scene), fixed)
+                         domain.push_settings(o, scene), fixed)
 
 
 def build_space(scene, o: TSRRTOptions, models: PushModels, names: list[str]) -> ObjectSpace:
@@ -334,11 +207,12 @@ def build_space(scene, o: TSRRTOptions, models: PushModels, names: list[str]) ->
     fp = footprints_from_scene(scene, names)
     table = domain.table_rect(scene, o.table)
     obs_fp, obs_poses, _ = domain.obstacles(scene, names, table, scene.resolution)
-    relations = domain.parse_relations(o.relations, names)
-    cost = domain.task_cost(fp, table, (o.w_orth, o.w_area, o.w_edge, o.w_setting), relations, o.setting_scale)
-    check = domain.checker(fp, obs_fp, obs_poses, table, o.margin)
+    relations = domain.parse_relations(o.cost.relations, names)
+    c = o.cost
+    cost = domain.task_cost(fp, table, (c.w_orth, c.w_area, c.w_edge, c.w_setting), relations, c.setting_scale)
+    check = domain.checker(fp, obs_fp, obs_poses, table, o.planning.margin)
     means = models.means([object_class(n) for n in names])
-    return ObjectSpace(fp, means, check, cost, o.push_settings(scene), domain.bounds_rect(scene))
+    return ObjectSpace(fp, means, check, cost, domain.push_settings(o, scene), domain.bounds_rect(scene))
 
 
 class PushPlan(Policy):
@@ -393,10 +267,16 @@ class PushPlan(Policy):
 
 
 def options_from_dict(values: dict) -> TSRRTOptions:
+    """A plan's options (as :meth:`PushPlan.to_dict` stores them; a plan saved before the options were grouped
+    stores them flat, read without a warning)."""
     from pliant.api import build_options
 
-    known = TSRRTOptions.__dataclass_fields__
-    return build_options(TSRRTOptions, {k: v for k, v in values.items() if k in known}, source="<plan>")
+    defaults = TSRRTOptions()
+    groups = [getattr(defaults, f.name) for f in fields(defaults) if is_dataclass(getattr(defaults, f.name))]
+    known = {f.name for f in fields(defaults)} | {f.name for g in groups for f in fields(g)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        return build_options(TSRRTOptions, {k: v for k, v in values.items() if k in known}, source="<plan>")
 
 
 #: most repairs of one object after its last push of the plan (``repair_placed``) in one execution: a noisy turn
@@ -465,13 +345,14 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
 
     o = options_from_dict(plan.options)
     if noise is not None:
-        o = replace(o, placement_noise=noise)
+        o = replace(o, push=replace(o.push, placement_noise=noise))
+    e, imp = o.execution, o.improvement
     if not getattr(world, "can_place_objects", False):
         raise PlanningError("executing a TS-RRT plan needs a world that can place objects (a simulator such as "
                             "pymunk)", field="execution.world", value=type(world).__name__)
     space = build_space(scene, o, plan.models, plan.names)
     space.warm_up()
-    push = o.push_settings(scene)
+    push = domain.push_settings(o, scene)
     all_names = domain.movable_names(scene, ())
     fp_all = footprints_from_scene(scene, all_names)
     world.reset(np.asarray(scene.start, dtype=np.float64))
@@ -483,9 +364,9 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
     # the first plan's final arrangement and cost: what every replanning connects back to, and what the arrangement
     # is judged against when a plan is done (a replanned plan may end higher than the first one)
     goal, goal_cost = plan.states[-1], plan.cost
-    ceiling = goal_cost * (1 + o.finish_tolerance)     # an arrangement at or below it needs no finishing
+    ceiling = goal_cost * (1 + e.finish_tolerance)     # an arrangement at or below it needs no finishing
     # replan_shortest: a replanning or repair need not end cheaper than the first plan; the fewest pushes win
-    enough = goal_cost if o.replan_shortest else None
+    enough = goal_cost if e.replan_shortest else None
     records: list[dict] = []
     replans: list[dict] = []
     outcome = "success"
@@ -513,16 +394,16 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             reason = "finish"
             # a finishing repair must be predicted to end within the tolerance: pushes that promise a fraction of a
             # per cent are lost in the noise of their own execution (repeated, they spent the push budget)
-            fix = repair_toward_goal(_room_for(space, observed), observed, goal, depth=o.repair_depth,
-                                     width=o.refine_width, yaw_quota=o.refine_yaw_quota, push_cost=o.push_cost,
+            fix = repair_toward_goal(_room_for(space, observed), observed, goal, depth=e.repair_depth,
+                                     width=imp.refine_width, yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,
                                      enough=enough, at_most=ceiling) \
-                if o.repair and repairs < o.max_repairs else None
+                if e.repair and repairs < e.max_repairs else None
             if fix is not None:
                 repairs += 1
                 replans.append(_repair_entry(space, len(records), reason, observed, fix, plan.names))
                 actions, expected, j = fix.actions, fix.states, 0
                 continue
-            if _replanned(replans) >= o.max_replans:
+            if _replanned(replans) >= e.max_replans:
                 break
         else:
             if len(records) >= action_limit:
@@ -536,7 +417,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             except SimulationError as exc:     # e.g. the noisy paddle placement lands in a wall: skip it, replan
                 blocked += 1
                 records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "skipped": str(exc)})
-                if _replanned(replans) >= o.max_replans:
+                if _replanned(replans) >= e.max_replans:
                     outcome = "failure"
                     break
                 reason = "blocked"
@@ -552,20 +433,20 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
             j += 1
             err_t, dth = pose_errors(space, observed, expected[j])
             step_t, step_th = pose_errors(space, observed, predicted)
-            replan = bool(np.any(err_t > o.replan_threshold) or np.any(dth > o.replan_angle))
+            replan = bool(np.any(err_t > e.replan_threshold) or np.any(dth > e.replan_angle))
             records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "predicted": predicted,
                             "observed": observed.copy(), "step_error": float(step_t.max()),
                             "step_angle_error": float(step_th.max()), "plan_error": float(err_t.max()),
                             "plan_angle_error": float(dth.max()),
-                            "replanned": replan and _replanned(replans) < o.max_replans})
-            if not replan and o.repair and o.repair_placed and repairs < o.max_repairs and placed[obj] < PLACE_TRIES \
+                            "replanned": replan and _replanned(replans) < e.max_replans})
+            if not replan and e.repair and e.repair_placed and repairs < e.max_repairs and placed[obj] < PLACE_TRIES \
                     and obj not in [a // 6 for a in actions[j:]]:
                 # the object's last push of the plan: is it where the plan leaves it (tighter thresholds)?
-                if err_t[obj] > o.place_threshold or dth[obj] > o.place_angle:
+                if err_t[obj] > e.place_threshold or dth[obj] > e.place_angle:
                     placed[obj] += 1
                     fix = repair_retarget(_room_for(space, observed), observed, expected[j], actions[j:],
-                                          threshold=2 * o.place_threshold, angle=2 * o.place_angle,
-                                          depth=o.repair_depth, width=o.refine_width, yaw_quota=o.refine_yaw_quota,
+                                          threshold=2 * e.place_threshold, angle=2 * e.place_angle,
+                                          depth=e.repair_depth, width=imp.refine_width, yaw_quota=imp.refine_yaw_quota,
                                           at_most=ceiling, objects=[obj])
                     if fix is not None and fix.pushes:
                         repairs += 1
@@ -577,22 +458,22 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                 continue
             reason = "deviation"
             fix = None
-            if o.repair and repairs < o.max_repairs:
+            if e.repair and repairs < e.max_repairs:
                 room = _room_for(space, observed)
-                fixes = [repair_restore(room, observed, expected[j], actions[j:], threshold=o.replan_threshold,
-                                        angle=o.replan_angle, depth=o.repair_depth, width=o.refine_width,
-                                        yaw_quota=o.refine_yaw_quota)]
-                if o.repair_retarget:
+                fixes = [repair_restore(room, observed, expected[j], actions[j:], threshold=e.replan_threshold,
+                                        angle=e.replan_angle, depth=e.repair_depth, width=imp.refine_width,
+                                        yaw_quota=imp.refine_yaw_quota)]
+                if e.repair_retarget:
                     fixes.append(repair_retarget(room, observed, expected[j], actions[j:],
-                                                 threshold=o.replan_threshold, angle=o.replan_angle,
-                                                 depth=o.refine_depth, width=o.refine_width,
-                                                 yaw_quota=o.refine_yaw_quota,
+                                                 threshold=e.replan_threshold, angle=e.replan_angle,
+                                                 depth=imp.refine_depth, width=imp.refine_width,
+                                                 yaw_quota=imp.refine_yaw_quota,
                                                  at_most=ceiling))
                 fixes = [f for f in fixes if f is not None]
                 fix = min(fixes, key=lambda f: len(f.actions)) if fixes else None
-                fix = fix or repair_toward_goal(room, observed, goal, depth=o.refine_depth, width=o.refine_width,
-                                                yaw_quota=o.refine_yaw_quota,
-                                                at_most=ceiling, push_cost=o.push_cost,
+                fix = fix or repair_toward_goal(room, observed, goal, depth=imp.refine_depth, width=imp.refine_width,
+                                                yaw_quota=imp.refine_yaw_quota,
+                                                at_most=ceiling, push_cost=imp.push_cost,
                                                 enough=enough)
             if fix is not None:
                 repairs += 1
@@ -601,7 +482,7 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                 replans.append(_repair_entry(space, len(records), reason, observed, fix, plan.names))
                 actions, expected, j = fix.actions, fix.states, 0
                 continue
-            if _replanned(replans) >= o.max_replans:
+            if _replanned(replans) >= e.max_replans:
                 continue
         cost_now = float(space.cost.cost(observed[None])[0])
         found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),

@@ -19,38 +19,12 @@ commands through ``step``; contact and friction are the simulator's), backed off
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from pliant_tsrrt.geometry import CIRCLE, Footprints, wrap
+from pliant_tsrrt.options import PushSettings
 
 PRIMITIVES = ("push+x", "push-x", "push+y", "push-y", "turn+", "turn-")
-
-
-@dataclass(frozen=True)
-class PushSettings:
-    """How a push is executed (m, m/s, s): paddle ``thickness`` and ``width`` (its extent along and across the push
-    direction), ``gap`` behind the contact at the start, push ``depth`` beyond the contact, ``speed``, ``retreat``
-    after the push, ``settle`` time at rest, ``turn_offset`` (fraction of the half side at which turning pushes
-    press), control period ``dt``, ``placement_noise`` (standard deviation, m, of the paddle's placement error
-    along and across the push; 0 for none) and ``guard``: the step (m) of a guarded approach (0: a blind push) --
-    the paddle advances in steps of ``guard`` until the object moves, then travels ``depth`` from there, so the error
-    of its placement along the push does not change how far it pushes.  The defaults are
-    :class:`pliant_tsrrt.domain.PushOptions`'s."""
-
-    thickness: float = 0.03
-    width: float = 0.08
-    gap: float = 0.02
-    depth: float = 0.05
-    turn_depth: float = 0.015
-    speed: float = 0.1
-    retreat: float = 0.02
-    settle: float = 0.2
-    turn_offset: float = 1.0
-    dt: float = 0.05
-    placement_noise: float = 0.0
-    guard: float = 0.001
 
 
 def contact_frames(fp: Footprints, turn_offset: float) -> tuple[np.ndarray, np.ndarray]:
@@ -102,7 +76,7 @@ def paddle_sweeps(poses: np.ndarray, fp: Footprints, settings: PushSettings) -> 
     turning = np.array([False, False, False, False, True, True])
     along = np.where(turning, s.width, s.thickness)                          # paddle extent along the push (6,)
     across = np.where(turning, s.thickness, s.width)
-    back = s.gap + 0.5 * along
+    back = s.push_gap + 0.5 * along
     theta = poses[..., 2][..., None]                                          # (n, k, 1)
     cos, sin = np.cos(theta), np.sin(theta)
 
@@ -113,7 +87,7 @@ def paddle_sweeps(poses: np.ndarray, fp: Footprints, settings: PushSettings) -> 
     uw = np.stack([cos * u[..., 0] - sin * u[..., 1], sin * u[..., 0] + cos * u[..., 1]], -1)
     heading = np.arctan2(uw[..., 1], uw[..., 0])
     start = world(c - back[:, None] * u)
-    travel = s.gap + np.where(turning, s.turn_depth, s.depth)                # (6,)
+    travel = s.push_gap + np.where(turning, s.turn_depth, s.push_depth)      # (6,)
     centre = start + 0.5 * travel[:, None] * uw
     yaw = heading + np.where(turning, 0.5 * np.pi, 0.0)
     start_pose = np.concatenate([start, yaw[..., None]], -1)
@@ -134,11 +108,11 @@ def paddle_sweep_rows(poses: np.ndarray, objs: np.ndarray, prims: np.ndarray, fp
     turning = prims >= 4
     along = np.where(turning, s.width, s.thickness)
     across = np.where(turning, s.thickness, s.width)
-    travel = s.gap + np.where(turning, s.turn_depth, s.depth)
+    travel = s.push_gap + np.where(turning, s.turn_depth, s.push_depth)
     cj, uj = c[objs, prims], u[objs, prims]                                  # (m, 2)
     cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
     uw = np.stack([cos * uj[:, 0] - sin * uj[:, 1], sin * uj[:, 0] + cos * uj[:, 1]], -1)
-    local = cj + (0.5 * travel - s.gap - 0.5 * along)[:, None] * uj          # the box's centre in the object frame
+    local = cj + (0.5 * travel - s.push_gap - 0.5 * along)[:, None] * uj     # the box's centre in the object frame
     centre = np.stack([cos * local[:, 0] - sin * local[:, 1], sin * local[:, 0] + cos * local[:, 1]], -1) \
         + poses[:, :2]
     pose = np.concatenate([centre, np.arctan2(uw[:, 1], uw[:, 0])[:, None]], -1)
@@ -163,14 +137,14 @@ def apply_action(world, names: list[str], fp: Footprints, index: int, primitive:
         q[:2] += along * heading + across * np.array([-heading[1], heading[0]])
     world.reset(q)
     world.set_object_poses(poses)
-    depth = s.turn_depth if PRIMITIVES[primitive].startswith("turn") else s.depth
-    if s.guard > 0:
+    depth = s.turn_depth if PRIMITIVES[primitive].startswith("turn") else s.push_depth
+    if s.guard_step > 0:
         _guarded_push(world, names[index], heading, depth, s, rng)
     else:
-        _move(world, heading * s.speed, (s.gap + depth) / s.speed, s.dt, rng)
+        _move(world, heading * s.push_speed, (s.push_gap + depth) / s.push_speed, s.control_period, rng)
     if s.retreat > 0:
-        _move(world, -heading * s.speed, s.retreat / s.speed, s.dt, rng)
-    _move(world, np.zeros(2), s.settle, s.dt, rng)
+        _move(world, -heading * s.push_speed, s.retreat / s.push_speed, s.control_period, rng)
+    _move(world, np.zeros(2), s.settle, s.control_period, rng)
     return {n: np.asarray(p, dtype=np.float64).copy() for n, p in world.object_poses().items()}
 
 
@@ -185,20 +159,20 @@ GUARD_TURN = 0.005
 
 def _guarded_push(world, name: str, heading: np.ndarray, depth: float, s: PushSettings,
                   rng: np.random.Generator) -> None:
-    """A guarded move (approach until contact, then push): advance in steps of ``s.guard`` until object ``name`` has
-    moved by half a step or turned by :data:`GUARD_TURN` (the contact; at most ``gap`` plus :data:`GUARD_REACH`
-    placement-noise deviations), then ``depth`` further.  The object's motion stands in for a force sensor's contact
-    signal."""
+    """A guarded move (approach until contact, then push): advance in steps of ``s.guard_step`` until object
+    ``name`` has moved by half a step or turned by :data:`GUARD_TURN` (the contact; at most ``push_gap`` plus
+    :data:`GUARD_REACH` placement-noise deviations), then ``depth`` further.  The object's motion stands in for a
+    force sensor's contact signal."""
     start = np.asarray(world.object_poses()[name], dtype=np.float64)
-    reach = s.gap + GUARD_REACH * s.placement_noise + s.guard
+    reach = s.push_gap + GUARD_REACH * s.placement_noise + s.guard_step
     travelled = 0.0
     while travelled < reach:
-        _move(world, heading * s.speed, s.guard / s.speed, s.dt, rng)
-        travelled += s.guard
+        _move(world, heading * s.push_speed, s.guard_step / s.push_speed, s.control_period, rng)
+        travelled += s.guard_step
         now = np.asarray(world.object_poses()[name], dtype=np.float64)
-        if np.hypot(*(now[:2] - start[:2])) > 0.5 * s.guard or abs(wrap(now[2] - start[2])) > GUARD_TURN:
+        if np.hypot(*(now[:2] - start[:2])) > 0.5 * s.guard_step or abs(wrap(now[2] - start[2])) > GUARD_TURN:
             break
-    _move(world, heading * s.speed, depth / s.speed, s.dt, rng)
+    _move(world, heading * s.push_speed, depth / s.push_speed, s.control_period, rng)
 
 
 def _move(world, velocity: np.ndarray, duration: float, dt: float, rng: np.random.Generator) -> None:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import asdict
 
 import numpy as np
 from pliant.api import Headline, ReproductionRun, Row
@@ -94,14 +95,13 @@ def poster(run: ReproductionRun) -> Outcome:
     from pliant_tsrrt import domain
     from pliant_tsrrt.figures import draw_models, draw_plan
     from pliant_tsrrt.learning import learn_models
+    from pliant_tsrrt.options import PushingOptions
     from pliant_tsrrt.planner import (
         PushPlan,
         TSRRTOptions,
         arena,
         build_space,
         execute_plan,
-        learn_settings,
-        search_settings,
     )
     from pliant_tsrrt.pushing import PRIMITIVES
     from pliant_tsrrt.reference import optimise, random_arrangements
@@ -110,12 +110,12 @@ def poster(run: ReproductionRun) -> Outcome:
     settings = {**SETTINGS[run.mode], "iterations": ITERATIONS, "scene": SCENE, "placement_noise": PLACEMENT_NOISE,
                 "actuation_noise": ACTUATION_NOISE, "action_limit": ACTION_LIMIT}
     run.output.mkdir(parents=True, exist_ok=True)
-    options = TSRRTOptions(placement_noise=PLACEMENT_NOISE)
+    options = TSRRTOptions(push=PushingOptions(placement_noise=PLACEMENT_NOISE))
 
     run.echo("LEARN_MODEL on the three classes, with noise")
     scene, sim = world()
     t0 = time.perf_counter()
-    models, report = learn_models(arena(sim, scene, options), learn_settings(options), np.random.default_rng(0),
+    models, report = learn_models(arena(sim, scene, options), options.learning, np.random.default_rng(0),
                                   holdout=5)
     learn_seconds = time.perf_counter() - t0
     names = [o.name for o in scene.objects if o.movable]
@@ -127,11 +127,11 @@ def poster(run: ReproductionRun) -> Outcome:
     for seed in range(settings["starts"]):
         rng = np.random.default_rng(1000 + seed)
         s0 = random_arrangements(space, rng, 1, clearance=options.start_clearance)[0]
-        found = grow(space, s0, rng, search_settings(options), Termination(max_iterations=ITERATIONS))
+        found = grow(space, s0, rng, options, Termination(max_iterations=ITERATIONS))
         _, from_plan = optimise(space, np.random.default_rng(seed), rounds=settings["rounds"],
                                 starts=found.states[-1][None])
         _, from_random = optimise(space, np.random.default_rng(seed), rounds=settings["rounds"])
-        plan = PushPlan(names, s0, found.actions, found.states, found.cost, options.__dict__, models)
+        plan = PushPlan(names, s0, found.actions, found.states, found.cost, asdict(options), models)
         record = {"seed": seed, "start_cost": float(space.cost.cost(s0[None])[0]), "cost": found.cost,
                   "reference": min(from_plan, from_random), "pushes": len(found.actions),
                   "collision": bool(space.checker.in_collision(found.states).any()),
@@ -173,8 +173,9 @@ def poster(run: ReproductionRun) -> Outcome:
             rows.append(Row(f"{cls} / {p}: pushes to sigma_ref", None, int(d.n)))
             rows.append(Row(f"{cls} / {p}: held-out translation error", None, 1000 * held["translation_error"],
                             unit="mm"))
-    capped = sum(d.n >= options.max_pushes for per in models.models.values() for d in per)
-    rows.append(Row(f"models stopped at max_pushes ({options.max_pushes}) before reaching sigma_ref", None, capped))
+    most = options.learning.max_pushes
+    capped = sum(d.n >= most for per in models.models.values() for d in per)
+    rows.append(Row(f"models stopped at max_pushes ({most}) before reaching sigma_ref", None, capped))
     ratios = np.array([p["ratio"] for p in plans])
     executions = [x for p in plans for x in p["executions"]]
     within = [x["ratio_plan"] <= 1 + EXECUTION_TOLERANCE and not x["collided"] for x in executions]

@@ -56,45 +56,15 @@ from pliant_tsrrt import kernels
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corners
 from pliant_tsrrt.models import compose
+from pliant_tsrrt.options import PlanningOptions, TSRRTOptions
 from pliant_tsrrt.pushing import PushSettings, contact_frames, paddle_sweep_rows
 from pliant_tsrrt.refine import final_beam, improve, plan_score
 
 N_PRIMITIVES = 6
 
 
-@dataclass(frozen=True)
-class SearchSettings:
-    """TASK_SPACE_RRT's parameters: ``epsilon`` (probability of a uniform sample, line 6), ``max_nodes`` (line 4),
-    ``gd_step`` (DIRECTGD step, in mean push lengths), ``gd_pool`` and ``gd_tries`` (DIRECTGD's node choice),
-    ``duplicate`` (rho below which a new state counts as an existing node, m), ``gd_noise`` (standard deviation of
-    a Gaussian added to DIRECTGD's sample, in mean push lengths); ``refine*``: the improvement phase
-    (:mod:`pliant_tsrrt.refine`; ``refine_share``: its share of a time budget, the tree gets the rest);
-    ``push_cost``: the plan length's price in task cost per push, in the choices after the tree (the improvement
-    phase's connections and their cut, the final beam, the final descent, the shortcut): a push must gain more than
-    that, or it is left off."""
-
-    epsilon: float = 0.1
-    max_nodes: int = 5000
-    gd_step: float = 1.0
-    gd_pool: int = 64
-    gd_tries: int = 2
-    gd_noise: float = 0.7
-    duplicate: float = 1e-3
-    refine: bool = True
-    refine_share: float = 0.75
-    refine_targets: int = 4
-    refine_rounds: int = 800
-    refine_slack: float = 0.003
-    refine_depth: int = 40
-    refine_width: int = 64
-    refine_passes: int = 5
-    refine_branches: int = 3
-    refine_randoms: int = 128
-    refine_sweeps: int = 2
-    refine_yaw_quota: int = 4
-    beam_depth: int = 4
-    beam_width: int = 128
-    push_cost: float = 0.0
+#: rho (m) below which a new state counts as an existing node
+DUPLICATE = 1e-3
 
 
 @dataclass
@@ -132,7 +102,7 @@ class ObjectSpace:
         """Call every compiled kernel once (:mod:`pliant_tsrrt.kernels`), so that their compilation -- some 10 s on
         the first run after installation, a fraction of a second when numba's cache has them -- is not charged to a
         planning budget."""
-        s = self.random_config(np.random.default_rng(0))
+        s = self.random_config(np.random.default_rng(0))      # a warm-up: any arrangement, no result depends on it
         self.checker.in_collision(s)
         self.cost.cost(s[None])
         self.valid_actions(s, self.outcomes(s))
@@ -242,7 +212,7 @@ class SearchResult:
     statistics: dict
 
 
-def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings: SearchSettings,
+def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings: TSRRTOptions,
          termination: Condition | None = None, seed_plan: list[int] | None = None,
          goal: np.ndarray | None = None, enough: float | None = None) -> SearchResult:
     """TASK_SPACE_RRT lines 3-14 from ``s0`` ``(k, 3)`` until ``max_nodes`` nodes or ``termination``; returns the
@@ -253,6 +223,7 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     task cost below which lower costs count as ``enough`` after the tree (improvement phase, final beam, descent,
     shortcut), so that of the plans that reach it the shortest wins (replanning: the first plan's cost)."""
     t0 = time.perf_counter()
+    imp = settings.improvement
     k = space.k
     n_actions = k * N_PRIMITIVES
     cap = 1024
@@ -288,7 +259,7 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     # a time budget covers the tree (1 - refine_share of it), the improvement phase (until 85 %) and the shortcut
     # (pair drops until 90 %; the rest is the final descent and single drops until none is left)
     budget = getattr(termination, "max_time", None)
-    share = settings.refine_share if settings.refine else 0.0
+    share = imp.refine_share if imp.refine else 0.0
     tree_end = None if budget is None else t0 + (1.0 - share) * budget
     deadline = None if budget is None else t0 + 0.85 * budget
     iteration = 0
@@ -298,8 +269,8 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
                 break
             iteration += 1
             gd_node = -1
-            if rng.random() > settings.epsilon:
-                gd_node, sample = _directgd(space, states, costs, fails, used, n, rng, settings, grads)
+            if rng.random() > settings.planning.epsilon:
+                gd_node, sample = _directgd(space, states, costs, fails, used, n, rng, settings.planning, grads)
             if gd_node < 0:
                 sample = space.random_config(rng)
                 stats["random_samples"] += 1
@@ -313,7 +284,7 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
             valid = ~used[near]
             if not valid.any():
                 stats["invalid"] += 1
-                fails[near] = settings.gd_tries
+                fails[near] = settings.planning.gd_tries
                 if gd_node >= 0 and gd_node != near:
                     fails[gd_node] += 1
                 continue
@@ -324,7 +295,7 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
             f_new = space.embed(s_new)
             d2 = np.sum((feats[:n] - f_new) ** 2, axis=1)
             dup = int(np.argmin(d2))
-            if d2[dup] < settings.duplicate ** 2:
+            if d2[dup] < DUPLICATE ** 2:
                 stats["duplicates"] += 1
                 if depth[near] + 1 < depth[dup] and not _is_ancestor(parents, dup, near):
                     parents[dup], actions[dup], depth[dup] = near, a, depth[near] + 1   # a shorter way there
@@ -362,37 +333,37 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     stats.update(refine_targets=[], refine_connects=0, refine_gain=0.0, refine_pushes=0, refine_branch=len(plan),
                  beam_pushes=0)
     floor = -np.inf if enough is None else float(enough)
-    plan, polished = descend(space, s0, plan, push_cost=settings.push_cost, enough=floor)
-    if settings.refine and not interrupted:
+    plan, polished = descend(space, s0, plan, push_cost=imp.push_cost, enough=floor)
+    if imp.refine and not interrupted:
         path, _ = space.rollout(s0, plan)
-        _, keep, extra, more = improve(space, path, rng, count=settings.refine_targets,
-                                       rounds=settings.refine_rounds, slack=settings.refine_slack,
-                                       depth=settings.refine_depth, width=settings.refine_width,
-                                       passes=settings.refine_passes, branch_points=settings.refine_branches,
+        _, keep, extra, more = improve(space, path, rng, count=imp.refine_targets,
+                                       rounds=imp.refine_rounds, slack=imp.refine_slack,
+                                       depth=imp.refine_depth, width=imp.refine_width,
+                                       passes=imp.refine_passes, branch_points=imp.refine_branches,
                                        deadline=deadline, goals=None if goal is None else goal[None],
-                                       randoms=settings.refine_randoms, sweeps=settings.refine_sweeps,
-                                       yaw_quota=settings.refine_yaw_quota, push_cost=settings.push_cost,
+                                       randoms=imp.refine_randoms, sweeps=imp.refine_sweeps,
+                                       yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,
                                        enough=floor)
         stats.update(more, refine_pushes=len(extra))
         plan = plan[:keep] + extra
-    if settings.refine and settings.beam_depth > 0 and not interrupted:
+    if imp.refine and imp.beam_depth > 0 and not interrupted:
         end = space.rollout(s0, plan)[0][-1]
-        _, extra = final_beam(space, end, depth=settings.beam_depth, width=settings.beam_width, deadline=deadline,
-                              push_cost=settings.push_cost, enough=floor)
+        _, extra = final_beam(space, end, depth=imp.beam_depth, width=imp.beam_width, deadline=deadline,
+                              push_cost=imp.push_cost, enough=floor)
         plan += extra
         stats["refine_pushes"] += len(extra)
         stats["beam_pushes"] = len(extra)
     refine_time = time.perf_counter() - t0 - tree_time
     if stats["refine_pushes"]:
-        plan, more_polished = descend(space, s0, plan, push_cost=settings.push_cost, enough=floor)
+        plan, more_polished = descend(space, s0, plan, push_cost=imp.push_cost, enough=floor)
         polished += more_polished
     plan, path_states, final = shortcut(space, s0, plan, deadline=None if budget is None else t0 + 0.9 * budget,
-                                        push_cost=settings.push_cost, enough=floor)
+                                        push_cost=imp.push_cost, enough=floor)
     stats.update(iterations=iteration, nodes=n, time=time.perf_counter() - t0, tree_time=tree_time,
                  refine_time=refine_time,
                  cost_history=history, tree_best_cost=float(costs[best]), actions_before_shortcut=raw_length,
                  actions=len(plan), polish_pushes=polished, interrupted=interrupted,
-                 exhausted=int(np.sum(fails[:n] >= settings.gd_tries)))
+                 exhausted=int(np.sum(fails[:n] >= settings.planning.gd_tries)))
     return SearchResult(plan, path_states, final, states[:n].copy(), parents[:n].copy(), costs[:n].copy(), stats)
 
 
@@ -418,7 +389,7 @@ def _grow(x: np.ndarray, cap: int) -> np.ndarray:
     return out
 
 
-def _directgd(space: ObjectSpace, states, costs, fails, used, n, rng, settings, grads) -> tuple[int,
+def _directgd(space: ObjectSpace, states, costs, fails, used, n, rng, settings: PlanningOptions, grads) -> tuple[int,
                                                                                               np.ndarray | None]:
     """DIRECTGD(T) (line 5): a node among the cheapest non-exhausted ones, moved down the cost gradient; ``-1`` when
     every node is exhausted."""

@@ -10,7 +10,8 @@ from pliant.errors import PliantError, SimulationError
 from pliant.interfaces import Context
 from pliant_tsrrt.learning import learn_models
 from pliant_tsrrt.models import footprints_from_scene, object_class
-from pliant_tsrrt.planner import TSRRTOptions, arena, learn_settings
+from pliant_tsrrt.options import LearningOptions, TSRRTOptions
+from pliant_tsrrt.planner import arena
 from pliant_tsrrt.pushing import PRIMITIVES, PushSettings, apply_action
 
 
@@ -59,7 +60,7 @@ def _push_lengths(guard: float, seeds=range(6)) -> np.ndarray:
     names = [o.name for o in scene.objects if o.movable]
     fp = footprints_from_scene(scene, names)
     sim = ctx.simulator
-    settings = PushSettings(placement_noise=0.004, guard=guard)
+    settings = PushSettings(placement_noise=0.004, guard_step=guard)
     lengths = []
     for seed in seeds:
         sim.set_object_poses({"block-1": np.array([0.5, 0.4, 0.0])})
@@ -82,9 +83,9 @@ def test_push_settings_defaults_are_the_options_defaults():
     from dataclasses import fields
 
     from pliant import load_scene
-    from pliant_tsrrt.domain import PushOptions
+    from pliant_tsrrt.domain import PushOptions, push_settings
 
-    from_options = PushOptions().push_settings(load_scene("tsrrt-table"))
+    from_options = push_settings(PushOptions(), load_scene("tsrrt-table"))
     for f in fields(PushSettings):
         assert getattr(from_options, f.name) == getattr(PushSettings(), f.name), f.name
 
@@ -93,8 +94,8 @@ def test_learn_model_stops_at_sigma_ref_and_restores_the_objects():
     scene, ctx = _world()
     sim = ctx.simulator
     before = sim.object_poses()
-    o = TSRRTOptions(min_pushes=3, max_pushes=6)
-    models, report = learn_models(arena(sim, scene, o), learn_settings(o), np.random.default_rng(0), holdout=2,
+    o = TSRRTOptions(learning=LearningOptions(min_pushes=3, max_pushes=6))
+    models, report = learn_models(arena(sim, scene, o), o.learning, np.random.default_rng(0), holdout=2,
                                   only=["can-1"])
     assert list(models.models) == ["can"]
     # without noise pymunk repeats itself: the variance is ~0 after the fewest pushes
@@ -122,8 +123,9 @@ def test_pipeline_runs_end_to_end(tmp_path):
 
     record = Pipeline.from_file("tsrrt-demo", overrides=[f'output="{tmp_path}"', "planner.max_time=1.0",
                                                            "learner.max_pushes=4", "learner.holdout=0",
-                                                           "planner.replan_time=0.3", "planner.max_replans=2",
-                                                           "planner.max_repairs=2"]).run()
+                                                           "planner.replan_time=0.3",
+                                                           "planner.execution.max_replans=2",
+                                                           "planner.execution.max_repairs=2"]).run()
     assert record.result.status.success
     plan = record.result.policy
     assert record.result.cost < record.result.statistics["start_cost"]
@@ -140,9 +142,40 @@ def test_pipeline_runs_end_to_end(tmp_path):
 def test_planner_options_are_checked():
     from pliant.errors import ConfigError
 
-    with pytest.raises(ConfigError, match=r"planner\.epsilon"):
-        registry.create("planner", "tsrrt", None, epsilon=2.0)
-    with pytest.raises(ConfigError, match="min_pushes"):
-        registry.create("planner", "tsrrt", None, min_pushes=30, max_pushes=10)
+    with pytest.raises(ConfigError, match=r"planner\.planning\.epsilon"):
+        registry.create("planner", "tsrrt", None, planning={"epsilon": 2.0})
+    with pytest.raises(ConfigError, match=r"planner\.learning\.min_pushes"):
+        registry.create("planner", "tsrrt", None, learning={"min_pushes": 30, "max_pushes": 10})
     with pytest.raises(ConfigError, match="models"):
         registry.create("planner", "tsrrt", None, models="nowhere.txt")
+
+
+def test_grouped_options_from_tables_dotted_keys_and_old_flat_names(tmp_path):
+    """TS-RRT's options come in groups: a nested table, a dotted --set key, or (deprecated, with a warning naming
+    the new spelling) the old flat name; errors name the full dotted field."""
+    from pliant.errors import ConfigError
+    from pliant.options import OptionDeprecationWarning
+    from pliant.pipeline import Pipeline
+
+    nested = registry.create("planner", "tsrrt", None, improvement={"refine_share": 0.5},
+                             push={"placement_noise": 0.004})
+    dotted = registry.create("planner", "tsrrt", None, **{"improvement.refine_share": 0.5,
+                                                          "push.placement_noise": 0.004})
+    with pytest.warns(OptionDeprecationWarning) as warned:
+        flat = registry.create("planner", "tsrrt", None, refine_share=0.5, placement_noise=0.004)
+    assert sorted(str(w.message) for w in warned) == [
+        "option 'planner.placement_noise' is deprecated: use 'planner.push.placement_noise'",
+        "option 'planner.refine_share' is deprecated: use 'planner.improvement.refine_share'"]
+    assert nested.options == dotted.options == flat.options
+    assert flat.options.improvement.refine_share == 0.5 and flat.options.push.placement_noise == 0.004
+    with pytest.raises(ConfigError, match=r"planner\.improvement\.refine_share"):
+        registry.create("planner", "tsrrt", None, **{"improvement.refine_share": 2.0})
+    with pytest.raises(ConfigError, match=r"planner\.improvement\.nothing"):
+        registry.create("planner", "tsrrt", None, improvement={"nothing": 1})
+    # a pipeline file with the new tables, overridden from the command line in either spelling (the later wins)
+    pipeline = tmp_path / "p.toml"
+    pipeline.write_text('scene = "tsrrt-table"\n[simulator]\nname = "pymunk"\n[planner]\nname = "tsrrt"\n'
+                        '[planner.improvement]\nrefine_share = 0.25\nbeam_depth = 2\n')
+    built = Pipeline.from_file(pipeline, overrides=["planner.improvement.refine_share=0.5"])
+    planner = registry.create("planner", "tsrrt", None, **built.components["planner"].options)
+    assert planner.options.improvement.refine_share == 0.5 and planner.options.improvement.beam_depth == 2

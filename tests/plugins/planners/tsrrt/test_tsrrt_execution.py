@@ -6,13 +6,16 @@ the repairs off; the repair tests check that a repair comes first and replanning
 
 from __future__ import annotations
 
+from dataclasses import asdict
+
 import numpy as np
 import pliant_tsrrt.planner as planner_module
 import pytest
 from pliant import load_scene, registry
 from pliant.interfaces import Context
 from pliant_tsrrt.models import Displacement, PushModels, footprints_from_scene, object_class, scene_pose
-from pliant_tsrrt.planner import PushPlan, TSRRTOptions, build_space, execute_plan
+from pliant_tsrrt.options import ExecutionOptions, TSRRTOptions
+from pliant_tsrrt.planner import PushPlan, build_space, execute_plan
 from pliant_tsrrt.search import SearchResult
 
 NAMES = ["book-1", "block-1", "can-1"]
@@ -20,6 +23,7 @@ MEANS = [[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], [0, 0.002
 
 
 def _setup(repair: bool = False, finish_tolerance: float = 0.05, **more):
+    """The scene, world, models, options and space; ``more``: further ``execution`` options."""
     scene = load_scene("tsrrt-table")
     ctx = Context(scene=scene)
     ctx.robot = registry.create("robot", "rigid", ctx)
@@ -36,7 +40,7 @@ def _setup(repair: bool = False, finish_tolerance: float = 0.05, **more):
         models.models[object_class(name)] = per
         models.footprints[object_class(name)] = (int(fp.kind[i]), fp.half[i].copy())
     more.setdefault("replan_threshold", 0.02)
-    options = TSRRTOptions(finish_tolerance=finish_tolerance, repair=repair, **more)
+    options = TSRRTOptions(execution=ExecutionOptions(finish_tolerance=finish_tolerance, repair=repair, **more))
     space = build_space(scene, options, models, NAMES)
     return scene, world, models, options, space
 
@@ -70,7 +74,7 @@ def _script(monkeypatch, space, kick, replans, stuck_from=None):
         return {n: p for n, p in zip(NAMES, s)}
 
     def fake_grow(space_, s0, rng, settings, termination=None, seed_plan=None, goal=None, enough=None):
-        calls["grow"].append({"refine": settings.refine, "goal": goal, "enough": enough})
+        calls["grow"].append({"refine": settings.improvement.refine, "goal": goal, "enough": enough})
         return _result(space, s0, replans[len(calls["grow"]) - 1](s0))
 
     monkeypatch.setattr(planner_module, "apply_action", fake_apply)
@@ -86,7 +90,7 @@ def _execute_can_plan(monkeypatch, kick, replans, actions=(15, 15, 15), stuck_fr
     s0 = np.array([scene_pose(scene, n) for n in NAMES])
     first = _result(space, s0, list(actions))
     calls = _script(monkeypatch, space, kick, replans, stuck_from)
-    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, options.__dict__, models)
+    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, asdict(options), models)
     return first, calls, execute_plan(plan, world, scene, np.random.default_rng(0))
 
 

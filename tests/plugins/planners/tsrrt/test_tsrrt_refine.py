@@ -9,13 +9,19 @@ import numpy as np
 from pliant.termination import Termination
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import BOX, CIRCLE, CollisionChecker, Footprints
+from pliant_tsrrt.options import ImprovementOptions, TSRRTOptions
 from pliant_tsrrt.pushing import PushSettings
 from pliant_tsrrt.refine import connect, final_beam, free_descent, improve, push_toward, random_free, targets, variants
-from pliant_tsrrt.search import ObjectSpace, SearchSettings, grow, redundant_actions
+from pliant_tsrrt.search import ObjectSpace, grow, redundant_actions
 
 TABLE = (0.0, 0.0, 1.0, 0.8)
 BOUNDS = (-0.2, -0.2, 1.2, 1.0)
 NO_OBSTACLES = (Footprints(np.zeros(0, dtype=int), np.zeros((0, 2))), np.zeros((0, 3)))
+
+
+def _options(max_nodes: int = 5000, **improvement) -> TSRRTOptions:
+    """TS-RRT's options with ``max_nodes`` and these ``improvement`` options (pushes are free unless ``push_cost``)."""
+    return TSRRTOptions(max_nodes=max_nodes, improvement=ImprovementOptions(**{"push_cost": 0.0, **improvement}))
 CAN_MODEL = [[0.05, 0, 0], [-0.05, 0, 0], [0, 0.05, 0], [0, -0.05, 0], [-0.01, 0.02, 0], [0.01, 0.02, 0]]
 BOOK_MODEL = [[0.047, 0, 0], [-0.047, 0, 0], [0, 0.047, 0], [0, -0.046, 0], [0, 0.001, 0.19], [0, -0.001, -0.2]]
 
@@ -82,8 +88,10 @@ def test_improve_never_returns_a_worse_or_invalid_plan():
 def test_grow_with_the_improvement_phase_is_no_worse_and_has_no_redundant_actions():
     space = _three()
     s0 = np.array([[0.25, 0.25, 0.3], [0.75, 0.55, 0.2], [0.8, 0.2, 0.0]])
-    base = SearchSettings(refine_width=16, refine_depth=12, refine_rounds=150, refine_passes=1, refine_branches=1)
-    plain = grow(space, s0, np.random.default_rng(3), replace(base, refine=False), Termination(max_iterations=150))
+    base = _options(refine_width=16, refine_depth=12, refine_rounds=150, refine_passes=1, refine_branches=1)
+    off = _options(refine=False, refine_width=16, refine_depth=12, refine_rounds=150, refine_passes=1,
+                   refine_branches=1)
+    plain = grow(space, s0, np.random.default_rng(3), off, Termination(max_iterations=150))
     better = grow(space, s0, np.random.default_rng(3), base, Termination(max_iterations=150))
     assert better.statistics["tree_best_cost"] == plain.statistics["tree_best_cost"]     # the same tree
     assert better.cost <= plain.cost + 1e-12

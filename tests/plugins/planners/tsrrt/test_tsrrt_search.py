@@ -7,12 +7,18 @@ import numpy as np
 from pliant.termination import Termination
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import BOX, CIRCLE, CollisionChecker, Footprints
+from pliant_tsrrt.options import ImprovementOptions, TSRRTOptions
 from pliant_tsrrt.pushing import PushSettings
-from pliant_tsrrt.search import ObjectSpace, SearchSettings, descend, grow, redundant_actions, shortcut
+from pliant_tsrrt.search import ObjectSpace, descend, grow, redundant_actions, shortcut
 
 TABLE = (0.0, 0.0, 1.0, 0.8)
 BOUNDS = (-0.2, -0.2, 1.2, 1.0)
 NO_OBSTACLES = (Footprints(np.zeros(0, dtype=int), np.zeros((0, 2))), np.zeros((0, 3)))
+
+
+def _options(max_nodes: int = 5000, **improvement) -> TSRRTOptions:
+    """TS-RRT's options with ``max_nodes`` and these ``improvement`` options (pushes are free unless ``push_cost``)."""
+    return TSRRTOptions(max_nodes=max_nodes, improvement=ImprovementOptions(**{"push_cost": 0.0, **improvement}))
 
 
 def _space(fp, means, weights, margin=0.0, obstacles=NO_OBSTACLES):
@@ -29,7 +35,7 @@ def test_one_object_reaches_the_centre_line_in_four_pushes():
     fp = Footprints([CIRCLE], [[0.05, 0.05]])
     space = _space(fp, [CAN_MODEL], (0.0, 0.0, 1.0, 0.0))
     s0 = np.array([[0.2, 0.4, 0.0]])
-    found = grow(space, s0, np.random.default_rng(0), SearchSettings(max_nodes=3000),
+    found = grow(space, s0, np.random.default_rng(0), _options(max_nodes=3000),
                  Termination(max_iterations=3000))
     # the best a 5 cm radius can do on a 1.0 x 0.8 table: 0.35 m from every edge, cost 1 - 0.35 / 0.4
     assert np.isclose(found.cost, 0.125, atol=1e-9)
@@ -41,7 +47,7 @@ def test_one_box_is_turned_square_to_the_table():
     fp = Footprints([BOX], [[0.12, 0.08]])
     space = _space(fp, [BOOK_MODEL], (1.0, 0.0, 0.0, 0.0))
     s0 = np.array([[0.5, 0.4, 0.3]])
-    found = grow(space, s0, np.random.default_rng(1), SearchSettings(max_nodes=2000),
+    found = grow(space, s0, np.random.default_rng(1), _options(max_nodes=2000),
                  Termination(max_iterations=2000))
     assert found.cost < 1e-20
     assert found.actions == [5, 5, 5]                                       # three turns of -0.1 rad
@@ -53,7 +59,7 @@ def test_plans_avoid_obstacles_and_each_other():
     obstacles = (Footprints([BOX], [[0.05, 0.3]]), np.array([[0.5, 0.4, 0.0]]))
     space = _space(fp, [CAN_MODEL, CAN_MODEL], (0.0, 1.0, 1.0, 0.0), margin=0.005, obstacles=obstacles)
     s0 = np.array([[0.15, 0.2, 0.0], [0.85, 0.6, 0.0]])
-    found = grow(space, s0, np.random.default_rng(2), SearchSettings(), Termination(max_iterations=1500))
+    found = grow(space, s0, np.random.default_rng(2), _options(), Termination(max_iterations=1500))
     assert found.cost < space.cost.cost(s0[None])[0]
     assert not space.checker.in_collision(found.states).any()
     _, ok = space.rollout(s0, found.actions)
@@ -89,7 +95,7 @@ def test_a_seed_plan_starts_the_tree_so_replanning_is_never_worse():
     fp = Footprints([CIRCLE], [[0.05, 0.05]])
     space = _space(fp, [CAN_MODEL], (0.0, 0.0, 1.0, 0.0))
     s0 = np.array([[0.2, 0.4, 0.0]])
-    found = grow(space, s0, np.random.default_rng(0), SearchSettings(), Termination(max_iterations=1),
+    found = grow(space, s0, np.random.default_rng(0), _options(), Termination(max_iterations=1),
                  seed_plan=[0, 0, 0, 0, 1])
     assert np.isclose(found.cost, 0.125) and found.actions == [0, 0, 0, 0]
 
@@ -106,7 +112,7 @@ def test_terminating_from_outside_returns_the_best_plan_so_far():
         return False
 
     stop.callback = interrupt
-    found = grow(space, s0, np.random.default_rng(0), SearchSettings(), stop)
+    found = grow(space, s0, np.random.default_rng(0), _options(), stop)
     assert found.statistics["interrupted"] and found.statistics["iterations"] <= 4
     assert found.cost <= space.cost.cost(s0[None])[0]
     _, ok = space.rollout(s0, found.actions)
@@ -141,10 +147,10 @@ def test_push_cost_stops_the_final_descent_at_the_first_push_that_gains_less():
 
 def test_grow_with_a_push_cost_returns_the_plan_of_lowest_cost_plus_push_cost_per_push():
     space, s0 = _book_at(0.3)
-    found = grow(space, s0, np.random.default_rng(1), SearchSettings(max_nodes=2000),
+    found = grow(space, s0, np.random.default_rng(1), _options(max_nodes=2000),
                  Termination(max_iterations=2000))
     assert found.actions == [5, 5, 5] and found.cost < 1e-20
-    found = grow(space, s0, np.random.default_rng(1), SearchSettings(max_nodes=2000, push_cost=0.05),
+    found = grow(space, s0, np.random.default_rng(1), _options(max_nodes=2000, push_cost=0.05),
                  Termination(max_iterations=2000))
     assert found.actions == [5, 5] and np.isclose(found.cost, np.sin(0.2) ** 2)    # 0.0395 + 2 x 0.05 < 0 + 3 x 0.05
 
@@ -156,6 +162,6 @@ def test_enough_counts_every_cost_below_it_as_equal_so_the_shorter_plan_wins():
     short, _, cost = shortcut(space, s0, [5, 5, 5], enough=0.2)            # 0.1516 counts as 0.2 too
     assert short == [5] and np.isclose(cost, np.sin(0.4) ** 2)
     assert descend(space, s0, [], enough=0.1) == ([5, 5], 2)                # stops once at or below 0.1
-    found = grow(space, s0, np.random.default_rng(1), SearchSettings(max_nodes=2000),
+    found = grow(space, s0, np.random.default_rng(1), _options(max_nodes=2000),
                  Termination(max_iterations=2000), enough=0.2)
     assert found.actions == [5] and np.isclose(found.cost, np.sin(0.4) ** 2)
