@@ -126,9 +126,9 @@ def _group_values(options_cls: type, values: dict[str, Any], *, source: str, pre
             moved = _moved_name(options_cls, key)
             if moved is not None:
                 here = f"{prefix}." if prefix else ""
-                where = f"{source}: " if source and not source.startswith("<") else ""
-                warnings.warn(f"{where}option '{here}{key}' is deprecated: use '{here}{moved}'",
-                              OptionDeprecationWarning, stacklevel=4)
+                # reported at the file that used the old name, on one line (no source line to quote)
+                warnings.warn_explicit(f"option '{here}{key}' is deprecated: use '{here}{moved}'",
+                                       OptionDeprecationWarning, filename=source or "<options>", lineno=0)
                 path = moved.split(".")
         if path[0] in groups:
             sub = out.get(path[0])

@@ -24,7 +24,7 @@ Two estimates follow:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from pliant.api import ClusteringContext, RobotModel, Simulator, ac_connected, truncated_normal
@@ -49,6 +49,13 @@ class SamplingSettings:
     image_samples: int
     stuck_steps: int
     contact_horizon: int
+
+    @classmethod
+    def from_options(cls, options, *, density: float, axis: float) -> SamplingSettings:
+        """The settings of the metric's ``options``, every field by its name, with this pair's ``density`` and
+        ``axis`` (derived from the options and the volumes)."""
+        derived = {"density": density, "axis": axis}
+        return cls(**derived, **{f.name: getattr(options, f.name) for f in fields(cls) if f.name not in derived})
 
 
 @dataclass

@@ -146,10 +146,9 @@ class ReachabilityMetric(PathMetric):
         return self.options.largest_volume_samples / float(np.max(volumes.measures()))
 
     def settings(self, volumes: ReachableVolumes) -> SamplingSettings:
-        o = self.options
-        return SamplingSettings(self.density(volumes), o.max_samples, o.near_distance, o.projection_iterations,
-                                o.stuck_distance, o.theta, 0.5 * self.density(volumes) ** (-1.0 / len(self.weights)),
-                                o.image_samples, o.stuck_steps, o.contact_horizon)
+        density = self.density(volumes)
+        return SamplingSettings.from_options(self.options, density=density,
+                                             axis=0.5 * density ** (-1.0 / len(self.weights)))
 
     def max_steps(self, volumes: ReachableVolumes) -> int:
         return int(np.ceil(self.options.step_allowance * len(volumes)))
