@@ -152,6 +152,11 @@ class Condition:
             return True
         return False
 
+    def note_stop(self, reason: str) -> None:
+        """Record what stopped the loop when the planner stopped it by a rule of its own derived from this condition
+        (TS-RRT's time share of the cap: ``"time"``); the first reason recorded is kept."""
+        self._stopped_by = self._stopped_by or reason
+
     @property
     def stopped_by(self) -> str | None:
         """What stopped the loop, once it stopped: ``"iterations"`` (the work budget), ``"time"`` (the wall-clock

@@ -31,14 +31,16 @@ def plan_once(planner: str, n_fail_max: int, seed: int, max_time: float) -> dict
     from pliant.api import PlanningProblem
 
     pipeline = api.Pipeline.from_file("cube-wall-trrt", overrides=[
-        f'planner.name="{planner}"', f"planner.n_fail_max={n_fail_max}", f"planner.max_time={max_time}",
+        f'planner.name="{planner}"', f"planner.n_fail_max={n_fail_max}", f"planning.max_time={max_time}",
         "planner.progress=false", f"seed={seed}"])
     context = pipeline.build()
-    problem = PlanningProblem.from_context(context)
-    result = context.extras["planner"].plan(problem, np.random.default_rng(seed))
+    # run `seed` of the pipeline: its [planning] budget and its planning stream (pliant.seeds), as `pliant run` plans
+    problem = PlanningProblem.from_context(context, budget=pipeline.budget)
+    result = context.extras["planner"].plan(problem, api.stream(seed, "planning"))
     stats = result.statistics
     record = {"planner": planner, "n_fail_max": n_fail_max, "seed": seed, "status": result.status.value,
-              "time": stats["time"], "iterations": stats["iterations"], "nodes": stats["nodes"], "cost": None}
+              "time": stats["time"], "iterations": stats["iterations"], "nodes": stats["nodes"], "cost": None,
+              "binding": stats.get("budget", {}).get("binding")}
     if result.path is not None:
         record["cost"] = result.cost / problem.scene.resolution
     return record

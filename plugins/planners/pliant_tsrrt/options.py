@@ -182,9 +182,13 @@ class TSRRTOptions(PushOptions):
     start_clearance: float = option(0.06, "random start: the least gap between objects, obstacles and the table's "
                                     "edge (m), so that the paddle fits between them", minimum=0.0)
     max_nodes: int = option(5000, "tree size limit (poster line 4)", minimum=2)
-    max_time: float | None = option(5.0, "time budget of the tree's growth (s); None for no limit", minimum=0.0)
-    max_iterations: int | None = option(None, "iteration budget; None for no limit", minimum=1)
-    replan_time: float = option(5.0, "time budget of each replanning (s)", minimum=0.0)
+    max_time: float | None = option(None, "deprecated: use planning.max_time (the request's wall-clock cap, s)",
+                                    minimum=0.0)
+    max_iterations: int | None = option(None, "deprecated: use planning.max_iterations (the request's work budget: "
+                                        "tree extensions)", minimum=1)
+    replan_time: float = option(5.0, "wall-clock cap of each replanning during execution (s)", minimum=0.0)
+    replan_iterations: int | None = option(None, "work budget of each replanning during execution (tree "
+                                           "extensions); default the request's planning.max_iterations", minimum=1)
     cost: CostOptions = field(default_factory=CostOptions, metadata={
         "doc": "the task cost: its terms' weights and the table setting"})
     planning: PlanningOptions = field(default_factory=PlanningOptions, metadata={

@@ -24,6 +24,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 from pliant.api import (
+    Budget,
     ConfigError,
     Path,
     Planner,
@@ -36,7 +37,6 @@ from pliant.api import (
     SimulationError,
     Status,
     Termination,
-    time_left,
     warm_up,
 )
 
@@ -66,12 +66,14 @@ class TSRRTPlanner(Planner):
     ``cost_history`` (``[[t, best cost], ...]``), ``interrupted`` (Ctrl-C: the best plan so far is returned).
     """
 
-    SPECS = PlannerSpecs(needs_simulator=True, needs_scene=True, returns_policy=True, anytime=True, spaces=("se2",))
+    SPECS = PlannerSpecs(needs_simulator=True, needs_scene=True, returns_policy=True, anytime=True, spaces=("se2",),
+                         work_unit="tree extensions")
+    DEFAULT_BUDGET = Budget(max_time=5.0)
     Options = TSRRTOptions
     name = "tsrrt"
     example_scene = "tsrrt-table"
     example_components = {"simulator": "pymunk"}
-    example_options = {"max_time": None, "max_iterations": 200}
+    example_budget = {"max_iterations": 200}
     # the pipelines' paddle: with pymunk's default force cap (2000 N) a 5 cm push throws the 2 kg block 34 cm, and
     # such chaotic pushes depend on the order of pymunk's contact pairs, which changes as bodies are placed
     example_component_options = {"simulator": {"max_force": 50.0, "table_friction": 0.5}}
@@ -115,9 +117,13 @@ class TSRRTPlanner(Planner):
         space.warm_up()
         if o.start == "random":
             s0 = random_arrangements(space, rng, 1, clearance=o.start_clearance)[0]
-        # max_time bounds the whole call: learning (models "auto" without a learner), the space's set-up and the
-        # kernels' warm-up come off the search's budget (tree, improvement phase, shortcut: pliant_tsrrt.search.grow)
-        termination = termination or Termination(max_time=time_left(o.max_time, t0), max_iterations=o.max_iterations)
+        # the request's budget bounds the whole call: learning (models "auto" without a learner), the space's set-up
+        # and the kernels' warm-up come off its max_time cap; max_iterations counts the tree's extensions, and the
+        # improvement phase and the shortcut have their own work bounds (options), their time shares of the cap only
+        # guard it (pliant_tsrrt.search.grow; docs/determinism.md)
+        termination = self.stop_condition(problem, termination, t0)
+        if o.replan_iterations is None:         # replanning during execution gets the request's work budget
+            options["replan_iterations"] = getattr(termination, "max_iterations", None)
         found = grow(space, s0, rng, o, termination)
         stats = dict(found.statistics, learn_time=learn_time,
                      start_cost=float(space.cost.cost(s0[None])[0]), total_time=time.perf_counter() - t0)
@@ -422,7 +428,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                     break
                 reason = "blocked"
                 found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
-                             Termination(max_time=o.replan_time), seed_plan=actions[j + 1:], goal=goal,
+                             Termination(max_time=o.replan_time, max_iterations=o.replan_iterations),
+                             seed_plan=actions[j + 1:], goal=goal,
                              enough=enough)
                 replans.append({"after_action": len(records), "reason": reason,
                                 "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
@@ -486,7 +493,8 @@ def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, acti
                 continue
         cost_now = float(space.cost.cost(observed[None])[0])
         found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
-                     Termination(max_time=o.replan_time), seed_plan=actions[j:], goal=goal,
+                     Termination(max_time=o.replan_time, max_iterations=o.replan_iterations), seed_plan=actions[j:],
+                     goal=goal,
                      enough=enough)
         replans.append({"after_action": len(records), "reason": reason, "cost_before": cost_now,
                         "planned_cost": found.cost, "actions": len(found.actions)})

@@ -90,7 +90,7 @@ def centre_offset(poses: np.ndarray, fp, table: tuple[float, float, float, float
 
 def poster(run: ReproductionRun) -> Outcome:
     """Run the poster's demo: learn the push models, plan from random starts, execute with noise and replanning."""
-    from pliant.api import Termination
+    from pliant.api import Termination, stream
 
     from pliant_tsrrt import domain
     from pliant_tsrrt.figures import draw_models, draw_plan
@@ -115,7 +115,9 @@ def poster(run: ReproductionRun) -> Outcome:
     run.echo("LEARN_MODEL on the three classes, with noise")
     scene, sim = world()
     t0 = time.perf_counter()
-    models, report = learn_models(arena(sim, scene, options), options.learning, np.random.default_rng(0),
+    # one run seeded 0 learns the models; start s draws its arrangement and plan from run s's planning stream, its
+    # reference optimum from task stream "reference" and execution e from execution stream e (pliant.seeds)
+    models, report = learn_models(arena(sim, scene, options), options.learning, stream(0, "learning"),
                                   holdout=5)
     learn_seconds = time.perf_counter() - t0
     names = [o.name for o in scene.objects if o.movable]
@@ -125,12 +127,12 @@ def poster(run: ReproductionRun) -> Outcome:
 
     plans = []
     for seed in range(settings["starts"]):
-        rng = np.random.default_rng(1000 + seed)
+        rng = stream(seed, "planning")
         s0 = random_arrangements(space, rng, 1, clearance=options.start_clearance)[0]
         found = grow(space, s0, rng, options, Termination(max_iterations=ITERATIONS))
-        _, from_plan = optimise(space, np.random.default_rng(seed), rounds=settings["rounds"],
+        _, from_plan = optimise(space, stream(seed, "task", "reference"), rounds=settings["rounds"],
                                 starts=found.states[-1][None])
-        _, from_random = optimise(space, np.random.default_rng(seed), rounds=settings["rounds"])
+        _, from_random = optimise(space, stream(seed, "task", "reference"), rounds=settings["rounds"])
         plan = PushPlan(names, s0, found.actions, found.states, found.cost, asdict(options), models)
         record = {"seed": seed, "start_cost": float(space.cost.cost(s0[None])[0]), "cost": found.cost,
                   "reference": min(from_plan, from_random), "pushes": len(found.actions),
@@ -142,7 +144,7 @@ def poster(run: ReproductionRun) -> Outcome:
                   "start_centre_offset": centre_offset(s0, space.fp, table), "executions": []}
         for e in range(settings["executions"]):
             _, noisy = world()
-            done = execute_plan(plan, noisy, scene, np.random.default_rng(50_000 + 100 * seed + e),
+            done = execute_plan(plan, noisy, scene, stream(seed, "execution", e),
                                 action_limit=ACTION_LIMIT)
             record["executions"].append({"final_cost": done.final_cost, "collided": bool(done.collided),
                                          "replans": sum(not a.get("repair") for a in done.adaptations),

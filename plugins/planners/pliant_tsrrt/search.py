@@ -257,15 +257,20 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
         n += 1
     termination = termination or Termination()
     # a time budget covers the tree (1 - refine_share of it), the improvement phase (until 85 %) and the shortcut
-    # (pair drops until 90 %; the rest is the final descent and single drops until none is left)
+    # (pair drops until 90 %; the rest is the final descent and single drops until none is left).  With a work
+    # budget (max_iterations: tree extensions) the tree runs to it, the improvement phase and the shortcut to their
+    # own work bounds (refine_rounds, refine_passes..., the shortcut's trials), and the time shares only guard the
+    # cap: the plan is then the same on any machine while the cap does not bind (docs/determinism.md)
     budget = getattr(termination, "max_time", None)
     share = imp.refine_share if imp.refine else 0.0
-    tree_end = None if budget is None else t0 + (1.0 - share) * budget
+    work = getattr(termination, "max_iterations", None) is not None
+    tree_end = None if budget is None or work else t0 + (1.0 - share) * budget
     deadline = None if budget is None else t0 + 0.85 * budget
     iteration = 0
     with termination.watch():
         while n < settings.max_nodes and not termination.should_stop(iteration, costs[best], solved=True):
             if tree_end is not None and time.perf_counter() >= tree_end:
+                termination.note_stop("time")             # the tree's time share: the plan depends on the clock
                 break
             iteration += 1
             gd_node = -1
