@@ -56,7 +56,7 @@ demo: $(STAMP) $(ROS_STAMP)
 
 # A policy executed on a robot: iiwa-policy through the iiwa-ros driver on an iiwa peer (a ROS 1
 # node moving the arm in pybullet), with a ROS master on loopback; report in out/iiwa-policy-on-iiwa-ros/.
-# Baxter: .venv/bin/pliant robot ros-demo baxter-policy --set planner.max_time=180 (it plans for minutes).
+# Baxter: .venv/bin/pliant robot ros-demo baxter-policy (20 belief iterations: it plans for minutes).
 # It plans 20 belief iterations (max_time 1200 s is only a cap), so the plan is the same under any load (planning
 # took 480-719 s on two cores at load 10-22; the whole run 949 s and exit 0 at load 14-22): docs/plugins/ros1.md.
 robot-demo: $(STAMP) $(ROS_STAMP)

@@ -3,7 +3,7 @@
 ::
 
     python -m pliant_ros1.demo iiwa-policy            (make robot-demo)
-    python -m pliant_ros1.demo baxter-policy --set planner.max_time=180
+    python -m pliant_ros1.demo baxter-policy --set planning.max_iterations=40
     python -m pliant_ros1.demo pr2-policy --seed 1
 
 A ROS master starts on a free loopback port; the pipeline runs with ``execution.world`` set to the robot's driver,
@@ -17,7 +17,7 @@ peer received is in ``commands.jsonl`` there, checked against the limits file at
 
 The iiwa and PR2 demos plan to a budget of work, not of wall time (:data:`BUDGETS`: belief-planner iterations, with
 ``max_time`` only a safety cap), so that whether they plan, and what, is the same on a quiet and on a loaded
-machine (docs/plugins/ros1.md has the measurements); ``--set planner.max_iterations=N`` / ``planner.max_time=S``
+machine (docs/plugins/ros1.md has the measurements); ``--set planning.max_iterations=N`` / ``planning.max_time=S``
 change it.
 """
 
@@ -47,7 +47,7 @@ def budget_overrides(pipeline_name: str, overrides: list[str] | None = None) -> 
     budget = []
     if pipeline_name in BUDGETS:
         iterations, cap = BUDGETS[pipeline_name]
-        budget = [f"planner.max_iterations={iterations}", f"planner.max_time={cap}"]
+        budget = [f"planning.max_iterations={iterations}", f"planning.max_time={cap}"]
     return [*budget, *(overrides or [])]
 
 

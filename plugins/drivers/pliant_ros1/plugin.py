@@ -48,7 +48,7 @@ def _demo_arguments(parser) -> None:
     from pliant_ros1.demo import PIPELINES
 
     parser.add_argument("pipeline", choices=sorted(PIPELINES), help="a bundled robot pipeline")
-    add_common_arguments(parser, seed=0, overrides="a pipeline override, e.g. planner.max_time=180")
+    add_common_arguments(parser, seed=0, overrides="a pipeline override, e.g. planning.max_iterations=40")
 
 
 def _demo_command(args) -> int:
