@@ -236,3 +236,17 @@ def test_concurrent_writers_leave_one_whole_file(cache_dir):
     cache.forget()
     out = cache.cached_arrays("concurrent", "v1", "one key", lambda: pytest.fail("rebuilt"))
     assert np.array_equal(out["big"], np.arange(2_000_000, dtype=np.float64)) and out["tag"].tolist() == [7]
+
+
+@pytest.mark.parametrize("name", ["triple-wall", "se2-maze", "hollow-cube"])
+def test_the_validity_checkers_far_clearance_equals_a_fresh_build(cache_dir, scene_context, name):
+    from pliant.planning.validity import ValidityChecker
+
+    context = scene_context(name)
+    checker = ValidityChecker(context.scene, context.robot)
+    fresh = checker._far_clearance_build(checker._grids)
+    assert np.array_equal(checker._far_clearance(checker._grids), fresh)        # built
+    cache.forget()
+    again = ValidityChecker(context.scene, context.robot)
+    assert np.array_equal(again._far_clearance(again._grids), fresh)            # read
+    assert cache.counts["disk"] >= 1

@@ -32,8 +32,12 @@ from typing import Any
 
 import numpy as np
 
+from pliant.cache import cached_arrays
 from pliant.errors import PlanningError
 from pliant.geometry.voxelgrid import VoxelGrid
+
+#: version of the cached far-field clearance: change it whenever _far_clearance_build's output changes
+FAR_CLEARANCE_VERSION = "validity-far-clearance-1"
 
 #: relative slack (voxel units) under which a point on a voxel face counts as touching, not inside
 FACE_SLACK = 1e-7
@@ -334,7 +338,15 @@ class ValidityChecker:
     def _far_clearance(self, grids: np.ndarray) -> np.ndarray:
         """Per class and padded voxel, a lower bound (m) on the distance from the voxel's centre to the nearest cube
         the class may not enter: with ``e`` the Euclidean distance between the centres (moving axes only), the gap
-        to that cube is at least ``max(e / 2, e - sqrt(k) h / 2)`` (``k`` moving axes); flat ``(c, N)``."""
+        to that cube is at least ``max(e / 2, e - sqrt(k) h / 2)`` (``k`` moving axes); flat ``(c, N)``.  Kept in
+        the preprocessing cache (:mod:`pliant.cache`) under the forbidden grids, the resolution and the moving axes:
+        its distance transforms take seconds on a large grid."""
+        inputs = (grids, float(self.resolution), self._moving_axes)
+        return cached_arrays("validity-far-clearance", FAR_CLEARANCE_VERSION, inputs,
+                             lambda: {"far": self._far_clearance_build(grids)})["far"]
+
+    def _far_clearance_build(self, grids: np.ndarray) -> np.ndarray:
+        """:meth:`_far_clearance` without the cache."""
         from scipy.ndimage import distance_transform_edt
 
         h = self.resolution
@@ -369,7 +381,6 @@ class ValidityChecker:
         try:
             pts = np.asarray(self.robot.body_points(np.atleast_2d(self.scene.start)))[0]
         except Exception:       # a start outside the space: any configuration will do for an extent
-            # any configuration gives the body's extent (a geometric probe: no result depends on the draw)
             pts = np.asarray(self.robot.body_points(self.space.sample(np.random.default_rng(0), 1)))[0]
         return max(float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))), self.resolution)
 
