@@ -66,8 +66,11 @@ lint: $(STAMP) $(ROS_STAMP) $(CHROMIUM_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
 
+# The suite on TEST_WORKERS processes (pytest-xdist): tests that share a ROS master, a Ray cluster, a browser or a
+# module's fixtures stay on one worker (tests/conftest.py); docs/testing.md has the markers and the measured times.
+TEST_WORKERS ?= 2
 test: lint
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadgroup --no-loadscope-reorder
 
 bench: $(STAMP) $(ROS_STAMP) $(CHROMIUM_STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[bench]"   # the peers (OMPL) the benchmarks compare against

@@ -69,3 +69,50 @@ def frozen_heap():
     gc.freeze()
     yield
     gc.unfreeze()
+
+
+# --- the suite on several cores (``make test``: ``pytest -n 2 --dist loadgroup``; docs/testing.md) -------------------
+
+#: tests that must share one pytest-xdist worker, by path prefix -> group: the ROS 1 tests share the session's ROS
+#: master (one per worker otherwise) and their peers' real-time loops; the Ray tests start a two-node cluster of
+#: their own on this machine (two at once would take four processes' ports and CPUs); the viewer's browser test writes
+#: under out/viewer-test and runs a Chromium.  Everything else is safe in parallel: free loopback ports, a private
+#: virtual CAN channel per test, tmp_path directories, and an atomic, locked scene cache shared by the workers.
+XDIST_GROUPS = {
+    "tests/plugins/drivers/ros1/": "ros1",
+    "tests/framework/experiments/test_executor_ray.py": "ray",
+    "tests/plugins/reports/viewer/test_viewer_browser.py": "browser",
+}
+#: modules whose tests share a module-level cache (functools.cache) worth building once: kept on one worker
+XDIST_SHARED_MODULES = ("tests/e2e/test_robot_pipelines.py",)
+
+
+def _xdist_group(item) -> str | None:
+    """The group of a test under ``--dist loadgroup``: a serial group above, else its module when it shares
+    something across tests (a module-, class- or package-scoped fixture, or a module-level cache), else none (the
+    test goes to whichever worker is free)."""
+    path = item.nodeid.split("::")[0]
+    for prefix, group in XDIST_GROUPS.items():
+        if path.startswith(prefix):
+            return group
+    if path in XDIST_SHARED_MODULES:
+        return path
+    info = getattr(item, "_fixtureinfo", None)
+    scopes = {getattr(d, "scope", "function") for defs in (info.name2fixturedefs.values() if info else ())
+              for d in defs}
+    return path if scopes & {"module", "class", "package"} else None
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """Under pytest-xdist only: put each test in its group (:func:`_xdist_group`, unless it names one with
+    ``@pytest.mark.xdist_group``), and start the slow tests first so that no long test is left for the end while
+    the other worker idles (``--no-loadscope-reorder`` keeps this order).  A run without ``-n`` is untouched."""
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        return
+    for item in items:
+        if item.get_closest_marker("xdist_group") is None:
+            group = _xdist_group(item)
+            if group is not None:
+                item.add_marker(pytest.mark.xdist_group(group))
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
