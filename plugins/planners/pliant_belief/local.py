@@ -12,7 +12,7 @@ pipeline's simulator (the kinematic simulator of app. B in the thesis), cluster 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from pliant.api import PlanningProblem, angular_mask
@@ -38,6 +38,13 @@ class LocalPlannerSettings:
     settle: float
     min_progress: float
     reversibility: bool = True
+
+    @classmethod
+    def from_options(cls, options, *, particles: int, min_progress: float, reversibility: bool) -> LocalPlannerSettings:
+        """The settings of the planner's ``options``, every other field by its name, with the values the mode and the
+        scene decide (``particles``, ``min_progress``, ``reversibility``)."""
+        derived = {"particles": particles, "min_progress": min_progress, "reversibility": reversibility}
+        return cls(**derived, **{f.name: getattr(options, f.name) for f in fields(cls) if f.name not in derived})
 
 
 def action_duration(problem: PlanningProblem, start: np.ndarray, target: np.ndarray,

@@ -149,9 +149,8 @@ class BeliefPlanner(Planner):
         resolution = problem.scene.resolution if problem.scene is not None else o.max_step / 20
         self._min_progress = o.min_progress if o.min_progress is not None else resolution
         n = 1 if o.mode in ("contact", "simple") else o.particles
-        settings = LocalPlannerSettings(particles=n, attempts=o.attempts, speed=o.speed,
-                                        angular_speed=o.angular_speed, settle=o.settle,
-                                        min_progress=self._min_progress, reversibility=o.mode == "belief")
+        settings = LocalPlannerSettings.from_options(o, particles=n, min_progress=self._min_progress,
+                                                     reversibility=o.mode == "belief")
         cluster = self._clusterer(problem, rng) if o.mode != "simple" else None
         if o.mode == "simple":
             self._collision = self._collision_checker(problem)
