@@ -97,8 +97,7 @@ class PolicyOptions:
                                minimum=0.0)
     relocalize: bool = option(True, "when no outcome of the performed action matches, match the observation "
                                     "against every vertex of the policy (nearest to the goal first) before "
-                                    "inserting a new one; a match becomes a new outcome of the action "
-                                    "(an extension of thesis 5.3.5, see the module docstring)")
+                                    "inserting a new one (an extension of thesis 5.3.5)")
 
 
 @dataclass
