@@ -39,7 +39,7 @@ EXAMPLES = """examples:
   pliant plugins --options planner straight      options of one component (units, defaults)
   pliant scenes                                  list bundled scenes
   pliant run demo                                run the bundled demo pipeline
-  pliant run my.toml --set planner.max_time=5 --set simulator=pybullet
+  pliant run my.toml --set planning.max_iterations=500 --set simulator=pybullet
   pliant run demo --view                         the same, watched live in a 3-D page
   pliant experiment list                         thesis tables, figures and experiments: available or waiting
   pliant experiment figure-3.5 --quick           one of them, report in out/reproduce/figure-3.5/quick/
@@ -314,7 +314,7 @@ def _add_run(sub) -> None:
                        description="Run a pipeline file (or a bundled pipeline by name) and write its report.")
     p.add_argument("pipeline", help="pipeline TOML file or bundled pipeline name")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="override one value, e.g. planner.max_time=5, simulator=pybullet, scene.variant=soft")
+                   help="override one value, e.g. planning.max_iterations=500, simulator=pybullet, scene.variant=soft")
     p.add_argument("--output", help="report directory (default out/<pipeline name>)")
     live = p.add_argument_group("live 3-D view (a plugin's: pliant_viewer)")
     live.add_argument("--view", action="store_true",
