@@ -172,9 +172,8 @@ def baxter_policy(master, seeds: list[int], max_time: float, workdir: Path, peer
         settings = pipeline.execution
         world_options = pipeline.world_spec().options
         direct = Policy.from_dict(saved)
-        record = direct.execute(pipeline.execution_world(context), context.controller, np.random.default_rng(seed),
-                                context=context, **settings)
-        row["pybullet"] = {"outcome": record.outcome, "actions": len(record.actions),
+        record = _follow(direct, pipeline.execution_world(context), context, settings, seed)
+        row["pybullet"] = {"outcome": record.outcome, "actions": len(record.details.actions),
                            "seconds": float(record.times[-1])}
         if peer_noise is not None:
             world_options = {**world_options, "noise": peer_noise}
@@ -194,16 +193,26 @@ def baxter_policy(master, seeds: list[int], max_time: float, workdir: Path, peer
             policy = Policy.from_dict(saved)
             t = time.perf_counter()
             with driver:
-                record = policy.execute(driver, context.controller, np.random.default_rng(seed), context=context,
-                                        **settings)
+                record = _follow(policy, driver, context, settings, seed)
             wall = time.perf_counter() - t
         peer = read_record(commands)
-        row["driver"] = {"outcome": record.outcome, "actions": len(record.actions), "seconds": float(record.times[-1]),
+        row["driver"] = {"outcome": record.outcome, "actions": len(record.details.actions),
+                         "seconds": float(record.times[-1]),
                          "wall_s": wall, "violations": len(_violations(peer, driver.limits)),
                          "tracking": tracking(peer)}
         rows.append(row)
         print(f"seed {seed}: {row}", flush=True)
     return {"rows": rows}
+
+
+def _follow(policy, world, context, settings: dict, seed: int):
+    """Execute ``policy`` in ``world`` through the one execution loop, with the strategy its kind names."""
+    from pliant.execution.loop import follow
+    from pliant.execution.strategy import policy_strategy_factory
+
+    strategy = policy_strategy_factory(policy)(policy, context, settings)
+    return follow(world, context.controller, strategy, np.random.default_rng(seed), period=settings["period"],
+                  time_limit=settings["time_limit"])
 
 
 def _option_text(value) -> str:

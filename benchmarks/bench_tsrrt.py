@@ -37,13 +37,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import print_table, write_json
 from pliant.options import build_options
 from pliant.termination import Termination
+from pliant_tsrrt.execution import execute_plan
 from pliant_tsrrt.learning import learn_models
 from pliant_tsrrt.planner import (
     PushPlan,
     TSRRTOptions,
     arena,
     build_space,
-    execute_plan,
 )
 from pliant_tsrrt.pushing import PRIMITIVES
 from pliant_tsrrt.reference import optimise, random_arrangements
@@ -80,12 +80,12 @@ def adaptation_log(record) -> list[dict]:
     primitive and its error from the plan, mm and degrees), a repair or a replanning, the cost before and as
     planned, the plan's length and the pushes a repair added."""
     log = []
-    for a in record.adaptations:
+    for a in record.details.adaptations:
         entry = {"after": a["after_action"], "reason": a["reason"], "repair": bool(a.get("repair")),
                  "cost_before": round(a["cost_before"], 4), "planned_cost": round(a["planned_cost"], 4),
                  "actions": a["actions"], "added": a.get("repair_pushes")}
         i = a["after_action"] - 1
-        push = record.actions[i] if 0 <= i < len(record.actions) else {}
+        push = record.details.actions[i] if 0 <= i < len(record.details.actions) else {}
         if a["reason"] == "deviation" and "plan_error" in push:
             entry["push"] = f"{push['object']} {push['primitive']}"
             entry["error"] = [round(1000 * push["plan_error"], 1),
@@ -260,12 +260,13 @@ def main() -> None:
                 _, world = world_for("tsrrt-table", noise=True)
                 record = execute_plan(plan, world, scene, np.random.default_rng(50_000 + 100 * seed + e),
                                       action_limit=limit)
-                ex.append({"final_cost": record.final_cost, "ratio_reference": record.final_cost / ref_cost,
-                           "ratio_plan": record.final_cost / found.cost, "collided": record.collided,
-                           "replans": sum(not a.get("repair") for a in record.adaptations),
-                           "repairs": sum(bool(a.get("repair")) for a in record.adaptations),
-                           "pushes": len(record.actions), "action_limit": limit,
-                           "outcome": record.outcome, "adaptations": adaptation_log(record)})
+                done = record.details
+                ex.append({"final_cost": done.final_cost, "ratio_reference": done.final_cost / ref_cost,
+                           "ratio_plan": done.final_cost / found.cost, "collided": done.collided,
+                           "replans": sum(not a.get("repair") for a in done.adaptations),
+                           "repairs": sum(bool(a.get("repair")) for a in done.adaptations),
+                           "pushes": len(done.actions), "action_limit": limit,
+                           "outcome": record.outcome.value, "adaptations": adaptation_log(record)})
             runs.append({"seed": seed, "start_cost": float(space.cost.cost(s0[None])[0]), "cost": found.cost,
                          "reference_cost": ref_cost, "reference_random_starts_cost": ref_random_cost,
                          "ratio": ratio, "collision": collided, "redundant": redundant, "actions": len(found.actions),

@@ -39,7 +39,7 @@ import numpy as np
 
 from pliant.components import KINDS, Component, Context, Driver, Planner, PlanningProblem, check_planner
 from pliant.errors import ConfigError, PipelineError, PliantError
-from pliant.execution.loop import ExecutionRecord, StepListener, capture, execute
+from pliant.execution.loop import ExecutionRecord, StepListener, capture, follow, strategy_for
 from pliant.files import write_json, write_text
 from pliant.registry import Registry, default_registry
 from pliant.results import Outcome, PlanResult
@@ -161,10 +161,8 @@ class RunRecord:
             e = self.execution
             rows += [("execution", e.outcome), ("execution world", e.world),
                      ("execution time (s)", f"{e.times[-1] if len(e.times) else 0.0:.2f}")]
-            if self.result is not None and self.result.policy is not None:
-                rows.append(("actions executed", str(len(e.actions))))
-            else:
-                rows.append(("waypoints reached", str(e.waypoints_reached)))
+            if e.details is not None:
+                rows += e.details.summary()
             rows.append(("steps in contact", f"{int(e.contacts.sum())} of {max(len(e.contacts) - 1, 0)}"))
         for key, value in self.timings.items():
             rows.append((f"time {key} (s)", f"{value:.3f}"))
@@ -460,13 +458,9 @@ class Pipeline:
         with capture() as captured:
             try:
                 with world if isinstance(world, Driver) else nullcontext():
-                    if result.policy is not None:
-                        record.execution = result.policy.execute(world, context.controller, rng, context=context,
-                                                                 on_step=on_step, world_name=name, **settings)
-                    else:
-                        record.execution = execute(world, context.controller, result.path, rng,
-                                                   period=settings["period"], time_limit=settings["time_limit"],
-                                                   on_step=on_step, world_name=name)
+                    strategy = strategy_for(result, context, settings)
+                    record.execution = follow(world, context.controller, strategy, rng, period=settings["period"],
+                                              time_limit=settings["time_limit"], on_step=on_step, world_name=name)
             except KeyboardInterrupt:
                 record.execution = captured.partial("interrupted", "Ctrl-C", name, context.space.dim)
                 record.error = "Ctrl-C during the execution; execution.json holds the steps executed"

@@ -104,7 +104,8 @@ class Policy:
     """Base class of policies (e.g. the partial policies of thesis ch. 5).
 
     Subclasses set a unique ``kind`` and implement :meth:`to_dict` / :meth:`from_dict`; they are
-    found again by ``kind`` when a result is loaded.
+    found again by ``kind`` when a result is loaded.  A kind that can be executed names its execution strategy in
+    :attr:`follower`.
     """
 
     kind: ClassVar[str] = ""
@@ -112,6 +113,11 @@ class Policy:
     #: called once when a file names an unknown kind: imports the installed planners' modules, where policy kinds
     #: are defined (set by :mod:`pliant.registry` when it is imported; results stay data, importing no registry)
     kind_loader: ClassVar[Callable[[], None] | None] = None
+    #: how a policy of this kind is executed: ``"module:factory"``, a function ``factory(policy, context, settings)``
+    #: returning the :class:`~pliant.execution.strategy.ExecutionStrategy` the one execution loop follows
+    #: (:func:`pliant.execution.strategy.strategy_for`); empty: the kind cannot be executed.  A result stays data:
+    #: it names its strategy, and nothing here imports or runs it.
+    follower: ClassVar[str] = ""
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
@@ -120,17 +126,6 @@ class Policy:
 
     def to_dict(self) -> dict:
         raise NotImplementedError
-
-    def execute(self, world, controller, rng, *, context=None, period: float = 0.1, time_limit: float = 60.0,
-                action_limit: int = 100, on_step=None, world_name: str = ""):
-        """Run the policy in ``world`` (a :class:`~pliant.execution.loop.ExecutionWorld`: a simulator or a driver) with
-        ``controller`` (control ``period`` and ``time_limit`` in s, at most ``action_limit`` actions); ``context``
-        is the pipeline's (scene, robot...); ``on_step`` receives every control step.  Returns a
-        :class:`~pliant.execution.loop.ExecutionRecord`.
-
-        Policy kinds that can be executed override this.
-        """
-        raise ConfigError(f"policies of kind '{self.kind}' cannot be executed", field="policy.kind", value=self.kind)
 
     @classmethod
     def from_dict(cls, data: dict) -> Policy:

@@ -89,7 +89,7 @@ def test_push_slide_stuck_in_the_kinematic_simulator_exits_3(tmp_path, capsys):
     plan = PlanResult.load(out / "result.json")
     np.testing.assert_allclose(plan.path.configurations, [[0.3, 0.5, 0.0], [1.0, 0.5, 0.0], [0.8, 0.5, 0.0]])
     execution = json.loads((out / "execution.json").read_text())
-    assert execution["outcome"] == "stuck" and execution["waypoints_reached"] == 0
+    assert execution["outcome"] == "stuck" and execution["details"]["waypoints_reached"] == 0
     assert _run_json(out)["outcome"] == "stuck"
 
 

@@ -1,11 +1,12 @@
 """Executing a partial policy in any execution world with a controller, adapting it online (thesis 5.3.5).
 
-:func:`execute_policy` resets the world at the policy's start, then repeats: take the policy's action
-(a target configuration), drive toward it with the controller (:func:`pliant.execution.loop.drive`: until the
-controller reports it reached, gives up because the robot is stuck, or the action's time runs out), and
-query the policy (thesis Algorithm 4) with the configuration reached and the action performed.  The query
-matches the observation to the action's outcomes, adapts the probabilities (eq. 5.2-5.3) or inserts an
-unforeseen outcome, and returns the next action.  Execution stops on
+The policy's side of the core's one execution loop (:func:`pliant.api.follow`): :class:`PolicyStrategy` says what
+to do next from what was observed, and the loop does the rest (stepping the world under the controller, recording,
+the time limit, Ctrl-C).  The loop places the robot at the policy's start, then repeats: take the policy's action (a
+target configuration), drive toward it with the controller (until the controller reports it reached, gives up
+because the robot is stuck, or the action's time runs out), and query the policy (thesis Algorithm 4) with the
+configuration reached and the action performed.  The query matches the observation to the action's outcomes, adapts
+the probabilities (eq. 5.2-5.3) or inserts an unforeseen outcome, and returns the next action.  Execution stops on
 
 - ``success``: the configuration reached is within the goal tolerance of the policy's goal (without a goal
   in the policy: the query reports a goal vertex);
@@ -14,26 +15,152 @@ unforeseen outcome, and returns the next action.  Execution stops on
   ``final_approach``; not in the thesis) does not bring it within;
 - ``timeout``: the total time limit; ``action limit``: the number of actions.
 
-Everything is recorded in the core's :class:`~pliant.execution.loop.ExecutionRecord`: the trajectory with contacts and
-the movable objects' poses, and, in its ``actions``, one entry per action performed: ``index``, ``from_node``,
+The record is the core's :class:`~pliant.api.ExecutionRecord` (the trajectory with contacts and the movable objects'
+poses) with :class:`PolicyDetails`: in ``actions`` one entry per action performed: ``index``, ``from_node``,
 ``action_id``, ``kind`` (forward / reverse / goal), ``target`` ``(d,)``, ``start_time`` / ``end_time`` (s), ``drive``
 (reached / stuck / timeout), ``reached`` (the configuration reached), ``node`` (matched or inserted),
 ``inserted``, ``relocalized``, ``matching``, ``status`` (continue / goal / failure) and ``probability``
 (``P(node -> goal)`` after the update); in ``adaptations`` the probability changes of every query
 ``{"action_index", "action", "outcome", "before", "after"}`` (eq. 5.2-5.3); ``final_node`` the last vertex reached.
-The world is any :class:`~pliant.execution.loop.ExecutionWorld`: a simulator, or a robot driver.
+The world is any :class:`~pliant.api.ExecutionWorld`: a simulator, or a robot driver.
+
+This module imports :mod:`pliant_belief.policy`, never the other way round: the policy is data and queries, and a
+pipeline finds this strategy through :attr:`PartialPolicy.follower` (:func:`follow_policy`).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
 
 import numpy as np
-from pliant.api import ConfigError, Controller, DimensionError, ExecutionRecord, ExecutionWorld, Recorder, StepListener
-from pliant.api import drive_to as drive
+from pliant.api import (
+    ConfigError,
+    Controller,
+    DimensionError,
+    Drive,
+    ExecutionDetails,
+    ExecutionOutcome,
+    ExecutionRecord,
+    ExecutionWorld,
+    Place,
+    ScriptedStrategy,
+    StepListener,
+    follow,
+)
 
-if TYPE_CHECKING:
-    from pliant_belief.policy import Matcher, PartialPolicy
+from pliant_belief.policy import Matcher, PartialPolicy
+
+
+@dataclass
+class PolicyDetails(ExecutionDetails):
+    """A partial policy's execution: the ``actions`` performed, the probability ``adaptations`` of its queries and
+    the ``final_node`` reached (see the module's description for their entries)."""
+
+    kind = "partial-policy"
+    actions: list[dict] = field(default_factory=list)
+    adaptations: list[dict] = field(default_factory=list)
+    final_node: int | None = None
+
+    def summary(self) -> list[tuple[str, str]]:
+        return [("actions executed", str(len(self.actions)))]
+
+
+class PolicyStrategy(ScriptedStrategy):
+    """Follow ``policy``, querying and adapting it (in place) after every action; see :func:`execute_policy` for
+    the arguments."""
+
+    def __init__(self, policy: PartialPolicy, *, matcher: Matcher | None = None, action_limit: int = 100,
+                 action_time_limit: float = 30.0, start: np.ndarray | None = None,
+                 final_approach: bool = True) -> None:
+        super().__init__()
+        if not action_time_limit > 0:
+            raise DimensionError("action_time_limit must be positive seconds", field="action_time_limit",
+                                 value=action_time_limit)
+        if isinstance(action_limit, bool) or not isinstance(action_limit, (int, np.integer)) or action_limit < 1:
+            raise ConfigError("action_limit must be a positive integer", field="action_limit", value=action_limit)
+        matcher = matcher if matcher is not None else policy.matcher
+        if matcher is None:
+            raise ConfigError("execution needs a matcher(particles, q) -> bool", field="matcher", value=None)
+        self.policy, self.matcher = policy, matcher
+        self.action_limit, self.action_time_limit, self.final_approach = action_limit, action_time_limit, \
+            final_approach
+        space = policy.space
+        q0 = policy.nodes[policy.start_node].expected if start is None else np.asarray(start, dtype=np.float64)
+        if q0.shape != (space.dim,) or not np.all(np.isfinite(q0)):
+            raise DimensionError(f"start must be a finite configuration of shape ({space.dim},)", field="start",
+                                 value=np.asarray(q0).tolist())
+        self.start = q0
+        self.record = PolicyDetails(final_node=policy.start_node)
+
+    def details(self) -> PolicyDetails:
+        return self.record
+
+    def script(self, rng):
+        policy, events, actions = self.policy, self.events, self.record.actions
+        space = policy.space
+
+        def in_goal(q: np.ndarray) -> bool:
+            return policy.goal is not None and float(space.distance(q, policy.goal)) <= policy.goal_tolerance
+
+        seen = yield Place(self.start)
+        q, t, time_limit = seen.configuration, seen.time, seen.time_limit
+        node = policy.start_node
+        action = policy.first_action()
+        if in_goal(q):
+            return ExecutionOutcome.SUCCESS
+        if action is None:
+            events.append("the policy has no action from the start")
+            return ExecutionOutcome.SUCCESS if policy.goal is None and policy.is_goal(node) else \
+                ExecutionOutcome.FAILURE
+        while True:
+            if len(actions) >= self.action_limit:
+                events.append(f"t={t:.2f}s: {self.action_limit} actions performed")
+                return ExecutionOutcome.ACTION_LIMIT
+            if t >= time_limit - 1e-12:
+                events.append(f"t={t:.2f}s: time limit")
+                return ExecutionOutcome.TIMEOUT
+            start_time = t
+            seen = yield Drive(action.target, self.action_time_limit)
+            q, t, driven = seen.configuration, seen.time, seen.result
+            step = policy.query_step(q, action.id, self.matcher)
+            index = len(actions)
+            actions.append({"index": index, "from_node": node, "action_id": action.id, "kind": action.kind,
+                            "target": action.target.copy(), "start_time": start_time, "end_time": t, "drive": driven,
+                            "reached": q.copy(), "node": step.node, "inserted": step.inserted,
+                            "relocalized": step.relocalized,
+                            "matching": list(step.matching), "status": step.status, "probability": step.probability})
+            self.record.adaptations += [{"action_index": index, **change} for change in step.changes]
+            if step.inserted:
+                events.append(f"t={t:.2f}s: unforeseen outcome of action {action.id}, inserted node {step.node}")
+            elif step.relocalized:
+                events.append(f"t={t:.2f}s: unforeseen outcome of action {action.id} matches node {step.node}")
+            node = self.record.final_node = step.node
+            if in_goal(q):
+                return ExecutionOutcome.SUCCESS
+            if step.status == "failure":
+                events.append(f"t={t:.2f}s: P(node {node} -> goal) = {step.probability:.3g} < P_goal")
+                return ExecutionOutcome.FAILURE
+            if step.status == "goal":
+                if policy.goal is None:
+                    return ExecutionOutcome.SUCCESS
+                outcome = ExecutionOutcome.FAILURE
+                if self.final_approach and t < time_limit - 1e-12 and len(actions) < self.action_limit:
+                    # the goal vertex's belief is only partly inside the goal: servo to the goal itself, once
+                    start_time = t
+                    seen = yield Drive(policy.goal, self.action_time_limit)
+                    q, t, driven = seen.configuration, seen.time, seen.result
+                    actions.append({"index": len(actions), "from_node": node, "action_id": -1, "kind": "goal",
+                                    "target": policy.goal.copy(), "start_time": start_time, "end_time": t,
+                                    "drive": driven, "reached": q.copy(), "node": node, "inserted": False,
+                                    "relocalized": False, "matching": [], "status": "goal",
+                                    "probability": step.probability})
+                    events.append(f"t={t:.2f}s: goal node {node} reached outside the goal tolerance; final approach "
+                                  f"to the goal: {driven}")
+                    outcome = ExecutionOutcome.SUCCESS if in_goal(q) else ExecutionOutcome.FAILURE
+                if outcome is ExecutionOutcome.FAILURE:
+                    events.append(f"t={t:.2f}s: stopped at goal node {node} outside the goal tolerance")
+                return outcome
+            action = step.action
 
 
 def execute_policy(policy: PartialPolicy, world: ExecutionWorld, controller: Controller, rng: np.random.Generator,
@@ -41,7 +168,8 @@ def execute_policy(policy: PartialPolicy, world: ExecutionWorld, controller: Con
                    action_limit: int = 100, action_time_limit: float = 30.0, start: np.ndarray | None = None,
                    final_approach: bool = True, on_step: StepListener | None = None,
                    world_name: str = "") -> ExecutionRecord:
-    """Execute ``policy`` in ``world`` with ``controller``, querying and adapting it after every action.
+    """Execute ``policy`` in ``world`` with ``controller``, querying and adapting it after every action: the core's
+    loop (:func:`pliant.api.follow`) with a :class:`PolicyStrategy`.
 
     ``matcher(particles, q) -> bool`` (else ``policy.matcher``) matches observations to nodes (thesis
     Algorithm 4).  ``period``: control period (s); ``time_limit``: total budget (s); ``action_limit``: most
@@ -55,89 +183,19 @@ def execute_policy(policy: PartialPolicy, world: ExecutionWorld, controller: Con
     if not (period > 0 and time_limit > 0 and action_time_limit > 0):
         raise DimensionError("period, time_limit and action_time_limit must be positive seconds",
                              field="period/time_limit/action_time_limit", value=(period, time_limit, action_time_limit))
-    if isinstance(action_limit, bool) or not isinstance(action_limit, (int, np.integer)) or action_limit < 1:
-        raise ConfigError("action_limit must be a positive integer", field="action_limit", value=action_limit)
-    matcher = matcher if matcher is not None else policy.matcher
-    if matcher is None:
-        raise ConfigError("execution needs a matcher(particles, q) -> bool", field="matcher", value=None)
-    space = policy.space
-    q0 = policy.nodes[policy.start_node].expected if start is None else np.asarray(start, dtype=np.float64)
-    if q0.shape != (space.dim,) or not np.all(np.isfinite(q0)):
-        raise DimensionError(f"start must be a finite configuration of shape ({space.dim},)", field="start",
-                             value=np.asarray(q0).tolist())
-    world.reset(q0)
-    q = world.configuration()
-    recorder = Recorder(world, on_step)
-    events: list[str] = []
-    actions: list[dict] = []
-    adaptations: list[dict] = []
-    t = 0.0
-    node = policy.start_node
+    strategy = PolicyStrategy(policy, matcher=matcher, action_limit=action_limit,
+                              action_time_limit=action_time_limit, start=start, final_approach=final_approach)
+    return follow(world, controller, strategy, rng, period=period, time_limit=time_limit, on_step=on_step,
+                  world_name=world_name)
 
-    def perform(target: np.ndarray, t: float) -> tuple[np.ndarray, float, str]:
-        """Drive toward ``target`` from time ``t``, recording the steps; (configuration reached, time, outcome)."""
-        driven = drive(world, controller, target, rng, recorder, period=period,
-                       time_limit=min(action_time_limit, time_limit - t))
-        return world.configuration(), recorder.time, driven
 
-    def in_goal(q: np.ndarray) -> bool:
-        return policy.goal is not None and float(space.distance(q, policy.goal)) <= policy.goal_tolerance
-
-    action = policy.first_action()
-    if in_goal(q):
-        outcome = "success"
-    elif action is None:
-        outcome = "success" if policy.goal is None and policy.is_goal(node) else "failure"
-        events.append("the policy has no action from the start")
-    else:
-        outcome = ""
-    while not outcome:
-        if len(actions) >= action_limit:
-            outcome = "action limit"
-            events.append(f"t={t:.2f}s: {action_limit} actions performed")
-            break
-        if t >= time_limit - 1e-12:
-            outcome = "timeout"
-            events.append(f"t={t:.2f}s: time limit")
-            break
-        start_time = t
-        q, t, driven = perform(action.target, t)
-        step = policy.query_step(q, action.id, matcher)
-        index = len(actions)
-        actions.append({"index": index, "from_node": node, "action_id": action.id, "kind": action.kind,
-                        "target": action.target.copy(), "start_time": start_time, "end_time": t, "drive": driven,
-                        "reached": q.copy(), "node": step.node, "inserted": step.inserted,
-                        "relocalized": step.relocalized,
-                        "matching": list(step.matching), "status": step.status, "probability": step.probability})
-        adaptations += [{"action_index": index, **change} for change in step.changes]
-        if step.inserted:
-            events.append(f"t={t:.2f}s: unforeseen outcome of action {action.id}, inserted node {step.node}")
-        elif step.relocalized:
-            events.append(f"t={t:.2f}s: unforeseen outcome of action {action.id} matches node {step.node}")
-        node = step.node
-        if in_goal(q):
-            outcome = "success"
-        elif step.status == "failure":
-            outcome = "failure"
-            events.append(f"t={t:.2f}s: P(node {node} -> goal) = {step.probability:.3g} < P_goal")
-        elif step.status == "goal":
-            outcome = "success" if policy.goal is None else "failure"
-            if outcome == "failure" and final_approach and t < time_limit - 1e-12 and len(actions) < action_limit:
-                # the goal vertex's belief is only partly inside the goal: servo to the goal itself, once
-                start_time = t
-                q, t, driven = perform(policy.goal, t)
-                actions.append({"index": len(actions), "from_node": node, "action_id": -1, "kind": "goal",
-                                "target": policy.goal.copy(), "start_time": start_time, "end_time": t,
-                                "drive": driven, "reached": q.copy(), "node": node, "inserted": False,
-                                "relocalized": False, "matching": [], "status": "goal",
-                                "probability": step.probability})
-                events.append(f"t={t:.2f}s: goal node {node} reached outside the goal tolerance; final approach "
-                              f"to the goal: {driven}")
-                outcome = "success" if in_goal(q) else "failure"
-            if outcome == "failure":
-                events.append(f"t={t:.2f}s: stopped at goal node {node} outside the goal tolerance")
-        else:
-            action = step.action
-    recorder.settle(world)
-    return recorder.record(outcome, events=events, actions=actions, adaptations=adaptations, final_node=node,
-                           world=world_name)
+def follow_policy(policy: PartialPolicy, context=None, settings: dict | None = None) -> PolicyStrategy:
+    """The strategy a pipeline follows for ``policy`` (:attr:`PartialPolicy.follower`): without a matcher, the
+    clustering match is built from the pipeline's ``context``; ``settings`` are the pipeline's ``[execution]``
+    (``action_limit``)."""
+    if policy.matcher is None:
+        if context is None:
+            raise ConfigError("executing a policy needs a matcher or the pipeline's context", field="context",
+                              value=None)
+        policy.use_clustering(context)
+    return PolicyStrategy(policy, action_limit=int((settings or {}).get("action_limit", 100)))

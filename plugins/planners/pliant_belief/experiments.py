@@ -191,6 +191,7 @@ def _execute(variant: Variant, seed: int, base: list[str], context, planned, exe
     the run's execution stream ``k``: ``pliant.seeds.stream(seed, "execution", k)``); the runs by world."""
     from pliant import api
 
+    from pliant_belief.execute import follow_policy
     from pliant_belief.policy import PartialPolicy
 
     saved = planned.to_dict()
@@ -209,10 +210,10 @@ def _execute(variant: Variant, seed: int, base: list[str], context, planned, exe
         for k in range(executions):
             policy = PartialPolicy.from_dict(saved)      # every execution starts from the planned policy
             policy.matcher = planned.matcher
-            execution = policy.execute(simulator, context.controller, api.stream(seed, "execution", k),
-                                       context=context, time_limit=exec_time,
-                                       action_limit=int(world_pipeline.execution["action_limit"]))
-            runs.append({"outcome": execution.outcome, "actions": len(execution.actions),
+            strategy = follow_policy(policy, context, {"action_limit": world_pipeline.execution["action_limit"]})
+            execution = api.follow(simulator, context.controller, strategy,
+                                   api.stream(seed, "execution", k), time_limit=exec_time)
+            runs.append({"outcome": execution.outcome.value, "actions": len(execution.details.actions),
                          "seconds": float(execution.times[-1])})
         out[world or "default"] = runs
     return out

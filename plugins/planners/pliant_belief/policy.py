@@ -78,7 +78,6 @@ import numpy as np
 from pliant.api import ConfigError, DimensionError, PlanningError, Policy, Space, build_options, option, space_from_dict
 
 from pliant_belief.belief import BeliefNode, BeliefTree, effective_probability
-from pliant_belief.execute import execute_policy
 
 #: ``matcher(particles (k, d), q (d,)) -> bool``: whether ``q`` clusters with the belief into one cluster.
 Matcher = Callable[[np.ndarray, np.ndarray], bool]
@@ -202,6 +201,8 @@ class PartialPolicy(Policy):
     """
 
     kind: ClassVar[str] = "partial-policy"
+    #: executed by the core's one execution loop with :class:`pliant_belief.execute.PolicyStrategy`
+    follower: ClassVar[str] = "pliant_belief.execute:follow_policy"
 
     def __init__(self, space: Space, nodes: list[BeliefNode], actions: dict[int, PolicyAction],
                  reverse_of: dict[int, int], solutions: list[list[int]], options: PolicyOptions | None = None, *,
@@ -615,18 +616,6 @@ class PartialPolicy(Policy):
                            distance_threshold=distance_threshold, rng=rng)
 
         self.matcher = matcher
-
-    def execute(self, world, controller, rng, *, context=None, period: float = 0.1, time_limit: float = 60.0,
-                action_limit: int = 100, on_step=None, world_name: str = ""):
-        """Execute in ``world`` (a simulator or a driver) with :func:`pliant_belief.execute.execute_policy` (thesis
-        5.3.5); without a :attr:`matcher`, the clustering match is built from ``context``."""
-        if self.matcher is None:
-            if context is None:
-                raise ConfigError("executing a policy needs a matcher or the pipeline's context", field="context",
-                                  value=None)
-            self.use_clustering(context)
-        return execute_policy(self, world, controller, rng, period=period, time_limit=time_limit,
-                              action_limit=int(action_limit), on_step=on_step, world_name=world_name)
 
 
 def attempts_needed(p: float, retry: float, p_goal: float, cap: int) -> int:

@@ -126,10 +126,9 @@ def draw_run(run, directory: Path) -> list[Path] | None:
     scene = run.context.scene
     plan = run.result.policy if run.result is not None and isinstance(run.result.policy, PushPlan) else None
     if plan is not None:
-        executed = getattr(run.execution, "final_state", None) if run.execution is not None else None
-        files.append(draw_plan(directory / "tsrrt.png", scene, plan, executed,
-                               getattr(run.execution, "final_cost", None),
-                               run.result.statistics.get("start_cost")))
+        done = run.execution.details if run.execution is not None else None     # PushPlanDetails (or a partial's)
+        files.append(draw_plan(directory / "tsrrt.png", scene, plan, getattr(done, "final_state", None),
+                               getattr(done, "final_cost", None), run.result.statistics.get("start_cost")))
     learner = run.context.extras.get("learner")
     models = getattr(learner, "models", None)
     if not isinstance(models, PushModels) and plan is not None:

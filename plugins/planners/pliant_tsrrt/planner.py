@@ -34,7 +34,6 @@ from pliant.api import (
     PlanResult,
     PliantError,
     Policy,
-    SimulationError,
     Status,
     Termination,
     warm_up,
@@ -44,12 +43,8 @@ from pliant_tsrrt import domain
 from pliant_tsrrt.learning import LearningArena, learn_models
 from pliant_tsrrt.models import PushModels, footprints_from_scene, object_class, scene_pose, wrap
 from pliant_tsrrt.options import PushOptions, TSRRTOptions
-from pliant_tsrrt.pushing import PRIMITIVES, apply_action, paddle_sweeps
+from pliant_tsrrt.pushing import PRIMITIVES, paddle_sweeps
 from pliant_tsrrt.reference import random_arrangements
-from pliant_tsrrt.repair import pose_errors
-from pliant_tsrrt.repair import restore as repair_restore
-from pliant_tsrrt.repair import retarget as repair_retarget
-from pliant_tsrrt.repair import toward_goal as repair_toward_goal
 from pliant_tsrrt.search import ObjectSpace, grow
 
 
@@ -228,6 +223,8 @@ class PushPlan(Policy):
     execution can replan after a round trip through JSON."""
 
     kind = "tsrrt-push-plan"
+    #: executed by the core's one execution loop with :class:`pliant_tsrrt.execution.PushPlanStrategy`
+    follower = "pliant_tsrrt.execution:follow_plan"
 
     def __init__(self, names, start, actions, states, cost, options, models: PushModels) -> None:
         self.names = list(names)
@@ -257,20 +254,6 @@ class PushPlan(Policy):
             raise ConfigError("a TS-RRT plan needs names, start, actions, states, cost, options and models",
                               field=f"policy.{exc.args[0]}") from None
 
-    def execute(self, world, controller, rng, *, context=None, period: float = 0.1, time_limit: float = 60.0,
-                action_limit: int = 100, on_step=None, world_name: str = ""):
-        """Run the plan in ``world`` (a simulator that can place objects) with monitoring and replanning; the
-        ``controller`` is not used (pushes are the primitives' velocity commands).  Returns an
-        :class:`~pliant.execution.loop.ExecutionRecord` whose ``actions`` hold, per push, the object, the primitive, the
-        predicted and observed poses, the error (m, rad) and whether it triggered a replan or a repair;
-        ``adaptations`` list the replans and repairs (``repair: True``); ``outcome`` is ``success`` (plan completed,
-        final arrangement collision-free), ``failure`` (it is not) or ``action limit``."""
-        scene = context.scene if context is not None else None
-        if scene is None:
-            raise PlanningError("executing a TS-RRT plan needs the pipeline's context (its scene)", field="context")
-        return execute_plan(self, world, scene, rng, action_limit=action_limit, on_step=on_step,
-                            world_name=world_name)
-
 
 def options_from_dict(values: dict) -> TSRRTOptions:
     """A plan's options (as :meth:`PushPlan.to_dict` stores them; a plan saved before the options were grouped
@@ -285,239 +268,4 @@ def options_from_dict(values: dict) -> TSRRTOptions:
         return build_options(TSRRTOptions, {k: v for k, v in values.items() if k in known}, source="<plan>")
 
 
-#: most repairs of one object after its last push of the plan (``repair_placed``) in one execution: a noisy turn
-#: may need a second one, but not a lottery of them
-PLACE_TRIES = 3
-
-#: finishing repairs or replannings (in one execution) that may fail to lower the arrangement's cost before execution
-#: stops: their predictions use the models' mean pushes, and a second failure shows the noise outweighs them
-FINISH_TRIES = 2
-
-#: margin (m) of the final collision verdict and of replanning from a jammed arrangement: footprints shrunk by 1 mm, so
-#: objects that merely touch (pymunk lets resting contacts overlap slightly) do not count as colliding
-TOUCH = -0.001
-
-
-class _Recording:
-    """A world whose steps go to a :class:`pliant.execution.loop.Recorder` (the pushes' control steps)."""
-
-    def __init__(self, world, recorder, clock) -> None:
-        self.world, self.recorder, self.clock = world, recorder, clock
-
-    def __getattr__(self, name):
-        return getattr(self.world, name)
-
-    def step(self, velocity, dt, rng):
-        q = self.world.step(velocity, dt, rng)
-        self.clock[0] += dt
-        self.recorder.add(self.world, q, self.clock[0], velocity, q)
-        return q
-
-
-def _room_for(space: ObjectSpace, observed: np.ndarray) -> ObjectSpace:
-    """The space to replan in from ``observed``: the planning space, or -- when noise has brought objects closer than
-    the clearance margin, so that every push would count as a collision -- the same with the largest margin, in 1 mm
-    steps down to :data:`TOUCH`, that ``observed`` satisfies (objects resting against each other in the simulator
-    overlap by a fraction of a millimetre)."""
-    if not space.checker.in_collision(observed)[0]:
-        return space
-    margin = space.checker.margin - 0.001
-    while margin > TOUCH:
-        narrower = replace(space.checker, margin=margin)
-        if not narrower.in_collision(observed)[0]:
-            return replace(space, checker=narrower)
-        margin -= 0.001
-    return replace(space, checker=replace(space.checker, margin=TOUCH))
-
-
-def _replanned(adaptations: list[dict]) -> int:
-    """How many of an execution's adaptations were replannings (not repairs)."""
-    return sum(1 for a in adaptations if not a.get("repair"))
-
-
-def _repair_entry(space: ObjectSpace, after: int, cause: str, observed: np.ndarray, fix, names) -> dict:
-    """An execution record's adaptation entry for a repair (:mod:`pliant_tsrrt.repair`)."""
-    return {"after_action": after, "reason": cause, "repair": True,
-            "cost_before": float(space.cost.cost(observed[None])[0]),
-            "planned_cost": float(space.cost.cost(fix.states[-1][None])[0]), "actions": len(fix.actions),
-            "repair_pushes": fix.pushes, "objects": [names[o] for o in fix.objects]}
-
-
-def execute_plan(plan: PushPlan, world, scene, rng: np.random.Generator, *, action_limit: int = 100,
-                 on_step=None, world_name: str = "", noise: float | None = None):
-    """Execute ``plan`` in ``world`` with monitoring and replanning (see :meth:`PushPlan.execute`); ``noise``
-    overrides the options' paddle placement noise (m)."""
-    from pliant.api import Recorder
-
-    o = options_from_dict(plan.options)
-    if noise is not None:
-        o = replace(o, push=replace(o.push, placement_noise=noise))
-    e, imp = o.execution, o.improvement
-    if not getattr(world, "can_place_objects", False):
-        raise PlanningError("executing a TS-RRT plan needs a world that can place objects (a simulator such as "
-                            "pymunk)", field="execution.world", value=type(world).__name__)
-    space = build_space(scene, o, plan.models, plan.names)
-    space.warm_up()
-    push = domain.push_settings(o, scene)
-    all_names = domain.movable_names(scene, ())
-    fp_all = footprints_from_scene(scene, all_names)
-    world.reset(np.asarray(scene.start, dtype=np.float64))
-    world.set_object_poses({n: p for n, p in zip(plan.names, plan.start)})
-    recorder = Recorder(world, on_step)
-    rec_world = _Recording(world, recorder, [0.0])
-    observed = plan.start.copy()
-    actions, expected = list(plan.actions), plan.states
-    # the first plan's final arrangement and cost: what every replanning connects back to, and what the arrangement
-    # is judged against when a plan is done (a replanned plan may end higher than the first one)
-    goal, goal_cost = plan.states[-1], plan.cost
-    ceiling = goal_cost * (1 + e.finish_tolerance)     # an arrangement at or below it needs no finishing
-    # replan_shortest: a replanning or repair need not end cheaper than the first plan; the fewest pushes win
-    enough = goal_cost if e.replan_shortest else None
-    records: list[dict] = []
-    replans: list[dict] = []
-    outcome = "success"
-    blocked = 0
-    repairs = 0
-    stalled = False           # a replanning when the plan was done found nothing cheaper than the arrangement
-    placed = [0] * len(plan.names)      # repairs of each object after its last push (repair_placed)
-    finishing_from = None     # the arrangement's cost when the last finishing repair or replanning began
-    fruitless = 0             # finishing repairs and replannings that did not lower the cost
-    j = 0
-    while True:
-        if j == len(actions):
-            # the plan is done: replan if the arrangement is clearly worse than the first plan's
-            cost_now = float(space.cost.cost(observed[None])[0])
-            if cost_now <= ceiling + 1e-12 or stalled:
-                break
-            if finishing_from is not None and cost_now > finishing_from * (1 - 1e-3):
-                fruitless += 1           # the last finishing repair or replanning did not lower the cost
-            if fruitless >= FINISH_TRIES:
-                break
-            if len(records) >= action_limit:
-                outcome = "action limit"
-                break
-            finishing_from = cost_now
-            reason = "finish"
-            # a finishing repair must be predicted to end within the tolerance: pushes that promise a fraction of a
-            # per cent are lost in the noise of their own execution (repeated, they spent the push budget)
-            fix = repair_toward_goal(_room_for(space, observed), observed, goal, depth=e.repair_depth,
-                                     width=imp.refine_width, yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,
-                                     enough=enough, at_most=ceiling) \
-                if e.repair and repairs < e.max_repairs else None
-            if fix is not None:
-                repairs += 1
-                replans.append(_repair_entry(space, len(records), reason, observed, fix, plan.names))
-                actions, expected, j = fix.actions, fix.states, 0
-                continue
-            if _replanned(replans) >= e.max_replans:
-                break
-        else:
-            if len(records) >= action_limit:
-                outcome = "action limit"
-                break
-            a = actions[j]
-            obj, prim = divmod(a, 6)
-            predicted = space.step(observed, a)
-            try:
-                poses = apply_action(rec_world, all_names, fp_all, all_names.index(plan.names[obj]), prim, push, rng)
-            except SimulationError as exc:     # e.g. the noisy paddle placement lands in a wall: skip it, replan
-                blocked += 1
-                records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "skipped": str(exc)})
-                if _replanned(replans) >= e.max_replans:
-                    outcome = "failure"
-                    break
-                reason = "blocked"
-                found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
-                             Termination(max_time=o.replan_time, max_iterations=o.replan_iterations),
-                             seed_plan=actions[j + 1:], goal=goal,
-                             enough=enough)
-                replans.append({"after_action": len(records), "reason": reason,
-                                "cost_before": float(space.cost.cost(observed[None])[0]), "planned_cost": found.cost,
-                                "actions": len(found.actions)})
-                actions, expected, j = found.actions, found.states, 0
-                continue
-            observed = np.array([poses[n] for n in plan.names])
-            j += 1
-            err_t, dth = pose_errors(space, observed, expected[j])
-            step_t, step_th = pose_errors(space, observed, predicted)
-            replan = bool(np.any(err_t > e.replan_threshold) or np.any(dth > e.replan_angle))
-            records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "predicted": predicted,
-                            "observed": observed.copy(), "step_error": float(step_t.max()),
-                            "step_angle_error": float(step_th.max()), "plan_error": float(err_t.max()),
-                            "plan_angle_error": float(dth.max()),
-                            "replanned": replan and _replanned(replans) < e.max_replans})
-            if not replan and e.repair and e.repair_placed and repairs < e.max_repairs and placed[obj] < PLACE_TRIES \
-                    and obj not in [a // 6 for a in actions[j:]]:
-                # the object's last push of the plan: is it where the plan leaves it (tighter thresholds)?
-                if err_t[obj] > e.place_threshold or dth[obj] > e.place_angle:
-                    placed[obj] += 1
-                    fix = repair_retarget(_room_for(space, observed), observed, expected[j], actions[j:],
-                                          threshold=2 * e.place_threshold, angle=2 * e.place_angle,
-                                          depth=e.repair_depth, width=imp.refine_width, yaw_quota=imp.refine_yaw_quota,
-                                          at_most=ceiling, objects=[obj])
-                    if fix is not None and fix.pushes:
-                        repairs += 1
-                        records[-1]["repaired"] = True
-                        replans.append(_repair_entry(space, len(records), "placed", observed, fix, plan.names))
-                        actions, expected, j = fix.actions, fix.states, 0
-                continue
-            if not replan:
-                continue
-            reason = "deviation"
-            fix = None
-            if e.repair and repairs < e.max_repairs:
-                room = _room_for(space, observed)
-                fixes = [repair_restore(room, observed, expected[j], actions[j:], threshold=e.replan_threshold,
-                                        angle=e.replan_angle, depth=e.repair_depth, width=imp.refine_width,
-                                        yaw_quota=imp.refine_yaw_quota)]
-                if e.repair_retarget:
-                    fixes.append(repair_retarget(room, observed, expected[j], actions[j:],
-                                                 threshold=e.replan_threshold, angle=e.replan_angle,
-                                                 depth=imp.refine_depth, width=imp.refine_width,
-                                                 yaw_quota=imp.refine_yaw_quota,
-                                                 at_most=ceiling))
-                fixes = [f for f in fixes if f is not None]
-                fix = min(fixes, key=lambda f: len(f.actions)) if fixes else None
-                fix = fix or repair_toward_goal(room, observed, goal, depth=imp.refine_depth, width=imp.refine_width,
-                                                yaw_quota=imp.refine_yaw_quota,
-                                                at_most=ceiling, push_cost=imp.push_cost,
-                                                enough=enough)
-            if fix is not None:
-                repairs += 1
-                records[-1]["replanned"] = False
-                records[-1]["repaired"] = True
-                replans.append(_repair_entry(space, len(records), reason, observed, fix, plan.names))
-                actions, expected, j = fix.actions, fix.states, 0
-                continue
-            if _replanned(replans) >= e.max_replans:
-                continue
-        cost_now = float(space.cost.cost(observed[None])[0])
-        found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
-                     Termination(max_time=o.replan_time, max_iterations=o.replan_iterations), seed_plan=actions[j:],
-                     goal=goal,
-                     enough=enough)
-        replans.append({"after_action": len(records), "reason": reason, "cost_before": cost_now,
-                        "planned_cost": found.cost, "actions": len(found.actions)})
-        if reason == "finish" and found.cost >= cost_now - 1e-3 * goal_cost:
-            stalled = True
-        actions, expected, j = found.actions, found.states, 0
-    final_cost = float(space.cost.cost(observed[None])[0])
-    # the verdict: overlaps deeper than 2 mm with each other, the obstacles as the scene gives them, or off the table
-    exact_fp, exact_poses, _ = domain.obstacles(scene, plan.names, space.checker.table)
-    verdict = replace(space.checker, obstacles=exact_fp, obstacle_poses=exact_poses, margin=TOUCH)
-    collided = bool(verdict.in_collision(observed)[0])
-    if outcome == "success" and collided:
-        outcome = "failure"
-    recorder.settle(world)
-    record = recorder.record(outcome, events=[f"final cost {final_cost:.4g} (first plan {plan.cost:.4g}); "
-                                              f"{_replanned(replans)} replans; {repairs} repairs; "
-                                              f"{blocked} pushes skipped; "
-                                              f"collision-free: {not collided}"],
-                             actions=records, adaptations=replans, world=world_name)
-    record.final_cost = final_cost
-    record.final_state = observed
-    record.collided = collided
-    return record
-
-
-__all__ = ["PushPlan", "TSRRTOptions", "TSRRTPlanner", "build_space", "execute_plan"]
+__all__ = ["PushPlan", "TSRRTOptions", "TSRRTPlanner", "build_space"]

@@ -93,6 +93,7 @@ def poster(run: ReproductionRun) -> Outcome:
     from pliant.api import Termination, stream
 
     from pliant_tsrrt import domain
+    from pliant_tsrrt.execution import execute_plan
     from pliant_tsrrt.figures import draw_models, draw_plan
     from pliant_tsrrt.learning import learn_models
     from pliant_tsrrt.options import PushingOptions
@@ -101,7 +102,6 @@ def poster(run: ReproductionRun) -> Outcome:
         TSRRTOptions,
         arena,
         build_space,
-        execute_plan,
     )
     from pliant_tsrrt.pushing import PRIMITIVES
     from pliant_tsrrt.reference import optimise, random_arrangements
@@ -146,11 +146,12 @@ def poster(run: ReproductionRun) -> Outcome:
             _, noisy = world()
             done = execute_plan(plan, noisy, scene, stream(seed, "execution", e),
                                 action_limit=ACTION_LIMIT)
-            record["executions"].append({"final_cost": done.final_cost, "collided": bool(done.collided),
-                                         "replans": sum(not a.get("repair") for a in done.adaptations),
-                                         "repairs": sum(bool(a.get("repair")) for a in done.adaptations),
-                                         "pushes": len(done.actions),
-                                         "outcome": done.outcome})
+            pushes = done.details                      # PushPlanDetails
+            record["executions"].append({"final_cost": pushes.final_cost, "collided": bool(pushes.collided),
+                                         "replans": sum(not a.get("repair") for a in pushes.adaptations),
+                                         "repairs": sum(bool(a.get("repair")) for a in pushes.adaptations),
+                                         "pushes": len(pushes.actions),
+                                         "outcome": done.outcome.value})
         plans.append(record)
         run.echo(f"start {seed}: cost {record['start_cost']:.3f} -> {found.cost:.3f} in {len(found.actions)} pushes; "
                  f"{len(record['executions'])} executions")

@@ -65,7 +65,7 @@ def test_an_execution_that_raises_leaves_a_partial_record_of_its_steps():
     assert partial.outcome == "failed" and partial.world == "line" and "0x2310" in partial.error
     assert partial.configurations.shape == (8, 1) and partial.times == pytest.approx(np.arange(8) * 0.1)
     np.testing.assert_allclose(partial.configurations[:, 0], np.arange(8) * 0.1, atol=1e-12)
-    assert partial.waypoints_reached == 1 and not partial.success
+    assert partial.details.waypoints_reached == 1 and not partial.success
     assert partial.events[-1] == "t=0.70s: DriveFault: joint 1 reports fault 0x2310"
     assert partial.to_dict()["error"] == partial.error
 
@@ -74,7 +74,7 @@ def test_the_same_execution_without_a_fault_is_unchanged_by_capture():
     path = Path(np.array([[0.0], [0.5], [1.0]]))
     with capture() as run:
         record = execute(Line(), Proportional(), path, np.random.default_rng(0), period=0.1, time_limit=10.0)
-    assert record.outcome == "reached" and record.waypoints_reached == 2 and record.error == ""
+    assert record.outcome == "reached" and record.details.waypoints_reached == 2 and record.error == ""
     assert len(run.recorders) == 1 and record.events == []
 
 

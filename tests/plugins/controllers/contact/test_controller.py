@@ -77,7 +77,7 @@ def test_execution_slides_the_peg_into_the_hole(peg):
     ctrl = registry.create("controller", "contact", peg, gain=2.0)
     path = Path(np.array([pose(7, 7, 5), pose(5.6, 5.6, 3.5), pose(5, 5, 3.3), pose(5, 5, 0.625)]))
     record = execute(peg.simulator, ctrl, path, np.random.default_rng(0), period=0.1, time_limit=60)
-    assert record.success and record.waypoints_reached == 3
+    assert record.success and record.details.waypoints_reached == 3
     assert record.contacts.any()
     assert record.configurations[-1, 2] == pytest.approx(0.625, abs=0.06)
 
@@ -86,7 +86,7 @@ def test_execution_into_the_block_gets_stuck(peg):
     ctrl = registry.create("controller", "contact", peg, gain=2.0, eps_adjust=0.1)
     path = Path(np.array([pose(7, 7, 4), pose(7, 7, 1)]))
     record = execute(peg.simulator, ctrl, path, np.random.default_rng(0), period=0.1, time_limit=60)
-    assert record.outcome == "stuck" and record.waypoints_reached == 0 and record.events
+    assert record.outcome == "stuck" and record.details.waypoints_reached == 0 and record.events
 
 
 def test_execution_time_limit(peg):

@@ -110,7 +110,7 @@ def test_a_pipeline_plans_a_policy_and_executes_it():
         "planner.max_time=1000", "planner.max_iterations=150", "planner.particles=8", "execution.world=kinematic",
         "execution.time_limit=600", 'output="/tmp/pliant-test-maze-policy"']).run(write=False)
     assert record.result.status is Status.SOLVED
-    assert record.execution is not None and len(record.execution.actions) >= 1
+    assert record.execution is not None and len(record.execution.details.actions) >= 1
     # executed in the simulator it was planned with, the policy reaches the goal
     assert record.execution.success, record.execution.events
     assert record.problem.in_goal(record.execution.configurations[-1:])[0]

@@ -349,13 +349,13 @@ def test_execute_policy_on_se2_maze_reaches_the_goal():
                             time_limit=120.0, action_limit=10)
     assert time.perf_counter() - began < 10.0
     assert record.success, record.events
-    assert [a["node"] for a in record.actions] == [1, 2, 3][: len(record.actions)]
-    assert all(not a["inserted"] and a["drive"] == "reached" for a in record.actions)
+    assert [a["node"] for a in record.details.actions] == [1, 2, 3][: len(record.details.actions)]
+    assert all(not a["inserted"] and a["drive"] == "reached" for a in record.details.actions)
     assert ctx.robot.space.distance(record.configurations[-1], ctx.scene.goal) <= ctx.scene.goal_tolerance
     assert len(record.configurations) == len(record.times) == len(record.contacts)
     data = json.loads(json.dumps(record.to_dict()))
-    assert data["outcome"] == "success" and len(data["actions"]) == len(record.actions)
-    assert data["adaptations"] and all(c["after"] >= c["before"] for c in data["adaptations"])
+    assert data["outcome"] == "success" and len(data["details"]["actions"]) == len(record.details.actions)
+    assert data["details"]["adaptations"] and all(c["after"] >= c["before"] for c in data["details"]["adaptations"])
 
 
 def test_execution_in_the_blocked_maze_inserts_the_unforeseen_outcome_and_terminates():
@@ -371,11 +371,11 @@ def test_execution_in_the_blocked_maze_inserts_the_unforeseen_outcome_and_termin
     record = execute_policy(policy, ctx.simulator, controller, np.random.default_rng(0), matcher=matcher,
                             time_limit=60.0, action_limit=10)
     assert record.outcome == "failure", record.events
-    first = record.actions[0]
+    first = record.details.actions[0]
     assert first["drive"] == "stuck" and first["inserted"] and first["node"] == len(maze_tree(planned).nodes)
     assert first["reached"][1] > 5.0                                  # stopped above the block (y = 5)
     assert record.contacts.any()
-    assert record.actions[-1]["probability"] < policy.options.p_goal
+    assert record.details.actions[-1]["probability"] < policy.options.p_goal
     assert any("inserted" in e for e in record.events) and any("P_goal" in e for e in record.events)
 
 
@@ -396,10 +396,10 @@ def test_a_goal_vertex_reached_outside_the_tolerance_gets_one_final_approach(fin
     record = execute_policy(policy, ctx.simulator, controller, np.random.default_rng(0),
                             matcher=DistanceMatcher(ctx.robot.space, 0.3), time_limit=120.0, action_limit=10,
                             final_approach=final_approach)
-    assert record.actions[2]["node"] == 3 and record.actions[2]["status"] == "goal"
+    assert record.details.actions[2]["node"] == 3 and record.details.actions[2]["status"] == "goal"
     if final_approach:
-        assert record.success and record.actions[-1]["kind"] == "goal" and len(record.actions) == 4
+        assert record.success and record.details.actions[-1]["kind"] == "goal" and len(record.details.actions) == 4
         assert ctx.robot.space.distance(record.configurations[-1], ctx.scene.goal) <= ctx.scene.goal_tolerance
     else:
-        assert record.outcome == "failure" and len(record.actions) == 3
+        assert record.outcome == "failure" and len(record.details.actions) == 3
         assert any("outside the goal tolerance" in e for e in record.events)

@@ -9,13 +9,15 @@ from __future__ import annotations
 from dataclasses import asdict
 
 import numpy as np
-import pliant_tsrrt.planner as planner_module
+import pliant_tsrrt.execution as execution_module
 import pytest
 from pliant import load_scene, registry
+from pliant.execution.strategy import Place
 from pliant.interfaces import Context
+from pliant_tsrrt.execution import execute_plan
 from pliant_tsrrt.models import Displacement, PushModels, footprints_from_scene, object_class, scene_pose
 from pliant_tsrrt.options import ExecutionOptions, TSRRTOptions
-from pliant_tsrrt.planner import PushPlan, build_space, execute_plan
+from pliant_tsrrt.planner import PushPlan, build_space
 from pliant_tsrrt.search import SearchResult
 
 NAMES = ["book-1", "block-1", "can-1"]
@@ -59,8 +61,8 @@ def _script(monkeypatch, space, kick, replans, stuck_from=None):
     arrangement) and records its reason and goal."""
     calls = {"pushes": 0, "grow": []}
 
-    def fake_apply(world, names, fp, index, primitive, settings, rng, poses=None):
-        now = {n: np.asarray(p, float) for n, p in world.object_poses().items()}
+    def fake_push(names, fp, index, primitive, settings, rng, seen):
+        now = {n: np.asarray(p, float) for n, p in seen.objects.items()}
         s = np.array([now[n] for n in NAMES])
         if stuck_from is None or calls["pushes"] < stuck_from:
             s = space.step(s, 6 * NAMES.index(names[index]) + primitive)
@@ -70,15 +72,15 @@ def _script(monkeypatch, space, kick, replans, stuck_from=None):
             else:
                 s[kick[1], 1] += kick[2]
         calls["pushes"] += 1
-        world.set_object_poses({n: p for n, p in zip(NAMES, s)})
+        yield Place(seen.configuration, {n: p for n, p in zip(NAMES, s)})     # the world, told where they went
         return {n: p for n, p in zip(NAMES, s)}
 
     def fake_grow(space_, s0, rng, settings, termination=None, seed_plan=None, goal=None, enough=None):
         calls["grow"].append({"refine": settings.improvement.refine, "goal": goal, "enough": enough})
         return _result(space, s0, replans[len(calls["grow"]) - 1](s0))
 
-    monkeypatch.setattr(planner_module, "apply_action", fake_apply)
-    monkeypatch.setattr(planner_module, "grow", fake_grow)
+    monkeypatch.setattr(execution_module, "push_action", fake_push)
+    monkeypatch.setattr(execution_module, "grow", fake_grow)
     return calls
 
 
@@ -99,19 +101,19 @@ def test_a_done_plan_is_judged_against_the_first_plans_cost_and_replanned_toward
     # alone) finds nothing to do, which ends more than 5 % above the first plan's cost; the replanning when that
     # plan is done (with the improvement phase) pushes the can -y three times again
     first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [lambda s: [], lambda s: [15, 15, 15]])
-    reasons = [r["reason"] for r in record.adaptations]
+    reasons = [r["reason"] for r in record.details.adaptations]
     assert reasons == ["deviation", "finish"]
-    assert record.adaptations[0]["planned_cost"] > 1.05 * first.cost   # the replanned plan ended higher ...
+    assert record.details.adaptations[0]["planned_cost"] > 1.05 * first.cost   # the replanned plan ended higher ...
     assert calls["grow"][0]["refine"] is False and calls["grow"][1]["refine"] is True
     for call in calls["grow"]:                                         # ... and every replanning knows the goal
         assert np.allclose(call["goal"], first.states[-1])
-    assert record.final_cost <= 1.05 * first.cost + 1e-9
+    assert record.details.final_cost <= 1.05 * first.cost + 1e-9
 
 
 def test_with_replan_shortest_every_replanning_counts_the_first_plans_cost_as_enough(monkeypatch):
     first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [lambda s: [], lambda s: [15, 15, 15]],
                                              replan_shortest=True)
-    assert [r["reason"] for r in record.adaptations] == ["deviation", "finish"]
+    assert [r["reason"] for r in record.details.adaptations] == ["deviation", "finish"]
     assert [call["enough"] for call in calls["grow"]] == [first.cost, first.cost]
     first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [lambda s: [], lambda s: [15, 15, 15]],
                                              replan_shortest=False)
@@ -121,9 +123,9 @@ def test_with_replan_shortest_every_replanning_counts_the_first_plans_cost_as_en
 def test_a_replanning_that_finds_nothing_cheaper_ends_the_execution(monkeypatch):
     # the last push leaves the can 12 cm back toward the edge; no replanning finds a push that helps
     first, calls, record = _execute_can_plan(monkeypatch, (2, 2, 0.12), [lambda s: []] * 5)
-    reasons = [r["reason"] for r in record.adaptations]
+    reasons = [r["reason"] for r in record.details.adaptations]
     assert reasons == ["deviation", "finish"]          # not max_replans finish replannings
-    assert len(calls["grow"]) == 2 and record.final_cost > 1.05 * first.cost
+    assert len(calls["grow"]) == 2 and record.details.final_cost > 1.05 * first.cost
 
 
 def test_execution_stops_after_two_finishing_attempts_that_did_not_lower_the_cost(monkeypatch):
@@ -132,13 +134,13 @@ def test_execution_stops_after_two_finishing_attempts_that_did_not_lower_the_cos
     # lowers the cost
     first, calls, record = _execute_can_plan(monkeypatch, (2, 2, 0.12), [lambda s: [15, 15, 15]] * 10, stuck_from=3,
                                              replan_threshold=1.0)
-    assert [r["reason"] for r in record.adaptations] == ["finish", "finish"] and len(calls["grow"]) == 2
-    assert len(record.actions) == 3 + 3 + 3                 # not max_replans (20) rounds of three pushes
-    assert record.final_cost > 1.05 * first.cost
+    assert [r["reason"] for r in record.details.adaptations] == ["finish", "finish"] and len(calls["grow"]) == 2
+    assert len(record.details.actions) == 3 + 3 + 3                 # not max_replans (20) rounds of three pushes
+    assert record.details.final_cost > 1.05 * first.cost
 
 
 def test_replanning_from_a_jammed_arrangement_keeps_the_largest_margin_it_allows():
-    from pliant_tsrrt.planner import TOUCH, _room_for
+    from pliant_tsrrt.execution import TOUCH, _room_for
 
     space = _setup()[-1]
     s = np.array([[0.3, 0.4, 0.0], [0.5, 0.4, 0.0], [0.8, 0.4, 0.0]])
@@ -155,13 +157,13 @@ def test_a_deviation_is_repaired_by_pushing_the_object_back_and_the_plan_goes_on
     # the first push leaves the can one push length (4.5 cm) back toward the edge: one push -y brings it back
     first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.045), [], repair=True)
     assert calls["grow"] == []                                          # no replanning
-    (repair,) = record.adaptations
+    (repair,) = record.details.adaptations
     assert repair["repair"] and repair["reason"] == "deviation" and repair["objects"] == ["can-1"]
     assert repair["repair_pushes"] == 1 and repair["actions"] == 3     # the push back, then the plan's last two
-    assert [a["object"] for a in record.actions] == ["can-1"] * 4
-    assert record.actions[0]["repaired"] and not record.actions[0]["replanned"]
-    assert np.allclose(record.final_state, first.states[-1], atol=1e-9)
-    assert record.final_cost == pytest.approx(first.cost)
+    assert [a["object"] for a in record.details.actions] == ["can-1"] * 4
+    assert record.details.actions[0]["repaired"] and not record.details.actions[0]["replanned"]
+    assert np.allclose(record.details.final_state, first.states[-1], atol=1e-9)
+    assert record.details.final_cost == pytest.approx(first.cost)
 
 
 def test_a_deviation_no_push_can_undo_is_repaired_toward_the_first_plans_end_when_that_ends_within_tolerance(
@@ -170,18 +172,18 @@ def test_a_deviation_no_push_can_undo_is_repaired_toward_the_first_plans_end_whe
     # restored; pushing the can toward the first plan's final arrangement ends 1.5 cm from it, within 5 % of its cost
     first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [], repair=True, repair_retarget=False)
     assert calls["grow"] == []
-    repair = record.adaptations[0]
+    repair = record.details.adaptations[0]
     assert repair["reason"] == "deviation" and repair["repair"] and repair["objects"] == ["can-1"]
     assert repair["planned_cost"] <= 1.05 * first.cost
-    assert np.isclose(record.final_state[2, 1], first.states[-1][2, 1] + 0.015, atol=1e-9)
-    assert record.final_cost <= 1.05 * first.cost
+    assert np.isclose(record.details.final_state[2, 1], first.states[-1][2, 1] + 0.015, atol=1e-9)
+    assert record.details.final_cost <= 1.05 * first.cost
 
 
     # with repair_retarget (the default) the can's remaining pushes are re-planned instead: its glancing pushes (2 mm
     # along y each) bring it to within a millimetre of where the plan leaves it
     first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [], repair=True)
-    assert calls["grow"] == [] and record.adaptations[0]["objects"] == ["can-1"]
-    assert abs(record.final_state[2, 1] - first.states[-1][2, 1]) < 0.001
+    assert calls["grow"] == [] and record.details.adaptations[0]["objects"] == ["can-1"]
+    assert abs(record.details.final_state[2, 1] - first.states[-1][2, 1]) < 0.001
 
 
 def test_a_placed_box_off_its_final_yaw_is_turned_there_at_once_with_repair_placed(monkeypatch):
@@ -192,12 +194,13 @@ def test_a_placed_box_off_its_final_yaw_is_turned_there_at_once_with_repair_plac
     first, calls, record = _execute_can_plan(monkeypatch, kick, [], actions=(4, 15, 15), repair=True,
                                              replan_angle=0.3, repair_placed=True)
     assert calls["grow"] == []
-    (fix,) = record.adaptations
+    (fix,) = record.details.adaptations
     assert fix["reason"] == "placed" and fix["repair"] and fix["objects"] == ["book-1"] and fix["repair_pushes"] == 1
-    assert [(a["object"], a["primitive"]) for a in record.actions] == [("book-1", "turn+"), ("book-1", "turn-"),
+    assert [(a["object"], a["primitive"]) for a in record.details.actions] == [("book-1", "turn+"), ("book-1", "turn-"),
                                                                         ("can-1", "push-y"), ("can-1", "push-y")]
-    assert np.isclose(record.final_state[0, 2] - first.states[-1][0, 2], -0.05, atol=1e-9)
+    assert np.isclose(record.details.final_state[0, 2] - first.states[-1][0, 2], -0.05, atol=1e-9)
     # without repair_placed the book stays 0.15 rad off
     first, calls, record = _execute_can_plan(monkeypatch, kick, [], actions=(4, 15, 15), repair=True,
                                              replan_angle=0.3, repair_placed=False)
-    assert record.adaptations == [] and np.isclose(record.final_state[0, 2] - first.states[-1][0, 2], 0.15)
+    assert record.details.adaptations == []
+    assert np.isclose(record.details.final_state[0, 2] - first.states[-1][0, 2], 0.15)
