@@ -184,13 +184,21 @@ def test_run_view_is_the_cores_flag_and_a_hook_the_viewer_answers(tmp_path, monk
     assert len(views) == 1                                                # no --view: no view
 
 
-def test_run_view_without_a_viewer_is_one_clear_error(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(default_registry(), "call_isolated",
-                        lambda hook, **kw: [] if hook == "pliant_run_view" else original(hook, **kw))
-    original = type(default_registry()).call_isolated.__get__(default_registry())
+def test_run_view_without_a_viewer_or_with_a_broken_one_is_one_clear_error(tmp_path, monkeypatch, capsys):
+    import pliant_viewer.commands
+
+    monkeypatch.setattr(pliant_viewer.commands, "LiveView", lambda pipeline, args: None)   # declines: none answers
     assert cli.main(["run", "straight-demo", "--output", str(tmp_path), "--view"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: --view:") and "no plugin offers a live view" in err and "\n" not in err
+
+    def broken(pipeline, args):
+        raise ZeroDivisionError("a bug in the view")
+
+    monkeypatch.setattr(pliant_viewer.commands, "LiveView", broken)
+    assert cli.main(["run", "straight-demo", "--output", str(tmp_path), "--view"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: --view: the live view failed: ZeroDivisionError") and "\n" not in err
 
 
 def test_a_plugin_module_still_implementing_the_old_hook_loads(monkeypatch):
@@ -212,8 +220,33 @@ def test_the_robot_group_holds_the_drivers_tools_and_the_ros_demo(capsys):
     assert {"list", "check", "ros-peer", "canopen-peer", "ros-demo"} <= set(robot)
     args = cli.build_parser().parse_args(["robot", "ros-demo", "iiwa-policy", "--seed", "2", "--set", "a=1"])
     assert (args.pipeline, args.seed, args.set) == ("iiwa-policy", 2, ["a=1"])
-    from pliant_ros1.demo import main as demo_main        # python -m pliant_ros1.demo: the same command
+    from pliant_ros1.demo import main as demo_main  # python -m pliant_ros1.demo: the same command
 
     with pytest.raises(SystemExit) as info:
         demo_main(["--help"])
     assert info.value.code == 0 and "usage: pliant robot ros-demo" in capsys.readouterr().out
+
+
+def test_view_without_the_viewer_plugin_is_listed_and_one_clear_error():
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PLIANT_DISABLE": "viewer"}
+    done = subprocess.run([sys.executable, "-m", "pliant.cli", "view", "triple-wall"], capture_output=True, text=True,
+                          env=env, check=False)
+    assert done.returncode == 2
+    assert done.stderr.strip().startswith("error: pliant view:") and "pliant_viewer" in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_a_tables_own_options_reach_its_runner_and_its_report(tmp_path, capsys):
+    """``pliant experiment table-8.1 --ci --repetitions 1 --seed 3`` (once ``learn-deformability --repetitions 1``):
+    the options override the mode's settings and the report's settings record them."""
+    import json
+
+    assert cli.main(["experiment", "table-8.1", "--ci", "--repetitions", "1", "--seed", "3",
+                     "--output", str(tmp_path)]) in (0, 3)
+    outcome = json.loads((tmp_path / "table-8.1" / "ci" / "outcome.json").read_text())
+    assert outcome["settings"] == {"repetitions": 1, "force": 1.0, "seed": 3}
