@@ -85,7 +85,7 @@ def ros_timing(master, rate: float, seconds: float, workdir: Path) -> dict:
     Baxter peer (ideal servo, so the peer's own physics does not load the machine); command periods at the driver
     (on write) and at the peer (on receipt); command-to-state latency of step changes."""
     import pliant
-    from pliant_ros1.peer import PeerProcess
+    from pliant_ros1.testing.process import PeerProcess
 
     record = workdir / f"commands-{int(rate)}.jsonl"
     with PeerProcess("baxter", master.uri, record=record, extra=["--simulator", "none", "--speed-ratio", "1.0"]):
@@ -102,7 +102,7 @@ def ros_timing(master, rate: float, seconds: float, workdir: Path) -> dict:
             driver.stop()
             writes = [t for t, _, _ in session.log if t >= t0]
             latencies = command_to_state(driver, session, q0)
-        from pliant_ros1.peer import read_record
+        from pliant_ros1.testing.record import read_record
 
         received = [r["t"] for r in read_record(record) if r.get("kind") == "command" and r["t"] >= t0]
     return {"rate_hz": rate, "driver_write": _periods_stats(writes), "peer_receive": _periods_stats(received),
@@ -154,7 +154,8 @@ def baxter_policy(master, seeds: list[int], max_time: float, workdir: Path, peer
     import pliant
     from pliant.interfaces import PlanningProblem
     from pliant.results import Policy
-    from pliant_ros1.peer import PeerProcess, read_record
+    from pliant_ros1.testing.process import PeerProcess
+    from pliant_ros1.testing.record import read_record
 
     rows = []
     for seed in seeds:
@@ -224,7 +225,7 @@ def _option_text(value) -> str:
 
 
 def _violations(records, limits):
-    from pliant_ros1.peer import command_violations
+    from pliant_ros1.testing.record import command_violations
 
     return command_violations(records, limits)
 

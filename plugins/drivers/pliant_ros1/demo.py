@@ -7,7 +7,7 @@
     python -m pliant_ros1.demo pr2-policy --seed 1
 
 A ROS master starts on a free loopback port; the pipeline runs with ``execution.world`` set to the robot's driver,
-and when that driver connects (after planning) the robot's peer (:mod:`pliant_ros1.peer`) starts on the master
+and when that driver connects (after planning) the robot's peer (:mod:`pliant_ros1.testing.peer`) starts on the master
 with its arm in the same simulator, with the same options, as the pipeline's own execution world (pybullet for the
 bundled policies).  Started before planning, the peer (physics at 240 Hz, joint states at 100-250 Hz) took as much
 CPU as the planner on a loaded machine (56 s against 51 s over the first 14.5 minutes of one run).  Planning is
@@ -63,8 +63,8 @@ def robot_overrides(pipeline_name: str, seed: int, user: list[str], master_uri: 
 
 
 def start_peer_on_connect(pipeline, peer) -> None:
-    """Make ``pipeline``'s robot driver start ``peer`` (a :class:`~pliant_ros1.peer.PeerProcess`) when it connects,
-    i.e. after planning, and not before."""
+    """Make ``pipeline``'s robot driver start ``peer`` (a :class:`~pliant_ros1.testing.process.PeerProcess`) when it
+    connects, i.e. after planning, and not before."""
     from pliant.api import Driver
 
     make_world = pipeline.execution_world
@@ -105,7 +105,8 @@ def run(pipeline_name: str, seed: int = 0, overrides: list[str] | None = None) -
     from pliant.api import RunInterrupted
 
     from pliant_ros1.master import RosMaster
-    from pliant_ros1.peer import PeerProcess, command_violations, read_record
+    from pliant_ros1.testing.process import PeerProcess
+    from pliant_ros1.testing.record import command_violations, read_record
 
     if pipeline_name not in PIPELINES:
         print(f"error: pipeline: no robot demo for {pipeline_name!r} (demos: {', '.join(PIPELINES)})",
