@@ -250,3 +250,14 @@ def test_a_tables_own_options_reach_its_runner_and_its_report(tmp_path, capsys):
                      "--output", str(tmp_path)]) in (0, 3)
     outcome = json.loads((tmp_path / "table-8.1" / "ci" / "outcome.json").read_text())
     assert outcome["settings"] == {"repetitions": 1, "force": 1.0, "seed": 3}
+
+
+def test_bench_runs_a_script_as_its_own_program_and_returns_its_status(tmp_path, monkeypatch, capfd):
+    (tmp_path / "bench_probe.py").write_text("import sys\nprint('argv', sys.argv[1:])\nsys.exit(4)\n")
+    monkeypatch.setenv("PLIANT_BENCHMARKS", str(tmp_path))
+    import sys
+
+    before = list(sys.argv)
+    assert cli.main(["bench", "probe", "--repeats", "2"]) == 4
+    assert "argv ['--repeats', '2']" in capfd.readouterr().out
+    assert sys.argv == before                  # this process's argv untouched

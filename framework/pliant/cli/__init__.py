@@ -24,7 +24,6 @@ import argparse
 import json
 import logging
 import os
-import runpy
 import sys
 from pathlib import Path
 
@@ -158,12 +157,21 @@ def cmd_run(args) -> int:
 
 def _live_view(pipeline, args):
     """``pliant run --view``: the live view a plugin offers through the ``pliant_run_view`` hook (the first that
-    answers), or a :class:`PliantError` naming ``--view`` when none does."""
+    answers), or a :class:`PliantError` naming ``--view`` when none does.  A plugin's input error (a bad
+    ``--view-port``) is the user's error line; any other failure is a :class:`PluginError` naming ``--view``."""
+    from pliant.errors import PluginError
     from pliant.registry import default_registry
 
-    for view in default_registry().call_isolated("pliant_run_view", pipeline=pipeline, args=args):
-        if view is not None:
-            return view
+    registry = default_registry()
+    registry.load()
+    try:
+        view = registry.manager.hook.pliant_run_view(pipeline=pipeline, args=args)
+    except PliantError:
+        raise
+    except Exception as exc:  # a plugin's bug: one error line, not a traceback
+        raise PluginError(f"the live view failed: {type(exc).__name__}: {exc}", field="--view", value=True) from exc
+    if view is not None:
+        return view
     raise PliantError("no plugin offers a live view (the viewer plugin, pliant_viewer, is not loaded: see pliant "
                       "plugins)", field="--view", value=True)
 
@@ -255,9 +263,11 @@ def cmd_bench(args) -> int:
         return 0
     if args.name not in scripts:
         raise PliantError(f"unknown benchmark (available: {', '.join(scripts)})", field="NAME", value=args.name)
-    sys.argv = [f"bench_{args.name}.py", *args.args]
-    runpy.run_path(str(directory / f"bench_{args.name}.py"), run_name="__main__")
-    return 0
+    # the script runs as its own program (its own argv, sys.path and exit status), as `python benchmarks/bench_X.py`
+    import subprocess
+
+    return subprocess.run([sys.executable, str(directory / f"bench_{args.name}.py"), *args.args],
+                          check=False).returncode
 
 
 #: the core's old spellings (the plugins declare theirs); ``driver`` is rewritten by :func:`_driver_alias`
