@@ -90,20 +90,20 @@ class Observation:
     result: str
     time: float
     time_limit: float
-    world: Any = field(repr=False)
+    _world: Any = field(repr=False)       # read from, never stepped: the loop is the only one that steps it
     error: Exception | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
     def configuration(self) -> np.ndarray:
         if "q" not in self._cache:
-            self._cache["q"] = np.asarray(self.world.configuration(), dtype=np.float64)
+            self._cache["q"] = np.asarray(self._world.configuration(), dtype=np.float64)
         return self._cache["q"]
 
     @property
     def objects(self) -> dict[str, np.ndarray]:
         if "objects" not in self._cache:
-            self._cache["objects"] = dict(self.world.object_poses())
+            self._cache["objects"] = dict(self._world.object_poses())
         return self._cache["objects"]
 
 

@@ -4,7 +4,8 @@ monitored error and replanned as necessary", poster ICHR 2010): the plan's side 
 
 :class:`PushPlanStrategy` performs each push of the plan as directives the loop carries out -- place the paddle (with
 its placement error) and the objects where they were observed, then the push's open-loop velocity commands (a guarded
-approach until the object moves, the push, the retreat, the settling time: :func:`push_action`) -- and, after each
+approach until the object moves, the push, the retreat, the settling time: :func:`pliant_tsrrt.pushing.push_steps`,
+the one definition of a push, which the learner applies to its simulator directly) -- and, after each
 push, compares the observed arrangement with the one the plan predicted.  It repairs or replans from the observed
 arrangement when an object is off by more than ``replan_threshold`` (m) or ``replan_angle`` (rad), or when the plan is
 done and the arrangement costs more than ``1 + finish_tolerance`` times the *first* plan's cost, until it does not or a
@@ -24,7 +25,6 @@ velocity commands.
 
 from __future__ import annotations
 
-from collections.abc import Generator
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -32,8 +32,6 @@ from pliant.api import (
     ExecutionDetails,
     ExecutionOutcome,
     ExecutionRecord,
-    Move,
-    Observation,
     Place,
     PlanningError,
     ScriptedStrategy,
@@ -44,11 +42,10 @@ from pliant.api import (
 )
 
 from pliant_tsrrt import domain
-from pliant_tsrrt.geometry import Footprints, wrap
 from pliant_tsrrt.models import footprints_from_scene
-from pliant_tsrrt.options import PushSettings
 from pliant_tsrrt.planner import PushPlan, build_space, options_from_dict, replan_settings
-from pliant_tsrrt.pushing import GUARD_REACH, GUARD_TURN, PRIMITIVES, paddle_sweeps
+from pliant_tsrrt.pushing import PRIMITIVES
+from pliant_tsrrt.pushing import push_steps as push_action
 from pliant_tsrrt.repair import pose_errors
 from pliant_tsrrt.repair import restore as repair_restore
 from pliant_tsrrt.repair import retarget as repair_retarget
@@ -112,53 +109,6 @@ class PushPlanDetails(ExecutionDetails):
 
     def summary(self) -> list[tuple[str, str]]:
         return [("actions executed", str(len(self.actions)))]
-
-
-def push_action(names: list[str], fp: Footprints, index: int, primitive: int, settings: PushSettings,
-                rng: np.random.Generator, seen: Observation
-                ) -> Generator[Place | Move, Observation, dict[str, np.ndarray]]:
-    """APPLY_ACTION as directives for the execution loop: push object ``names[index]`` with primitive ``primitive``
-    (an index into :data:`~pliant_tsrrt.pushing.PRIMITIVES`) from what ``seen`` (the last observation) shows, and
-    return every movable object's pose afterwards, by name -- what :func:`pliant_tsrrt.pushing.apply_action` does to
-    a simulator directly while the models are learned, step for step and draw for draw (the paddle's placement error
-    from ``rng``, ``settings.placement_noise``).  The directives may fail (``recover``): a placement the simulator
-    refuses is raised here as its :class:`~pliant.api.SimulationError`."""
-    s = settings
-    poses = dict(seen.objects)
-    pose = np.asarray(poses[names[index]], dtype=np.float64)
-    start, sweep, _ = paddle_sweeps(pose[None, None], fp.subset([index]), s)
-    q = start[0, 0, primitive].copy()
-    direction = sweep[0, 0, primitive, 2]
-    heading = np.array([np.cos(direction), np.sin(direction)])
-    if s.placement_noise > 0:
-        along, across = rng.normal(0.0, s.placement_noise, 2)
-        q[:2] += along * heading + across * np.array([-heading[1], heading[0]])
-    seen = yield Place(q, poses, recover=True)
-    depth = s.turn_depth if PRIMITIVES[primitive].startswith("turn") else s.push_depth
-    if s.guard_step > 0:
-        # a guarded approach (pliant_tsrrt.pushing._guarded_push): advance until the object moves, then push
-        name = names[index]
-        first = np.asarray(seen.objects[name], dtype=np.float64)
-        reach = s.push_gap + GUARD_REACH * s.placement_noise + s.guard_step
-        travelled = 0.0
-        while travelled < reach:
-            seen = yield _move(heading * s.push_speed, s.guard_step / s.push_speed, s.control_period)
-            travelled += s.guard_step
-            now = np.asarray(seen.objects[name], dtype=np.float64)
-            if np.hypot(*(now[:2] - first[:2])) > 0.5 * s.guard_step or abs(wrap(now[2] - first[2])) > GUARD_TURN:
-                break
-        seen = yield _move(heading * s.push_speed, depth / s.push_speed, s.control_period)
-    else:
-        seen = yield _move(heading * s.push_speed, (s.push_gap + depth) / s.push_speed, s.control_period)
-    if s.retreat > 0:
-        seen = yield _move(-heading * s.push_speed, s.retreat / s.push_speed, s.control_period)
-    seen = yield _move(np.zeros(2), s.settle, s.control_period)
-    return {n: np.asarray(p, dtype=np.float64).copy() for n, p in seen.objects.items()}
-
-
-def _move(velocity: np.ndarray, duration: float, period: float) -> Move:
-    """The planar ``velocity`` (m/s, no turning) for ``duration`` s in steps of at most ``period``."""
-    return Move(np.array([velocity[0], velocity[1], 0.0]), duration, period, recover=True)
 
 
 class PushPlanStrategy(ScriptedStrategy):

@@ -19,7 +19,11 @@ commands through ``step``; contact and friction are the simulator's), backed off
 
 from __future__ import annotations
 
+from collections.abc import Generator
+from types import SimpleNamespace
+
 import numpy as np
+from pliant.api import Move, Observation, Place
 
 from pliant_tsrrt.geometry import CIRCLE, Footprints, wrap
 from pliant_tsrrt.options import PushSettings
@@ -119,35 +123,6 @@ def paddle_sweep_rows(poses: np.ndarray, objs: np.ndarray, prims: np.ndarray, fp
     return pose, np.stack([0.5 * (travel + along), 0.5 * across], -1)
 
 
-def apply_action(world, names: list[str], fp: Footprints, index: int, primitive: int, settings: PushSettings,
-                 rng: np.random.Generator, poses: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
-    """APPLY_ACTION (poster, LEARN_MODEL line 4): push object ``names[index]`` with primitive ``primitive`` (an index
-    into :data:`PRIMITIVES`) in ``world`` (a :class:`~pliant.interfaces.Simulator` that can place objects) and
-    return every movable object's pose afterwards, by name.  ``poses``: where the objects are now (default: asked
-    from the world).  The paddle's placement error is drawn from ``rng`` (``settings.placement_noise``)."""
-    s = settings
-    poses = dict(world.object_poses()) if poses is None else {n: np.asarray(p, float) for n, p in poses.items()}
-    pose = np.asarray(poses[names[index]], dtype=np.float64)
-    start, sweep, _ = paddle_sweeps(pose[None, None], fp.subset([index]), s)
-    q = start[0, 0, primitive].copy()
-    direction = sweep[0, 0, primitive, 2]
-    heading = np.array([np.cos(direction), np.sin(direction)])
-    if s.placement_noise > 0:
-        along, across = rng.normal(0.0, s.placement_noise, 2)
-        q[:2] += along * heading + across * np.array([-heading[1], heading[0]])
-    world.reset(q)
-    world.set_object_poses(poses)
-    depth = s.turn_depth if PRIMITIVES[primitive].startswith("turn") else s.push_depth
-    if s.guard_step > 0:
-        _guarded_push(world, names[index], heading, depth, s, rng)
-    else:
-        _move(world, heading * s.push_speed, (s.push_gap + depth) / s.push_speed, s.control_period, rng)
-    if s.retreat > 0:
-        _move(world, -heading * s.push_speed, s.retreat / s.push_speed, s.control_period, rng)
-    _move(world, np.zeros(2), s.settle, s.control_period, rng)
-    return {n: np.asarray(p, dtype=np.float64).copy() for n, p in world.object_poses().items()}
-
-
 #: how far (m) the guarded approach goes beyond the nominal gap, in placement-noise standard deviations, before it
 #: gives up waiting for contact and pushes the depth from there
 GUARD_REACH = 4.0
@@ -157,28 +132,79 @@ GUARD_REACH = 4.0
 GUARD_TURN = 0.005
 
 
-def _guarded_push(world, name: str, heading: np.ndarray, depth: float, s: PushSettings,
-                  rng: np.random.Generator) -> None:
-    """A guarded move (approach until contact, then push): advance in steps of ``s.guard_step`` until object
-    ``name`` has moved by half a step or turned by :data:`GUARD_TURN` (the contact; at most ``push_gap`` plus
-    :data:`GUARD_REACH` placement-noise deviations), then ``depth`` further.  The object's motion stands in for a
-    force sensor's contact signal."""
-    start = np.asarray(world.object_poses()[name], dtype=np.float64)
-    reach = s.push_gap + GUARD_REACH * s.placement_noise + s.guard_step
-    travelled = 0.0
-    while travelled < reach:
-        _move(world, heading * s.push_speed, s.guard_step / s.push_speed, s.control_period, rng)
-        travelled += s.guard_step
-        now = np.asarray(world.object_poses()[name], dtype=np.float64)
-        if np.hypot(*(now[:2] - start[:2])) > 0.5 * s.guard_step or abs(wrap(now[2] - start[2])) > GUARD_TURN:
-            break
-    _move(world, heading * s.push_speed, depth / s.push_speed, s.control_period, rng)
+def push_steps(names: list[str], fp: Footprints, index: int, primitive: int, settings: PushSettings,
+               rng: np.random.Generator, seen) -> Generator[Place | Move, Observation, dict[str, np.ndarray]]:
+    """APPLY_ACTION (poster, LEARN_MODEL line 4) as the directives of the core's execution loop
+    (:func:`pliant.api.follow`): push object ``names[index]`` with primitive ``primitive`` (an index into
+    :data:`PRIMITIVES`) from where ``seen`` (the last :class:`~pliant.api.Observation`, or anything with the
+    ``objects``' poses by name) shows the objects, and return
+    every movable object's pose afterwards, by name.  The paddle's placement error is drawn from ``rng``
+    (``settings.placement_noise``).  The directives may fail (``recover``): a placement or a step the simulator refuses
+    is raised at the ``yield`` (the plan's strategy skips the push and replans).  The one definition of a push: an
+    execution follows it through the loop, the learner through :func:`apply_action`."""
+    s = settings
+    poses = dict(seen.objects)
+    pose = np.asarray(poses[names[index]], dtype=np.float64)
+    start, sweep, _ = paddle_sweeps(pose[None, None], fp.subset([index]), s)
+    q = start[0, 0, primitive].copy()
+    direction = sweep[0, 0, primitive, 2]
+    heading = np.array([np.cos(direction), np.sin(direction)])
+    if s.placement_noise > 0:
+        along, across = rng.normal(0.0, s.placement_noise, 2)
+        q[:2] += along * heading + across * np.array([-heading[1], heading[0]])
+    seen = yield Place(q, poses, recover=True)
+    depth = s.turn_depth if PRIMITIVES[primitive].startswith("turn") else s.push_depth
+    if s.guard_step > 0:
+        # a guarded move (approach until contact, then push): advance in steps of guard_step until the object has
+        # moved by half a step or turned by GUARD_TURN (the contact; at most push_gap plus GUARD_REACH placement-noise
+        # deviations), then depth further.  The object's motion stands in for a force sensor's contact signal.
+        name = names[index]
+        first = np.asarray(seen.objects[name], dtype=np.float64)
+        reach = s.push_gap + GUARD_REACH * s.placement_noise + s.guard_step
+        travelled = 0.0
+        while travelled < reach:
+            seen = yield _move(heading * s.push_speed, s.guard_step / s.push_speed, s.control_period)
+            travelled += s.guard_step
+            now = np.asarray(seen.objects[name], dtype=np.float64)
+            if np.hypot(*(now[:2] - first[:2])) > 0.5 * s.guard_step or abs(wrap(now[2] - first[2])) > GUARD_TURN:
+                break
+        seen = yield _move(heading * s.push_speed, depth / s.push_speed, s.control_period)
+    else:
+        seen = yield _move(heading * s.push_speed, (s.push_gap + depth) / s.push_speed, s.control_period)
+    if s.retreat > 0:
+        seen = yield _move(-heading * s.push_speed, s.retreat / s.push_speed, s.control_period)
+    seen = yield _move(np.zeros(2), s.settle, s.control_period)
+    return {n: np.asarray(p, dtype=np.float64).copy() for n, p in seen.objects.items()}
 
 
-def _move(world, velocity: np.ndarray, duration: float, dt: float, rng: np.random.Generator) -> None:
-    """Command the planar ``velocity`` (m/s, no turning) for ``duration`` s in steps of at most ``dt``."""
-    steps = max(1, int(np.ceil(duration / dt - 1e-9)))
-    h = duration / steps
-    command = np.array([velocity[0], velocity[1], 0.0])
-    for _ in range(steps):
-        world.step(command, h, rng)
+def _move(velocity: np.ndarray, duration: float, period: float) -> Move:
+    """The planar ``velocity`` (m/s, no turning) for ``duration`` s in steps of at most ``period``."""
+    return Move(np.array([velocity[0], velocity[1], 0.0]), duration, period, recover=True)
+
+
+def apply_action(world, names: list[str], fp: Footprints, index: int, primitive: int, settings: PushSettings,
+                 rng: np.random.Generator, poses: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+    """APPLY_ACTION while the models are learned (LEARN_MODEL, before any plan exists): the push of
+    :func:`push_steps` applied to ``world`` (a :class:`~pliant.interfaces.Simulator` that can place objects)
+    directly, without the execution loop's recording; returns every movable object's pose afterwards, by name.
+    ``poses``: where the objects are now (default: asked from the world).  A refused placement or step raises its
+    :class:`~pliant.api.SimulationError`."""
+    now = SimpleNamespace(objects=dict(world.object_poses()) if poses is None else
+                          {n: np.asarray(p, float) for n, p in poses.items()})
+    steps = push_steps(names, fp, index, primitive, settings, rng, now)
+    directive = next(steps)
+    while True:
+        if isinstance(directive, Place):
+            world.reset(np.asarray(directive.configuration, dtype=np.float64))
+            world.set_object_poses(directive.objects)
+            result = "placed"
+        else:
+            n = max(1, int(np.ceil(directive.duration / directive.period - 1e-9)))
+            h = directive.duration / n
+            for _ in range(n):
+                world.step(directive.velocity, h, rng)
+            result = "moved"
+        try:
+            directive = steps.send(Observation(result, 0.0, np.inf, world))
+        except StopIteration as stop:
+            return stop.value

@@ -1,4 +1,4 @@
-"""A TS-RRT push executed through the core's one execution loop (pliant_tsrrt.execution.push_action as directives)
+"""A TS-RRT push executed through the core's one execution loop (pliant_tsrrt.pushing.push_steps as directives)
 moves the world exactly as APPLY_ACTION applied to the simulator directly (learning's push), draw for draw; the plan's
 strategy is what a pipeline finds for a push plan."""
 
