@@ -5,8 +5,8 @@ hash of *everything the result depends on* -- a ``kind`` (what is built), an alg
 when the algorithm changes) and the inputs themselves, reduced to bytes by :func:`fingerprint` (numbers, strings,
 numpy arrays, lists, dicts and dataclasses such as a scene's objects) -- and keeps it twice:
 
-* in this process (a memo: the second build in one run, e.g. the validity checker's grid after the simulator's, is
-  a dictionary look-up), and
+* in this process (a memo of the last 16 results, at most 512 MB: the second build in one run, e.g. the validity
+  checker's grid after the simulator's, is a dictionary look-up), and
 * on disk, one ``.npz`` file per result under :func:`cache_dir` (default ``~/.cache/pliant``, or
   ``$PLIANT_CACHE_DIR``), so that the next run, and every experiment worker, loads it instead of building it.
 
@@ -51,8 +51,9 @@ ENABLE_VARIABLE = "PLIANT_CACHE"
 MAX_BYTES_VARIABLE = "PLIANT_CACHE_MAX_BYTES"
 #: default bound of the directory (bytes)
 DEFAULT_MAX_BYTES = 4 * 1024**3
-#: results kept in this process's memo (the least recently used beyond it are dropped)
+#: results and bytes kept in this process's memo (the least recently used beyond either are dropped)
 MEMO_ENTRIES = 16
+MEMO_BYTES = 512 * 1024**2
 
 _KEY_ARRAY = "__pliant_cache_key__"
 _NAMES_ARRAY = "__pliant_cache_names__"
@@ -302,9 +303,13 @@ def cached_arrays(kind: str, version: str, inputs: Any, build: Callable[[], Mapp
                 _write(path, key, arrays)
     with _lock:
         _memo[key] = arrays
-        while len(_memo) > MEMO_ENTRIES:
+        while len(_memo) > 1 and (len(_memo) > MEMO_ENTRIES or _memo_bytes() > MEMO_BYTES):
             _memo.popitem(last=False)
     return _copy(arrays)
+
+
+def _memo_bytes() -> int:
+    return sum(a.nbytes for arrays in _memo.values() for a in arrays.values())
 
 
 def forget() -> None:
