@@ -128,7 +128,8 @@ class _ThirdParty:
                 Command("robot", "demo-arm", "a third party's emulated arm", run=lambda args: 5),
                 Command("learn", "broken", "arguments that raise", run=run, arguments=broken),
                 Command("nowhere", "lost", "an unknown group", run=run),
-                Alias("old-sweep", "experiment sweep-demo")]
+                Alias("old-sweep", "experiment sweep-demo"),
+                Alias("run", "experiment sweep-demo")]                  # would hide the core's run: refused
 
 
 @pytest.fixture
@@ -146,6 +147,7 @@ def test_a_third_party_plugin_adds_sub_commands_under_groups(third_party, capsys
     assert cli.main(["experiment", "sweep-demo", "corner"]) == 0
     assert _ThirdParty.calls == [("corner", 7, True)]
     assert cli.main(["robot", "demo-arm"]) == 5
+    assert cli.rewrite(["run", "x"], cli._declarations()[1]) == (["run", "x"], None)
     assert cli.main(["old-sweep", "again", "--seed", "3"]) == 0
     assert _ThirdParty.calls[-1] == ("again", 3, True)
     assert capsys.readouterr().err == "pliant old-sweep is deprecated: use pliant experiment sweep-demo\n"

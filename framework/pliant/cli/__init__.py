@@ -286,7 +286,11 @@ def _declarations() -> tuple[list[Command], list[Alias]]:
             if isinstance(item, Command):
                 commands.append(item)
             elif isinstance(item, Alias):
-                aliases.append(item)
+                words = item.old.split()
+                if not words or (len(words) == 1 and words[0] in GROUPS):      # never hide `pliant run` & co.
+                    log.warning("the alias %r would hide a command (skipped)", item.old)
+                else:
+                    aliases.append(item)
             else:
                 log.warning("pliant_commands returned %r: neither a Command nor an Alias (skipped)", item)
     return commands, aliases
