@@ -83,19 +83,20 @@ XDIST_GROUPS = {
     "tests/framework/experiments/test_executor_ray.py": "ray",
     "tests/plugins/reports/viewer/test_viewer_browser.py": "browser",
 }
-#: modules whose tests share a module-level cache (functools.cache) worth building once: kept on one worker
+#: modules whose quick tests share a module-level cache (functools.cache) worth building once: kept on one worker
+#: (their slow tests, which build their own, spread)
 XDIST_SHARED_MODULES = ("tests/e2e/test_robot_pipelines.py",)
 
 
 def _xdist_group(item) -> str | None:
     """The group of a test under ``--dist loadgroup``: a serial group above, else its module when it shares
-    something across tests (a module-, class- or package-scoped fixture, or a module-level cache), else none (the
-    test goes to whichever worker is free)."""
+    something with the module's other tests (a module-, class- or package-scoped fixture, or a module-level cache
+    of ``XDIST_SHARED_MODULES``), else none (the test goes to whichever worker is free)."""
     path = item.nodeid.split("::")[0]
     for prefix, group in XDIST_GROUPS.items():
         if path.startswith(prefix):
             return group
-    if path in XDIST_SHARED_MODULES:
+    if path in XDIST_SHARED_MODULES and item.get_closest_marker("slow") is None:
         return path
     info = getattr(item, "_fixtureinfo", None)
     scopes = {getattr(d, "scope", "function") for defs in (info.name2fixturedefs.values() if info else ())
