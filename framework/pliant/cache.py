@@ -209,12 +209,24 @@ def _write(path: Path, key: str, arrays: Mapping[str, np.ndarray]) -> None:
     _prune()
 
 
+def _ours(path: Path) -> bool:
+    """Whether ``path`` is one of this cache's files (``<64 hex>.npz`` / ``.lock``, or a temporary file of one), not
+    another tool's file in the same directory (the viewer keeps its meshes in ``~/.cache/pliant/viewer``)."""
+    name = path.name
+    if name.startswith(".") and name.endswith(".tmp"):
+        return all(c in "0123456789abcdef" for c in name[1:17]) and name[17:18] == "-"
+    return path.suffix in (".npz", ".lock") and len(path.stem) == 64 and \
+        all(c in "0123456789abcdef" for c in path.stem)
+
+
 def _prune() -> None:
     """Delete the least recently used files while the directory holds more than ``PLIANT_CACHE_MAX_BYTES``."""
     limit = _max_bytes()
     try:
         files = []
         for path in cache_dir().glob("*/*.npz"):
+            if not _ours(path):
+                continue
             try:
                 st = path.stat()
             except OSError:
@@ -319,7 +331,8 @@ def forget() -> None:
 
 
 def clear(kind: str | None = None) -> int:
-    """Delete the cache's files (of one ``kind``, or all) and the memo; returns how many results were deleted."""
+    """Delete the cache's files (of one ``kind``, or all; other tools' files in the directory stay) and the memo;
+    returns how many results were deleted."""
     forget()
     root = cache_dir()
     if kind is not None:
@@ -327,7 +340,7 @@ def clear(kind: str | None = None) -> int:
     pattern = f"{kind}/*" if kind is not None else "*/*"
     removed = 0
     for path in root.glob(pattern):
-        if path.suffix in (".npz", ".tmp", ".lock") and path.is_file():
+        if _ours(path) and path.is_file():
             try:
                 path.unlink()
                 removed += path.suffix == ".npz"

@@ -202,11 +202,15 @@ def test_the_environment_variables(tmp_path, monkeypatch):
 
 
 def test_the_directory_is_bounded(cache_dir, monkeypatch):
+    foreign = cache_dir / "viewer" / "robot-0123.npz"           # another tool's file in the same directory
+    foreign.parent.mkdir(parents=True)
+    foreign.write_bytes(b"x" * 10_000)
     monkeypatch.setenv("PLIANT_CACHE_MAX_BYTES", "3000")
     for i in range(6):
         cache.cached_arrays("test", "v1", i, lambda: {"a": np.zeros(100)})   # about 1 kB each
     files = list((cache_dir / "test").glob("*.npz"))
     assert 1 <= len(files) <= 3 and sum(f.stat().st_size for f in files) <= 3000
+    assert cache.clear() == len(files) and foreign.exists()          # neither pruned nor cleared
 
 
 _WORKER = textwrap.dedent("""
