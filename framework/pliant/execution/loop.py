@@ -249,6 +249,9 @@ def follow(world: ExecutionWorld, controller: Controller | None, strategy: Execu
         raise DimensionError("period and time_limit must be positive seconds", field="period/time_limit",
                              value=(period, time_limit))
     directive = strategy.begin(rng)
+    if not isinstance(directive, Place):
+        raise ConfigError("a strategy begins by placing the robot (a Place directive)", field="strategy",
+                          value=type(directive).__name__)
     if directive.objects is not None and not getattr(world, "can_place_objects", False):
         raise ConfigError("this execution places objects: it needs a world that can place objects (a simulator "
                           "such as pymunk)", field="execution.world", value=world_name or type(world).__name__)

@@ -250,6 +250,13 @@ def test_a_strategy_that_drives_needs_a_controller_and_one_that_places_objects_a
     with pytest.raises(ConfigError, match="place objects"):
         follow(Fixed(), None, ToyPushes(), RNG(0))
 
+    class Hasty(ToyPolicy):
+        def begin(self, rng):
+            return Drive(np.array([1.0]))
+
+    with pytest.raises(ConfigError, match="begins by placing"):
+        follow(Line(), Proportional(), Hasty(), RNG(0))
+
 
 MODULE = textwrap.dedent('''
     import numpy as np
