@@ -3,12 +3,13 @@ gives byte-identical ``result.json`` (timings aside) on an idle machine and besi
 
 For each pipeline (``scenes/pipelines/*.toml``, or ``--only``), ``pliant run NAME --set seed=S`` runs twice in fresh
 processes: once as the machine is, once beside two ``python -c "while True: pass"`` processes started for that run
-and stopped after it.  Both ``result.json`` files are read, every timing removed (keys naming a time: ``time``,
-``*_time``, ``time_*``, ``*seconds*``, ``elapsed``; the time column of ``cost_history``; ``budget.max_time`` is the
-request's and stays), and the rest compared as canonical JSON (sorted keys): identical or not, with the first
-differing key.  ``execution.json`` (simulated times are data, not timings) is compared whole when the run wrote one.
-Also reported: each run's outcome, the planner's stop reason (``statistics.budget.binding``: ``iterations`` for a work
-budget; ``time`` would make the result depend on the machine) and the wall time.
+and stopped after it.  Both ``result.json`` files (``learned.json`` for a pipeline without a planner) are read,
+every timing removed (keys naming a time: ``time``, ``*_time``, ``time_*``, ``*seconds*``, ``elapsed``; the time
+column of ``cost_history``; ``budget.max_time`` is the request's and stays), and the rest compared as canonical
+JSON (sorted keys): identical or not, with the first differing key.  ``execution.json`` (simulated times are data,
+not timings) is compared whole when the run wrote one.  Also reported: each run's outcome, the planner's stop
+reason (``statistics.budget.binding``: ``iterations`` for a work budget; ``time`` would make the result depend on
+the machine) and the wall time.
 
     python benchmarks/bench_determinism.py [--only demo,iiwa-policy] [--seed 0] [--burners 2] [--out DIR]
 
@@ -105,6 +106,9 @@ def run_once(name: str, seed: int, output: Path, burners: int) -> dict:
     execution = output / "execution.json"
     if execution.is_file():
         record["execution"] = json.loads(execution.read_text())
+    learned = output / "learned.json"
+    if learned.is_file():
+        record["learned"] = strip_timings(json.loads(learned.read_text()))
     run = output / "run.json"
     if run.is_file():
         record["outcome"] = json.loads(run.read_text()).get("outcome")
@@ -127,19 +131,22 @@ def main() -> None:
         base = Path(args.out) / name
         idle = run_once(name, args.seed, base / "idle", 0)
         busy = run_once(name, args.seed, base / "loaded", args.burners)
-        same = "result" in idle and "result" in busy and json.dumps(idle["result"], sort_keys=True) == \
-            json.dumps(busy["result"], sort_keys=True)
-        diff = "" if same else first_difference(idle.get("result"), busy.get("result"))
+        # the plan (result.json); a pipeline without a planner: what its learner fitted (learned.json)
+        key = "result" if "result" in idle or "result" in busy else "learned"
+        same = key in idle and key in busy and json.dumps(idle[key], sort_keys=True) == \
+            json.dumps(busy[key], sort_keys=True)
+        diff = "" if same else first_difference(idle.get(key), busy.get(key)) or f"{key}.json missing"
         exec_same = None
         if "execution" in idle or "execution" in busy:
             exec_same = json.dumps(idle.get("execution"), sort_keys=True) == \
                 json.dumps(busy.get("execution"), sort_keys=True)
-        rows.append((name, "identical" if same else f"DIFFERS at {diff}",
+        rows.append((name, ("identical" if same else f"DIFFERS at {diff}") + ("" if key == "result" else " (learned)"),
                      "-" if exec_same is None else ("identical" if exec_same else "DIFFERS"),
                      f"{idle.get('outcome')}/{busy.get('outcome')}", f"{idle.get('binding')}/{busy.get('binding')}",
                      f"{idle['wall']:.0f}", f"{busy['wall']:.0f}"))
         report["pipelines"][name] = {
-            "result_identical": same, "first_difference": diff, "execution_identical": exec_same,
+            "compared": f"{key}.json", "result_identical": same, "first_difference": diff,
+            "execution_identical": exec_same,
             "outcome": [idle.get("outcome"), busy.get("outcome")], "exit": [idle["exit"], busy["exit"]],
             "binding": [idle.get("binding"), busy.get("binding")], "wall": [idle["wall"], busy["wall"]],
             "stderr": [idle["stderr"][-300:], busy["stderr"][-300:]] if not same else None}
