@@ -95,7 +95,12 @@ def run_once(name: str, seed: int, output: Path, burners: int) -> dict:
         for hog in hogs:
             hog.kill()
             hog.wait()
-    record = {"exit": done.returncode, "wall": wall, "stderr": done.stderr[-2000:]}
+    return {"exit": done.returncode, "wall": wall, "stderr": done.stderr[-2000:], **read_run(output)}
+
+
+def read_run(output: Path) -> dict:
+    """What a run folder holds, timings stripped: the plan, what was learned, the execution, the outcome."""
+    record: dict = {}
     result = output / "result.json"
     if result.is_file():
         data = json.loads(result.read_text())
@@ -121,16 +126,27 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--burners", type=int, default=2, help="busy-loop processes beside the second run")
     parser.add_argument("--out", default="out/bench/determinism", help="folder for the runs' output")
+    parser.add_argument("--compare", action="store_true",
+                        help="run nothing: compare the idle/ and loaded/ folders already under --out")
     args = parser.parse_args()
     names = [n for n in args.only.split(",") if n] or sorted(p.stem for p in (ROOT / "scenes/pipelines").glob("*.toml"))
+    if args.compare and not args.only:
+        names = sorted(p.name for p in Path(args.out).iterdir() if p.is_dir())
     rows, report = [], {"seed": args.seed, "burners": args.burners, "pipelines": {}}
     for name in names:
         if name in NEEDS_PEER:
             rows.append((name, "skipped (needs a hardware peer)", "", "", "", "", ""))
             continue
         base = Path(args.out) / name
-        idle = run_once(name, args.seed, base / "idle", 0)
-        busy = run_once(name, args.seed, base / "loaded", args.burners)
+        if args.compare:
+            idle, busy = read_run(base / "idle"), read_run(base / "loaded")
+            if busy.get("outcome") in (None, "running"):          # not run, or still running
+                continue
+            for run in (idle, busy):
+                run.update(exit=None, wall=float("nan"), stderr="")
+        else:
+            idle = run_once(name, args.seed, base / "idle", 0)
+            busy = run_once(name, args.seed, base / "loaded", args.burners)
         # the plan (result.json); a pipeline without a planner: what its learner fitted (learned.json)
         key = "result" if "result" in idle or "result" in busy else "learned"
         same = key in idle and key in busy and json.dumps(idle[key], sort_keys=True) == \
