@@ -5,8 +5,8 @@ hash of *everything the result depends on* -- a ``kind`` (what is built), an alg
 when the algorithm changes) and the inputs themselves, reduced to bytes by :func:`fingerprint` (numbers, strings,
 numpy arrays, lists, dicts and dataclasses such as a scene's objects) -- and keeps it twice:
 
-* in this process (a memo of the last 16 results, at most 512 MB: the second build in one run, e.g. the validity
-  checker's grid after the simulator's, is a dictionary look-up), and
+* in this process (a memo of the last 16 results built, at most 512 MB: the second build in one run, e.g. the
+  validity checker's grid after the simulator's, is a dictionary look-up), and
 * on disk, one ``.npz`` file per result under :func:`cache_dir` (default ``~/.cache/pliant``, or
   ``$PLIANT_CACHE_DIR``), so that the next run, and every experiment worker, loads it instead of building it.
 
@@ -300,19 +300,19 @@ def cached_arrays(kind: str, version: str, inputs: Any, build: Callable[[], Mapp
             os.utime(path)     # recently used: kept longest when the directory is pruned
         except OSError:
             pass
-    else:
-        with _build_lock(path):
-            # another process may have built it while this one waited for the lock: one build per content
-            arrays = _read(path, key, None)
-            if arrays is not None:
-                counts["disk"] += 1
-            else:
-                counts["built"] += 1
-                arrays = {name: np.asarray(a) for name, a in build().items()}
-                for name, a in arrays.items():
-                    if a.dtype.hasobject:
-                        raise TypeError(f"cached array {name!r} holds Python objects")
-                _write(path, key, arrays)
+        return arrays          # freshly read: the caller's own (the memo keeps built results only)
+    with _build_lock(path):
+        # another process may have built it while this one waited for the lock: one build per content
+        arrays = _read(path, key, None)
+        if arrays is not None:
+            counts["disk"] += 1
+            return arrays
+        counts["built"] += 1
+        arrays = {name: np.asarray(a) for name, a in build().items()}
+        for name, a in arrays.items():
+            if a.dtype.hasobject:
+                raise TypeError(f"cached array {name!r} holds Python objects")
+        _write(path, key, arrays)
     with _lock:
         _memo[key] = arrays
         while len(_memo) > 1 and (len(_memo) > MEMO_ENTRIES or _memo_bytes() > MEMO_BYTES):
