@@ -5,8 +5,8 @@ Fast tests check what the files promise: seven planned joints, start and goal in
 soft limits too) and collision-free for the robot model (coal), the kinematic simulator's voxels and its contact
 check; the straight motion between them is not (the arm must go around or through something); the execution world
 has the planning model's limits and noise, and one setting swaps it for the robot's driver.  The slow tests run each
-pipeline end to end from seed 0 (planning stops at its first solution, so the run is repeatable) and require the
-pybullet execution to reach the goal.
+pipeline end to end from seed 0 (planning stops at its first solution within the pipeline's work budget, so the
+run is the same under any load) and require the pybullet execution to reach the goal.
 """
 
 from __future__ import annotations
@@ -130,8 +130,10 @@ def test_one_setting_executes_on_the_robot_s_driver(name):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", NAMES)
 def test_the_pipeline_plans_and_its_policy_reaches_the_goal_in_pybullet(name):
-    record = Pipeline.from_file(name, overrides=["seed=0", "planner.stop_on_first=true",
-                                                 "planner.max_time=30"]).run(write=False)
+    # the pipeline's work budget ([planning] max_iterations; its max_time is only a generous cap) and the first
+    # solution: the same plan on any machine under any load (a 30 s budget once planned 2 iterations on CI: timeout)
+    record = Pipeline.from_file(name, overrides=["seed=0", "planning.stop_on_first=true"]).run(write=False)
+    assert record.result.statistics["budget"].get("binding") != "time", record.result.statistics["budget"]
     assert record.result.solved, record.result.statistics
     execution = record.execution
     assert execution.world == "pybullet"
