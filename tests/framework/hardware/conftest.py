@@ -61,7 +61,9 @@ def robot_and_driver(limits_file, limits):
     robot = MemoryRobot(limits, np.zeros(3)).start()
     rid = next(_ids)
     MemoryDriver.robots[rid] = (robot, limits_file)
-    driver = MemoryDriver(robot_id=rid, state_timeout=0.1)
+    # a 1 s watchdog: a loaded test machine (load 20) starved the robot's state thread past 0.1 s; the watchdog's
+    # own tests stop the robot's states outright, which any deadline catches
+    driver = MemoryDriver(robot_id=rid, state_timeout=1.0)
     yield robot, driver
     driver.close()
     robot.stop()
