@@ -52,6 +52,7 @@ def _pipeline(tmp_path, world=None):
                     controller={"name": "contact", "gain": 4.0, "tolerance": 0.05}, execution=execution)
 
 
+@pytest.mark.slow
 def test_the_same_pipeline_executes_on_the_robot_by_one_setting(memory_robot, tmp_path):
     simulated = _pipeline(tmp_path).run(write=False)
     steps = []

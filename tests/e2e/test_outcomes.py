@@ -76,6 +76,7 @@ def _run_json(folder):
     return json.loads((folder / "run.json").read_text())
 
 
+@pytest.mark.slow
 def test_push_slide_stuck_in_the_kinematic_simulator_exits_3(tmp_path, capsys):
     # the issue's `pliant run push-slide --set simulator=kinematic`: the paddle stops at the crate (held fixed)
     out = tmp_path / "push"
