@@ -105,9 +105,10 @@ def test_simple_rrt_never_touches_a_wall_and_contact_rrt_uses_one_particle():
     assert all(len(n.particles) == 1 for n in planner.tree.nodes)
 
 
+@pytest.mark.slow
 def test_a_pipeline_plans_a_policy_and_executes_it():
-    record = Pipeline.from_file("maze-policy", overrides=[
-        "planner.max_time=1000", "planner.max_iterations=150", "planner.particles=8", "execution.world=kinematic",
+    record = Pipeline.from_file("maze-policy", overrides=[       # a work budget; the time is only a cap
+        "planning.max_time=1000", "planning.max_iterations=150", "planner.particles=8", "execution.world=kinematic",
         "execution.time_limit=600", 'output="/tmp/pliant-test-maze-policy"']).run(write=False)
     assert record.result.status is Status.SOLVED
     assert record.execution is not None and len(record.execution.details.actions) >= 1
