@@ -1,12 +1,15 @@
 """A third-party plugin installed with pip is found through its entry point and used by name.
 
-This installs docs/examples/pliant-example-plugin into the test environment (editable, no
-dependencies fetched), then runs the `pliant` command in a fresh process, as a user would.
+This installs docs/examples/pliant-example-plugin with pip (no dependencies fetched) into a directory of its own on
+the ``PYTHONPATH`` of the ``pliant`` processes it then runs, as a user would: the test environment itself is left
+alone, so that tests running beside this one (``make test`` runs two processes) never see the example appear or
+vanish.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -22,17 +25,25 @@ def _pip(*args: str) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, check=False)
 
 
+#: where the example plugin is installed (set by the fixture): first on the PYTHONPATH of the pliant processes
+_TARGET: list[Path] = []
+
+
 def _pliant(*args: str) -> subprocess.CompletedProcess:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([*(str(t) for t in _TARGET), *filter(None, [env.get("PYTHONPATH")])])
     return subprocess.run([sys.executable, "-m", "pliant.cli", *args], capture_output=True, text=True, check=False,
-                          cwd=ROOT)
+                          cwd=ROOT, env=env)
 
 
 @pytest.fixture(scope="module")
-def example_plugin_installed():
-    done = _pip("install", "--no-deps", "--no-build-isolation", "-e", str(EXAMPLE))
+def example_plugin_installed(tmp_path_factory):
+    target = tmp_path_factory.mktemp("site")
+    done = _pip("install", "--no-deps", "--no-build-isolation", "--target", str(target), str(EXAMPLE))
     assert done.returncode == 0, done.stderr
-    yield
-    _pip("uninstall", "-y", "pliant-example-plugin")
+    _TARGET[:] = [target]
+    yield target
+    _TARGET.clear()
 
 
 def test_plugins_lists_the_example(example_plugin_installed):
