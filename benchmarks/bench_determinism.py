@@ -116,7 +116,9 @@ def read_run(output: Path) -> dict:
         record["learned"] = strip_timings(json.loads(learned.read_text()))
     run = output / "run.json"
     if run.is_file():
-        record["outcome"] = json.loads(run.read_text()).get("outcome")
+        data = json.loads(run.read_text())
+        record["outcome"] = data.get("outcome")
+        record["stages"] = sum((data.get("timings") or {}).values())      # build, learn, plan, execute (s)
     return record
 
 
@@ -142,8 +144,8 @@ def main() -> None:
             idle, busy = read_run(base / "idle"), read_run(base / "loaded")
             if busy.get("outcome") in (None, "running"):          # not run, or still running
                 continue
-            for run in (idle, busy):
-                run.update(exit=None, wall=float("nan"), stderr="")
+            for run in (idle, busy):             # the stages' time from run.json stands for the process's wall time
+                run.update(exit=None, wall=run.get("stages", float("nan")), stderr="")
         else:
             idle = run_once(name, args.seed, base / "idle", 0)
             busy = run_once(name, args.seed, base / "loaded", args.burners)
