@@ -381,6 +381,7 @@ class ValidityChecker:
         try:
             pts = np.asarray(self.robot.body_points(np.atleast_2d(self.scene.start)))[0]
         except Exception:       # a start outside the space: any configuration will do for an extent
+            # any configuration gives the body's extent (a geometric probe: no result depends on the draw)
             pts = np.asarray(self.robot.body_points(self.space.sample(np.random.default_rng(0), 1)))[0]
         return max(float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))), self.resolution)
 
