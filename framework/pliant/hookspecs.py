@@ -53,7 +53,7 @@ class PliantSpec:
         sub-commands with :func:`pliant_commands` instead; a plugin that still implements this loads, without those
         commands."""
 
-    @hookspec
+    @hookspec(firstresult=True)
     def pliant_run_view(self, pipeline, args):
         """``pliant run PIPELINE --view``: open a live view of ``pipeline`` (a :class:`pliant.pipeline.Pipeline`,
         not yet run) with the ``--view-*`` options in ``args``; return an object with ``on_step(step)`` (called at

@@ -3,5 +3,5 @@
 - :mod:`pliant.experiments.runs`: resumable experiments (settings checks, ``runs.jsonl``, :func:`run_tasks`);
 - :mod:`pliant.experiments.executor`: where tasks run: a local process pool or a Ray cluster;
 - :mod:`pliant.experiments.ompl`: results in OMPL's benchmark log and database formats;
-- :mod:`pliant.experiments.reproduce`: ``pliant reproduce``, every thesis table by one command.
+- :mod:`pliant.experiments.reproduce`: ``pliant experiment``, every thesis table by one command.
 """

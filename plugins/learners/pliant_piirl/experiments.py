@@ -480,21 +480,23 @@ def run_table42(*, max_time: float | None = None, max_iterations: int | None = N
     features = DeformationFeatures(scene)
     truth = true_sensitivities(scene)
     weights = features.sensitivity_vector(truth)
-    rng = np.random.default_rng(seed)
     task = DemonstrationTask(scene.start, np.r_[scene.goal[:2], 0.0], goal=scene.goal)
     started = time.perf_counter()
     echo(f"the expert plans with the true sensitivities ({budget}) ...")
     demonstration = PlannerExpert(features, truth, max_time=max_time,
-                                  planner_options=planner_options).demonstrate(task, rng)
+                                  planner_options=planner_options).demonstrate(task, stream(seed, "task", "expert"))
     save_demonstrations(directory / "demonstration.json", [demonstration], PLANAR)
     learner = _learner({**PLANAR_RECOVERY, "tip": (0.0, 0.0, 0.0)}, "piirl", scene=PLANAR)
-    learned = learner.fit([demonstration], rng)["sensitivities"]
+    learned = learner.fit([demonstration], stream(seed, "learning"))["sensitivities"]
     echo("recovered: " + ", ".join(f"{k} {v:.4g}" for k, v in learned.items()))
     paths = {"demonstration": demonstration.path}
     for name, values in (("uniform", dict.fromkeys(truth, 1.0)), ("recovered", learned)):
         echo(f"planning with the {name} sensitivities ({budget}) ...")
-        result, path = plan_task(scene, values, Demonstration(task, demonstration.path), (0.0, 0.0, 0.0), rng,
-                                 max_time=max_time, planner_options=planner_options, shortcut_iterations=500)
+        # both plans draw the same stream (common random numbers): the comparison is of the sensitivities, not of
+        # two draws of the sampler
+        result, path = plan_task(scene, values, Demonstration(task, demonstration.path), (0.0, 0.0, 0.0),
+                                 stream(seed, "planning"), max_time=max_time, planner_options=planner_options,
+                                 shortcut_iterations=500)
         paths[name] = path if path is not None else (result.path.configurations if result.path is not None else None)
     rows = {}
     for name in ("uniform", "demonstration", "recovered"):
