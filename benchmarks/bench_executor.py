@@ -5,7 +5,8 @@
    the local pool of 1 and 2 workers and with Ray on a loopback cluster of 2 nodes x 1 CPU
    (:class:`pliant.experiments.executor.LoopbackCluster`).  Overhead = wall time / tasks.  Figure to reach:
    <= 5 ms a task for Ray on loopback.
-2. Throughput scaling: ``--tasks`` real tasks (the path metric's Simulation evaluations of ``pliant experiment metric-tables``,
+2. Throughput scaling: ``--tasks`` real tasks (the path metric's Simulation evaluations of
+   ``pliant experiment metric-tables``,
    se2-through-passage, ``--simulations`` each: about 0.7 s with 800 on an idle core) with the local pool of 1 and 2
    workers and Ray on the same cluster; tasks per second and the speed-up over one local worker.  Records are
    checked equal across executors (but for their wall time).

@@ -87,7 +87,8 @@ def main(argv=None) -> int:
     parser.add_argument("--set", action="append", default=[], help="metric option KEY=VALUE for every method")
     parser.add_argument("--alone", action="store_true", help="time only the proposed metric, one cell at a time")
     parser.add_argument("--ground-truth", type=Path, metavar="RUNS_JSONL",
-                        help="a pliant experiment metric-tables runs.jsonl with ground-truth records: every method's mean "
+                        help="a pliant experiment metric-tables runs.jsonl with ground-truth records: every method's "
+                             "mean "
                              "absolute error against them and the cells it overestimates by more than 0.05")
     parser.add_argument("--replay", type=Path, metavar="JSON",
                         help="print the tables of a previous run (out/bench/metric.json) instead of running")
@@ -158,7 +159,8 @@ def _report(name: str, records: list[dict], truth: dict[int, float]) -> None:
 
 
 def _ground_truth(path: Path) -> dict[str, dict[int, float]]:
-    """``task -> cell -> P_exec`` of the ground-truth records in a ``pliant experiment metric-tables`` ``runs.jsonl``."""
+    """``task -> cell -> P_exec`` of the ground-truth records in a ``pliant experiment metric-tables``
+    ``runs.jsonl``."""
     from pliant.errors import ConfigError
     from pliant.files import read_jsonl
 

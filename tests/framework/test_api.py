@@ -45,5 +45,5 @@ def test_every_declared_name_resolves_and_unknown_names_are_refused():
         assert getattr(pliant.api, name) is not None, name
     assert pliant.api.registry.available("planner")
     assert pliant.api.PlanningProblem is pliant.PlanningProblem
-    with pytest.raises(AttributeError, match="pliant.api has no name 'Nope'"):
+    with pytest.raises(AttributeError, match=r"pliant\.api has no name 'Nope'"):
         pliant.api.Nope  # noqa: B018

@@ -1,4 +1,5 @@
-"""``pliant experiment metric-tables``: thesis Tables 6.1-6.4 regenerated -- every method in every cell of the thesis's grid,
+"""``pliant experiment metric-tables``: thesis Tables 6.1-6.4 regenerated -- every method in every cell of the
+thesis's grid,
 ``--runs`` seeded evaluations each, resumable and parallel (:mod:`pliant.experiments.runs`), the thesis's numbers beside
 ours, and a figure per task.
 
