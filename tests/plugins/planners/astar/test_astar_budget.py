@@ -68,7 +68,9 @@ def test_the_planner_returns_timeout_when_the_budget_ends_mid_search(monkeypatch
     cut = planner.plan(problem, np.random.default_rng(0), Termination(max_time=5.0, clock=clock))
     assert cut.status is Status.TIMEOUT and cut.path is None
     assert clock.readings <= 2 + 5                     # construction, start, then one reading per chunk
-    assert cut.statistics["budget"] == {"max_time": 5.0, "max_iterations": None}
+    budget = cut.statistics["budget"]
+    assert {k: budget[k] for k in ("max_time", "max_iterations")} == {"max_time": 5.0, "max_iterations": None}
+    assert budget["binding"] == "time" and budget["source"] == "termination"   # the clock stopped it, and says so
     # the time cap that never fires changes nothing
     again = planner.plan(problem, np.random.default_rng(0), Termination(max_time=1e12, clock=TickClock()))
     assert again.cost == solved.cost and np.array_equal(again.path.configurations, solved.path.configurations)

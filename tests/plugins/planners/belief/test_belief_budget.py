@@ -54,7 +54,9 @@ def test_a_budget_expiring_inside_a_simulation_stops_there_and_keeps_the_tree_of
     assert stats["particles_simulated"] % 8 == 0 and stats["particles_simulated"] < full.statistics[
         "particles_simulated"]
     assert cut.status is Status.TIMEOUT and cut.path is None
-    assert cut.statistics["budget"] == {"max_time": 150.0, "max_iterations": None}
+    budget = cut.statistics["budget"]
+    assert {k: budget[k] for k in ("max_time", "max_iterations")} == {"max_time": 150.0, "max_iterations": None}
+    assert budget["binding"] == "time" and budget["source"] == "termination"   # the clock stopped it, and says so
 
 
 def test_a_time_cap_that_never_fires_changes_nothing():
