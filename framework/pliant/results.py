@@ -199,8 +199,8 @@ class PlanResult:
     def to_dict(self) -> dict:
         return {"status": self.status.value, "path": None if self.path is None else self.path.to_dict(),
                 "policy": None if self.policy is None else self.policy.to_dict(),
-                "cost": None if math.isnan(self.cost) else self.cost, "statistics": _jsonable(self.statistics),
-                "seed": self.seed, "planner": self.planner, "options": _jsonable(self.options),
+                "cost": None if math.isnan(self.cost) else self.cost, "statistics": jsonable(self.statistics),
+                "seed": self.seed, "planner": self.planner, "options": jsonable(self.options),
                 "message": self.message, **({"streams": self.streams} if self.streams is not None else {})}
 
     @classmethod
@@ -226,18 +226,22 @@ class PlanResult:
         return cls.from_dict(_read_json(path, "result"))
 
 
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
+    """``value`` with numpy arrays and scalars, tuples and enums turned into JSON types (dict keys as strings); a
+    non-finite float becomes ``None`` (results are strict JSON)."""
     if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
+        return jsonable(value.tolist())
     if isinstance(value, (np.floating, float)):
         v = float(value)
         return v if math.isfinite(v) else None
     if isinstance(value, np.integer):
         return int(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
     if isinstance(value, enum.Enum):
         return value.value
     return value
@@ -248,7 +252,7 @@ def _write_json(path: str | FilePath, data: dict) -> None:
     directories."""
     from pliant.files import write_json
 
-    write_json(path, _jsonable(data))
+    write_json(path, jsonable(data))
 
 
 def _read_json(path: str | FilePath, what: str) -> dict:

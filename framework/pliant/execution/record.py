@@ -11,12 +11,13 @@ replannings (defined by the plugins that supply those strategies).
 from __future__ import annotations
 
 import enum
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
+
+from pliant.results import jsonable
 
 
 class ExecutionOutcome(enum.StrEnum):
@@ -67,7 +68,7 @@ class ExecutionDetails:
     kind: ClassVar[str] = ""
 
     def to_dict(self) -> dict:
-        return {"kind": self.kind, **{f.name: _jsonable(getattr(self, f.name)) for f in fields(self)}}
+        return {"kind": self.kind, **{f.name: jsonable(getattr(self, f.name)) for f in fields(self)}}
 
     def summary(self) -> list[tuple[str, str]]:
         """Rows for a run's summary table (``pliant run``'s output and report.md)."""
@@ -126,19 +127,3 @@ class ExecutionRecord:
                 "objects": {name: poses.tolist() for name, poses in self.objects.items()},
                 "world": self.world, "error": self.error,
                 "details": None if self.details is None else self.details.to_dict()}
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, (np.floating, float)):
-        return float(value) if math.isfinite(value) else None
-    return value
