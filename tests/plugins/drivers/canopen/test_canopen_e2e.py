@@ -79,7 +79,9 @@ def test_a_drive_fault_mid_motion_stops_the_arm_with_a_clear_error(make_peer, ma
 
 def test_heartbeat_loss_mid_motion_stops_the_arm_with_a_clear_error(make_peer, make_driver):
     peer = make_peer()
-    driver = make_driver(heartbeat_timeout=0.1)
+    # 0.3 s: the drives' own consumer of the master's heartbeat gets the same deadline, and at 0.1 s a loaded machine
+    # (2 test workers) let every drive fault on a late master heartbeat before node 6's loss was seen
+    driver = make_driver(heartbeat_timeout=0.3)
     with driver:
         _start_motion(driver, Q)
         peer.drop_heartbeat(6)
@@ -88,7 +90,7 @@ def test_heartbeat_loss_mid_motion_stops_the_arm_with_a_clear_error(make_peer, m
         assert "node 6 (lbr_iiwa_joint_6): heartbeat lost" in str(info.value)
         driver.stop()
     # The driver cannot reach node 6, so it leaves it enabled; once the master's heartbeat stops on shutdown, the
-    # drive's own heartbeat consumer (0x1016, the same 0.1 s) faults it with EMCY 0x8130, a race with this line.
+    # drive's own heartbeat consumer (0x1016, the same 0.3 s) faults it with EMCY 0x8130, a race with this line.
     # Either way it was never disabled by the driver, and it came to rest.
     drive = peer.drive(6)
     assert drive.state in (DriveState.OPERATION_ENABLED, DriveState.FAULT)
