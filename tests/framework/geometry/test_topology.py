@@ -397,6 +397,22 @@ def test_edge_by_edge_from_each_parent_sweeps_exactly_the_whole_path(thickness, 
     assert ok_edges == ok_whole == checker.check(path)[0]
 
 
+def test_a_hole_cut_open_into_a_notch_later_in_the_path_is_still_a_puncture():
+    """Found by the property above: out through a wall's corner and back along the same line.  The way out leaves
+    a hole (tunnels 0 -> 1); the way back sweeps a few voxels more and cuts the hole's rim, leaving a notch with no
+    hole.  Judging only the voxels removed at the end passed the whole path while its first edge failed; every
+    step is judged now, so both say puncture."""
+    checker = PunctureChecker(_grid({"shell": (_wall_shell(3), 0.5)}), _probe())
+    out, back = np.zeros(3), np.array([0.5, 0.9375, 1 / 3])
+    first, ok_first, reason = checker.extend(checker.initial_state(), [back], start=out)
+    assert not ok_first and "gained a hole" in reason
+    assert checker.topologies(first)[0].tunnels == 1
+    whole, ok_whole, reason_whole = checker.extend(checker.initial_state(), np.array([out, back, out]))
+    assert checker.topologies(whole)[0].tunnels == 0            # at the end: a notch, not a hole
+    assert not ok_whole and "gained a hole" in reason_whole
+    assert not checker.check(np.array([out, back, out]))[0]
+
+
 def test_a_void_opened_is_caught_even_when_the_sweep_carves_a_new_cavity():
     """A probe of two points: one pierces a wall three voxels thick into the void, the other, inside the top wall
     from the start, carves a closed groove out of that wall's middle layer.  The cavity count stays 1 (one void
