@@ -133,6 +133,7 @@ _NAMES: dict[str, tuple[str, str]] = {
     "DimensionError": ("pliant.errors", "DimensionError"),
     "DriverError": ("pliant.errors", "DriverError"),
     "EmergencyStop": ("pliant.errors", "EmergencyStop"),
+    "LimitViolation": ("pliant.errors", "LimitViolation"),
     "PipelineError": ("pliant.errors", "PipelineError"),
     "PlanningError": ("pliant.errors", "PlanningError"),
     "PliantError": ("pliant.errors", "PliantError"),
