@@ -260,6 +260,8 @@ def summarise(records: list[dict], variants: list[Variant]) -> list[dict]:
                          "p_plan": len(planned) / len(mine) if mine else float("nan"),
                          "p_exec": float(np.mean(rates)) if rates else float("nan"),
                          "p_exec_std": float(np.std(rates)) if rates else float("nan"),
+                         "p_plan_ci95": wilson(len(planned), len(mine)),
+                         "p_exec_ci95": bootstrap_mean(rates),
                          "actions": float(np.mean(actions)) if actions else float("nan"),
                          "actions_std": float(np.std(actions)) if actions else float("nan"),
                          "time_to_first": float(np.mean(firsts)) if firsts else float("nan"),
@@ -270,6 +272,32 @@ def summarise(records: list[dict], variants: list[Variant]) -> list[dict]:
                          "solutions": float(np.mean([r["statistics"].get("solutions", 0)
                                                      for r in planned])) if planned else float("nan")})
     return rows
+
+
+def wilson(successes: int, trials: int, z: float = 1.959964) -> list[float]:
+    """The 95% Wilson score interval of a proportion (``[nan, nan]`` without trials)."""
+    if trials == 0:
+        return [float("nan"), float("nan")]
+    p = successes / trials
+    centre = (p + z * z / (2 * trials)) / (1 + z * z / trials)
+    half = z * np.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / (1 + z * z / trials)
+    return [float(max(0.0, centre - half)), float(min(1.0, centre + half))]
+
+
+def bootstrap_mean(values, other=None, resamples: int = 4000, seed: int = 0) -> list[float]:
+    """The 95% percentile bootstrap interval of the mean of ``values`` (the plans' success rates: resampling plans,
+    the unit the thesis averages over), or of ``mean(values) - mean(other)``; seeded, so the same records give the
+    same interval.  ``[nan, nan]`` when empty."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.size == 0 or (other is not None and len(other) == 0):
+        return [float("nan"), float("nan")]
+    rng = np.random.default_rng(seed)
+    means = values[rng.integers(0, values.size, (resamples, values.size))].mean(axis=1)
+    if other is not None:
+        other = np.asarray(other, dtype=np.float64)
+        means = means - other[rng.integers(0, other.size, (resamples, other.size))].mean(axis=1)
+    low, high = np.percentile(means, [2.5, 97.5])
+    return [float(low), float(high)]
 
 
 def _slug(label: str) -> str:

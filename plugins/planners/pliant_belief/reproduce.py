@@ -4,8 +4,12 @@ belief`` (``--plans``, ``--plan-time``, ...) override the mode's settings."""
 
 from __future__ import annotations
 
+import itertools
+import json
 import os
+from pathlib import Path
 
+import numpy as np
 from pliant.api import Headline, ReproductionRun, Row
 from pliant.api import ReproductionOutcome as Outcome
 
@@ -86,13 +90,99 @@ def _table(run: ReproductionRun) -> Outcome:
                      Headline("24 particles, gamma 1/8: P_exec", b["p_exec"], 0.5, 1.0, 0.99,
                               "ours 1.00 in the 3-plan runs of docs/plugins/belief.md")]
     directory = run.output / name
+    tables = write_tables(directory, name)
     ompl = _ompl(run, directory, settings["plan_time"])
     notes = ("Executions run in pybullet, the thesis's in Gazebo; on se3-peg-in-hole (30% clearance) every row of ours "
              "plans and executes nearly always, so the thesis's ordering between rows is not reproduced (see "
              "docs/plugins/belief.md and the tight-hole experiments table-5.1-tight / table-5.2-tight).")
     return Outcome(rows, headlines, {"experiment": name, "mode": run.mode, **settings},
-                   records=[directory / "runs.jsonl", directory / "summary.json", directory / "settings.json", *ompl],
+                   records=[directory / "runs.jsonl", directory / "summary.json", directory / "settings.json", tables,
+                            directory / "ordering.json", *ompl],
                    notes=notes)
+
+
+def ordering(records: list[dict], thesis: dict, gap: float = 0.05) -> dict:
+    """Whether the thesis's ordering of the rows by P_exec holds in ``records``: for every pair of rows whose
+    thesis P_exec differ by at least ``gap``, the 95% bootstrap interval of our difference (higher-in-the-thesis
+    minus lower, over the planned policies' success rates): ``holds`` when it lies above 0, ``reversed`` below,
+    ``not separated`` when it contains 0.  The statement: ``holds`` if every pair holds, ``refuted`` if one is
+    reversed, else ``not resolved``."""
+    from pliant_belief.experiments import bootstrap_mean
+
+    def rates(label):
+        return [float(np.mean([e["outcome"] == "success" for e in r["executions"].get("default", [])]))
+                for r in records if r["variant"] == label and r["planned"] and r["executions"].get("default")]
+
+    pairs = []
+    labels = [label for label in thesis if any(r["variant"] == label for r in records)]
+    for a, b in itertools.combinations(labels, 2):
+        if abs(thesis[a][1] - thesis[b][1]) < gap:
+            continue
+        high, low = (a, b) if thesis[a][1] > thesis[b][1] else (b, a)
+        ra, rb = rates(high), rates(low)
+        interval = bootstrap_mean(ra, rb)
+        verdict = ("not separated" if not ra or not rb or interval[0] <= 0 <= interval[1]
+                   else "holds" if interval[0] > 0 else "reversed")
+        pairs.append({"higher": high, "lower": low, "thesis": [thesis[high][1], thesis[low][1]],
+                      "ours": [float(np.mean(ra)) if ra else float("nan"), float(np.mean(rb)) if rb else float("nan")],
+                      "difference_ci95": interval, "verdict": verdict})
+    verdicts = [p["verdict"] for p in pairs]
+    statement = ("refuted" if "reversed" in verdicts else "holds" if verdicts and all(v == "holds" for v in verdicts)
+                 else "not resolved")
+    return {"statement": statement, "pairs": pairs, "gap": gap}
+
+
+def write_tables(directory, name: str) -> Path:
+    """``tables.md`` and ``ordering.json`` of the records in ``directory`` (an experiment's folder: runs.jsonl,
+    settings.json): each row's P_plan and P_exec with 95% intervals (Wilson over plans; bootstrap over the planned
+    policies' success rates), the thesis's beside, and whether the thesis's ordering holds (:func:`ordering`)."""
+    from pliant.api import read_jsonl, write_json, write_text
+
+    from pliant_belief.experiments import experiments, summarise, wilson
+
+    directory = Path(directory)
+    records, _ = read_jsonl(directory / "runs.jsonl")
+    thesis = THESIS_51 if name.startswith("table-5.1") else THESIS_52
+    rows = summarise(records, experiments()[name])
+    order = ordering(records, thesis)
+    settings = json.loads((directory / "settings.json").read_text()) if (directory / "settings.json").is_file() else {}
+
+    def fmt(value, interval):
+        return "-" if value != value else f"{value:.2f} [{interval[0]:.2f}, {interval[1]:.2f}]"
+
+    lines = [f"# {name}: P_plan and P_exec with 95% intervals, the thesis's beside", "",
+             f"Settings: {json.dumps(settings)}. {len(records)} policies on file.", "",
+             "| row | plans | P_plan [95%] | thesis P_plan | P_exec [95%] | executions [95%] | thesis P_exec (std) "
+             "| actions |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        t = thesis.get(r["variant"])
+        runs = [e for q in records if q["variant"] == r["variant"] and q["planned"]
+                for e in q["executions"].get("default", [])]
+        won = sum(e["outcome"] == "success" for e in runs)
+        pooled = "-" if not runs else f"{won}/{len(runs)} [{', '.join(f'{x:.2f}' for x in wilson(won, len(runs)))}]"
+        lines.append(f"| {r['variant']} | {r['plans']} | {fmt(r['p_plan'], r['p_plan_ci95'])} | "
+                     f"{'-' if t is None else t[0]} | {fmt(r['p_exec'], r['p_exec_ci95'])} | {pooled} | "
+                     f"{'-' if t is None else f'{t[1]} ({t[2]})'} | {r['actions']:.1f} |")
+    lines += ["", "P_plan's interval: Wilson, over the plans. P_exec: the mean over planned policies of each one's "
+              "success rate; its interval a percentile bootstrap over those policies (4,000 resamples, seed 0), which "
+              "has no width when every policy scored the same; executions: every execution of the planned policies "
+              "pooled, with its Wilson interval.", "",
+              f"## The thesis's ordering: **{order['statement']}**", "",
+              f"Every pair of rows whose thesis P_exec differ by at least {order['gap']}: our difference (the row "
+              "higher in the thesis minus the lower), its 95% bootstrap interval, and the verdict (holds: above 0; "
+              "reversed: below 0; not separated: contains 0).", "",
+              "| higher in the thesis | lower | thesis | ours | difference [95%] | verdict |",
+              "|---|---|---|---|---|---|"]
+    for p in order["pairs"]:
+        d = p["ours"][0] - p["ours"][1]
+        lines.append(f"| {p['higher']} | {p['lower']} | {p['thesis'][0]} / {p['thesis'][1]} | "
+                     f"{p['ours'][0]:.2f} / {p['ours'][1]:.2f} | {d:+.2f} [{p['difference_ci95'][0]:+.2f}, "
+                     f"{p['difference_ci95'][1]:+.2f}] | {p['verdict']} |")
+    counts = {v: sum(p["verdict"] == v for p in order["pairs"]) for v in ("holds", "reversed", "not separated")}
+    lines += ["", f"{counts['holds']} pairs hold, {counts['reversed']} reversed, {counts['not separated']} not "
+              f"separated, of {len(order['pairs'])}."]
+    write_json(directory / "ordering.json", {"experiment": name, "policies": len(records), **order})
+    return write_text(directory / "tables.md", "\n".join(lines) + "\n")
 
 
 def _ompl(run: ReproductionRun, directory, plan_time: float) -> list:
