@@ -24,9 +24,9 @@ class ExecutionOutcome(enum.StrEnum):
     """How an execution ended.  A ``str`` enum: ``ExecutionOutcome.STUCK == "stuck"``; files hold the value.
 
     A path ends ``reached`` / ``stuck`` / ``timeout``; a policy or a push plan ``success`` / ``failure`` /
-    ``timeout`` / ``action limit``; an execution that raised ``failed`` (a watchdog, a drive fault, a simulator
-    error) or ``interrupted`` (Ctrl-C) -- its partial record keeps the steps executed (:func:`~pliant.execution.loop.
-    capture`).
+    ``timeout`` / ``action limit`` (a push plan also ``above tolerance``: completed, its result outside its
+    tolerance); an execution that raised ``failed`` (a watchdog, a drive fault, a simulator error) or
+    ``interrupted`` (Ctrl-C) -- its partial record keeps the steps executed (:func:`~pliant.execution.loop.capture`).
     """
 
     REACHED = "reached"              #: a path: the last waypoint was reached
@@ -35,6 +35,8 @@ class ExecutionOutcome(enum.StrEnum):
     TIMEOUT = "timeout"              #: the execution's time limit passed
     FAILURE = "failure"              #: a policy or plan ended off its goal (it reports failure, or gave up)
     ACTION_LIMIT = "action limit"    #: a policy or plan performed its most actions
+    ABOVE_TOLERANCE = "above tolerance"  #: a plan completed, but its result is outside its tolerance (a push plan's
+    #:                                     final cost above (1 + tolerance) x the plan's); not a success
     FAILED = "failed"                #: the execution raised (its record is partial; ``error`` says what failed)
     INTERRUPTED = "interrupted"      #: Ctrl-C (its record is partial)
 

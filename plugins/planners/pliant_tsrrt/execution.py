@@ -18,9 +18,10 @@ The loop steps the world, records every control step, keeps the record when some
 rest; the record's :class:`PushPlanDetails` hold, per push, the object, the primitive, the predicted and observed
 poses, the error (m, rad) and whether it triggered a replan or a repair (``actions``); the replans and repairs
 (``adaptations``, ``repair: True`` for repairs); the final arrangement's cost, the arrangement itself and whether it
-collides.  The outcome is ``success`` (plan completed, final arrangement collision-free), ``failure`` (it is not, or a
-blocked push could not be replanned) or ``action limit``.  The controller is not used: pushes are the primitives'
-velocity commands.
+collides.  The outcome is ``success`` (plan completed, final arrangement collision-free and its cost within
+``outcome_tolerance`` of the first plan's), ``above tolerance`` (completed and collision-free, but costlier than
+that), ``failure`` (it collides, or a blocked push could not be replanned) or ``action limit``.  The controller is
+not used: pushes are the primitives' velocity commands.
 """
 
 from __future__ import annotations
@@ -287,6 +288,8 @@ class PushPlanStrategy(ScriptedStrategy):
         collided = bool(verdict.in_collision(observed)[0])
         if outcome == ExecutionOutcome.SUCCESS and collided:
             outcome = ExecutionOutcome.FAILURE
+        elif outcome == ExecutionOutcome.SUCCESS and final_cost > plan.cost * (1 + e.outcome_tolerance) + 1e-12:
+            outcome = ExecutionOutcome.ABOVE_TOLERANCE    # completed, but not within the tolerance of the plan
         self.record.final_cost, self.record.final_state, self.record.collided = final_cost, observed, collided
         self.events.append(f"final cost {final_cost:.4g} (first plan {plan.cost:.4g}); {_replanned(replans)} replans; "
                            f"{repairs} repairs; {blocked} pushes skipped; collision-free: {not collided}")

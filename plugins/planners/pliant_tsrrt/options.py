@@ -141,6 +141,9 @@ class ExecutionOptions:
     finish_tolerance: float = option(0.05, "when a plan is done and the arrangement costs more than (1 + this) x "
                                      "the first plan's final cost, replan toward that arrangement (fraction)",
                                      minimum=0.0)
+    outcome_tolerance: float = option(0.1, "an execution that completes collision-free with its final cost above "
+                                      "(1 + this) x the first plan's cost ends 'above tolerance', not 'success'",
+                                      minimum=0.0)
     max_replans: int = option(20, "most replannings in one execution", minimum=0)
     replan_refine: bool = option(False, "run the improvement phase in every replanning; else only in the "
                                  "replanning after the plan is done (deviations are replanned by the tree)")

@@ -204,3 +204,19 @@ def test_a_placed_box_off_its_final_yaw_is_turned_there_at_once_with_repair_plac
                                              replan_angle=0.3, repair_placed=False)
     assert record.details.adaptations == []
     assert np.isclose(record.details.final_state[0, 2] - first.states[-1][0, 2], 0.15)
+
+
+def test_the_outcome_tells_completed_within_tolerance_from_completed_above_it(monkeypatch):
+    # undisturbed: the plan ends where it predicted, 'success'
+    first, _, record = _execute_can_plan(monkeypatch, (99, 2, 0.0), [])
+    assert record.outcome == "success" and record.outcome.success
+    assert record.details.final_cost == pytest.approx(first.cost)
+    # the last push leaves the can 12 cm back and nothing helps: completed, collision-free, but above the tolerance
+    first, _, record = _execute_can_plan(monkeypatch, (2, 2, 0.12), [lambda s: []] * 5, outcome_tolerance=0.05)
+    ratio = record.details.final_cost / first.cost
+    assert ratio > 1.05 and not record.details.collided
+    assert record.outcome == "above tolerance" and not record.outcome.success
+    # the same execution judged with a tolerance it meets is a success
+    first, _, record = _execute_can_plan(monkeypatch, (2, 2, 0.12), [lambda s: []] * 5,
+                                         outcome_tolerance=ratio - 1 + 1e-6)
+    assert record.outcome == "success"
