@@ -192,15 +192,19 @@ class OMPLPlanner(Planner):
             pdef = ob.ProblemDefinition(si)
             pdef.setStartAndGoalStates(mapped.state(start), mapped.state(goal), max(float(tolerance), 1e-9))
             objective = None
+            stop = self.stop_condition(problem, termination, t0, stop_on_first=o.stop_on_first)
+            first = bool(getattr(stop, "stop_on_first", False))
             if self.properties["optimizing"]:
                 objective = _Objective(si, problem, configuration, step, length_weight)
-                objective.setCostThreshold(ob.Cost(-math.inf))      # never satisfied: the budget stops it
+                # OMPL's optimising planners stop by themselves once a solution satisfies the threshold (most add
+                # their solution to the problem only when they return): any solution when stopping on the first,
+                # else none -- the budget stops them
+                objective.setCostThreshold(ob.Cost(math.inf if first else -math.inf))
                 pdef.setOptimizationObjective(objective)
             planner = getattr(og, o.algorithm)(si)
             planner.setProblemDefinition(pdef)
             planner.setup()
             settings = declared_parameters.apply(planner, dict(o.parameters or {}), o.algorithm)
-            stop = self.stop_condition(problem, termination, t0, stop_on_first=o.stop_on_first)
 
             def should_stop() -> bool:
                 if errors:
@@ -219,6 +223,8 @@ class OMPLPlanner(Planner):
                 raise errors[0]
             ompl_status = str(status)
             exact = bool(pdef.hasExactSolution())
+            if exact and first:
+                stop.note_stop("solution")
             path = None
             ompl_cost = math.nan
             if pdef.hasSolution():
@@ -290,9 +296,18 @@ def _make_objective():
             return ob.Cost(c if math.isfinite(c) else math.inf)
 
         def motionCost(self, s1, s2):
+            # PlanningProblem.path_cost of the motion (to rounding), in one interpolation and one cost call: the
+            # motion split into ceil(d / step) equal parts, each state after the start weighted by the part's length
+            # (every built-in space interpolates at constant speed along its geodesic)
             a, b = self.configuration(s1), self.configuration(s2)
-            c = self.problem.path_cost(np.stack([a, b]), self.step)
-            c += self.length_weight * float(self.problem.space.distance(a, b))
+            space = self.problem.space
+            d = float(space.distance(a, b))
+            c = self.length_weight * d
+            if self.problem.cost is not None and d > 0.0:
+                parts = max(1, math.ceil(d / self.step - 1e-9))
+                t = np.arange(1, parts + 1, dtype=np.float64) / parts
+                states = space.interpolate(a[None], b[None], t[:, None])
+                c += float(np.sum(self.problem.cost.cost(states))) * (d / parts)
             return ob.Cost(c if math.isfinite(c) else math.inf)
 
         def motionCostHeuristic(self, s1, s2):
