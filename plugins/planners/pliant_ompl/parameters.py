@@ -53,6 +53,15 @@ def _accessor(planner, prefix: str, name: str):
 
 
 def _convert(value, kind: type, field: str):
+    if isinstance(value, str):          # from the command line (--set planner.parameters.range=0.05)
+        text = value.strip().lower()
+        if text in ("true", "false"):
+            value = text == "true"
+        else:
+            try:
+                value = int(text) if text.lstrip("+-").isdigit() else float(text)
+            except ValueError:
+                pass
     if kind is bool:
         if isinstance(value, bool) or (isinstance(value, int) and value in (0, 1)):
             return bool(value)

@@ -128,7 +128,9 @@ class OMPLPlanner(Planner):
     example_budget = {"max_iterations": 2000}       # conformance: quick and deterministic
 
     def __init__(self, options=None, **kwargs) -> None:
-        super().__init__(options, **kwargs)
+        # ``--set planner.parameters.range=0.05``: dotted keys into the parameters table
+        super().__init__(_fold_parameters(options) if isinstance(options, dict) else options,
+                         **_fold_parameters(kwargs))
         o = self.options
         self.properties = planner_properties(o.algorithm)
         if self.properties["multithreaded"] and not o.allow_nondeterministic:
@@ -249,6 +251,18 @@ class OMPLPlanner(Planner):
                           path=Path(path, space_kind=problem.space.kind), cost=cost, planner=self.name,
                           statistics=stats, options=options,
                           message="" if exact else f"OMPL's {o.algorithm} returned an approximate solution")
+
+
+def _fold_parameters(values: dict) -> dict:
+    """``values`` with keys ``parameters.<name>`` moved into the ``parameters`` table."""
+    out = {k: v for k, v in values.items() if not str(k).startswith("parameters.")}
+    dotted = {str(k)[len("parameters."):]: v for k, v in values.items() if str(k).startswith("parameters.")}
+    if dotted:
+        table = out.get("parameters")
+        if table is not None and not isinstance(table, dict):
+            raise ConfigError("must be a table of OMPL parameters", field="planner.parameters", value=table)
+        out["parameters"] = {**(table or {}), **dotted}
+    return out
 
 
 def _make_motion_validator():

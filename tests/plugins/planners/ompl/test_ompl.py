@@ -144,6 +144,11 @@ def test_parameters_are_checked_against_the_declared_ones():
         r2_problem(iterations=200), np.random.default_rng(0))
     assert result.statistics["parameters"]["samples_per_batch"] == "20"
     assert result.statistics["parameters"]["use_k_nearest"] == "0"
+    # from the command line: --set planner.parameters.range=0.05 (a dotted key, a string value)
+    dotted = planner(**{"parameters.range": "0.05", "parameters.intermediate_states": "true"})
+    assert dotted.options.parameters == {"range": "0.05", "intermediate_states": "true"}
+    settings = dotted.plan(problem, np.random.default_rng(0)).statistics["parameters"]
+    assert settings == {"range": "0.05", "intermediate_states": "1"}
 
 
 def test_multithreaded_planners_need_consent():
