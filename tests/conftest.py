@@ -83,6 +83,18 @@ XDIST_GROUPS = {
     "tests/framework/experiments/test_executor_ray.py": "ray",
     "tests/plugins/reports/viewer/test_viewer_browser.py": "browser",
 }
+#: tests that run threads or processes against wall-clock deadlines (heartbeats, state watchdogs, command streams,
+#: a browser's frames, a cluster's heartbeats), by path prefix: marked ``realtime``, and ``make test`` runs them in a
+#: second phase of their own, one at a time, so that the CPU-bound tests of the first phase cannot starve them (on
+#: two cores under two busy workers, threads stalled 0.3 s: a drive's heartbeat consumer and a 0.25 s state
+#: watchdog fired at connection).  A test elsewhere that needs this says ``@pytest.mark.realtime``.
+REALTIME = (
+    "tests/plugins/drivers/",
+    "tests/framework/hardware/",
+    "tests/e2e/test_driver_world.py",
+    "tests/plugins/reports/viewer/test_viewer_browser.py",
+    "tests/framework/experiments/test_executor_ray.py",
+)
 #: modules whose quick tests share a module-level cache (functools.cache) worth building once: kept on one worker
 #: (their slow tests, which build their own, spread)
 XDIST_SHARED_MODULES = ("tests/e2e/test_robot_pipelines.py",)
@@ -106,9 +118,13 @@ def _xdist_group(item) -> str | None:
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """Under pytest-xdist only: put each test in its group (:func:`_xdist_group`, unless it names one with
-    ``@pytest.mark.xdist_group``), and start the slow tests first so that no long test is left for the end while
-    the other worker idles (``--no-loadscope-reorder`` keeps this order).  A run without ``-n`` is untouched."""
+    """Mark the tests under :data:`REALTIME` ``realtime``.  Under pytest-xdist also: put each test in its group
+    (:func:`_xdist_group`, unless it names one with ``@pytest.mark.xdist_group``), and start the slow tests first so
+    that no long test is left for the end while the other worker idles (``--no-loadscope-reorder`` keeps this
+    order)."""
+    for item in items:
+        if item.nodeid.startswith(REALTIME):
+            item.add_marker(pytest.mark.realtime)
     if not os.environ.get("PYTEST_XDIST_WORKER"):
         return
     for item in items:

@@ -96,9 +96,11 @@ def make_driver(channel):
 
     def make(**options) -> CanopenDriver:
         # the peer drives and the driver share this process: on a loaded 2-core machine a thread can stall for
-        # longer than the limits file's 0.1 s watchdog (0.18 s seen once in `make test`), which is not what these
-        # tests are about; the watchdog itself is tested in tests/framework/hardware
+        # longer than the limits file's 0.1 s watchdog (0.18 s seen once in `make test`) or the driver's 0.25 s
+        # heartbeats (every drive faulted on a late master heartbeat at connection, in CI), which is not what these
+        # tests are about; the watchdog itself is tested in tests/framework/hardware, heartbeat loss with its own
         options.setdefault("state_timeout", 0.5)
+        options.setdefault("heartbeat_timeout", 0.5)
         driver = CanopenDriver(channel=channel, **options)
         drivers.append(driver)
         return driver

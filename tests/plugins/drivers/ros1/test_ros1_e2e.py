@@ -125,8 +125,9 @@ def test_a_fault_mid_motion_stops_the_arm_with_a_clear_error(fault, error, words
     baxter_peer.fault("clear")
     rng = np.random.default_rng(100 + [f[0] for f in FAULTS].index(fault))
     since = time.monotonic()
-    # the watchdog test runs with the limits file's own 0.1 s
-    driver = make_driver("baxter-ros", **({"state_timeout": None} if fault == "stale" else {}))
+    # the watchdog test: 0.3 s, short enough to stop the arm on the way, long enough that the thread stalls of a
+    # loaded machine do not fire it at connection (the limits files' own 0.1 s did, in CI)
+    driver = make_driver("baxter-ros", **({"state_timeout": 0.3} if fault == "stale" else {}))
     with driver:
         q0 = driver.move_to(_home(baxter_peer, rng))
         target = reachable_target(q0, driver.limits, rng, 0.4, 0.6)
@@ -176,7 +177,7 @@ def test_a_shuffled_joint_order_is_mapped_by_name(baxter_peer, make_driver):
 def test_pr2_and_iiwa_faults_stop_the_arm_too(robot, fault, error, make_peer, make_driver):
     peer = make_peer(robot, "right", "--simulator", "none")
     since = time.monotonic()
-    driver = make_driver(DRIVERS[robot], **({"state_timeout": None} if fault == "stale" else {}))
+    driver = make_driver(DRIVERS[robot], **({"state_timeout": 0.3} if fault == "stale" else {}))
     with driver:
         q0 = driver.state()
         target = reachable_target(q0, driver.limits, np.random.default_rng(4), 0.4, 0.6)
