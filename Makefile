@@ -31,6 +31,18 @@ $(ROS_STAMP): $(STAMP)
 	  $(BIN)/python -c "import site, pathlib; pathlib.Path(site.getsitepackages()[0], 'zz_debian_ros.pth').write_text('/usr/lib/python3/dist-packages\n')"; fi
 	touch $(ROS_STAMP)
 
+# ROS 2 from pip, for the ROS 2 drivers (plugins/drivers/pliant_ros2) and their tests: the wheels of the `ros2` extra,
+# under .venv/ros2 (pip install --prefix), not in the venv's site-packages: their std_msgs / sensor_msgs would shadow
+# ROS 1's, and their ros_wheels_bootstrapper.pth would re-execute every Python of the venv.  The plugin runs its ROS 2
+# nodes in child processes with the library path set (docs/plugins/ros2.md).  A failed download: its tests skip.
+ROS2_WHEELS := ros-rclpy ros-rmw-fastrtps-cpp ros-std-msgs ros-sensor-msgs ros-trajectory-msgs ros-builtin-interfaces
+ROS2_STAMP := $(VENV)/.ros2
+
+$(ROS2_STAMP): $(STAMP)
+	@$(BIN)/python -m pip install --quiet --prefix $(VENV)/ros2 --no-warn-script-location $(ROS2_WHEELS) || \
+	  echo "could not install the ROS 2 wheels; the ROS 2 driver tests skip"
+	touch $(ROS2_STAMP)
+
 # Headless Chromium from Debian's packages, for the 3-D viewer's real-browser test and benchmark
 # (plugins/reports/pliant_viewer; selenium drives Debian's chromedriver, nothing is downloaded).  Installed when
 # missing and when we can (root, apt); otherwise that test skips, saying why.
@@ -48,7 +60,7 @@ $(CHROMIUM_STAMP): $(STAMP)
 	fi
 	touch $(CHROMIUM_STAMP)
 
-install: $(STAMP) $(ROS_STAMP) $(CHROMIUM_STAMP)
+install: $(STAMP) $(ROS_STAMP) $(ROS2_STAMP) $(CHROMIUM_STAMP)
 
 demo: $(STAMP) $(ROS_STAMP)
 	$(BIN)/pliant run demo
@@ -62,7 +74,7 @@ demo: $(STAMP) $(ROS_STAMP)
 robot-demo: $(STAMP) $(ROS_STAMP)
 	$(BIN)/pliant robot ros-demo iiwa-policy
 
-lint: $(STAMP) $(ROS_STAMP) $(CHROMIUM_STAMP)
+lint: $(STAMP) $(ROS_STAMP) $(ROS2_STAMP) $(CHROMIUM_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
 
