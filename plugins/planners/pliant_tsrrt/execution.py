@@ -47,6 +47,7 @@ from pliant_tsrrt.models import footprints_from_scene
 from pliant_tsrrt.planner import PushPlan, build_space, options_from_dict, replan_settings
 from pliant_tsrrt.pushing import PRIMITIVES
 from pliant_tsrrt.pushing import push_steps as push_action
+from pliant_tsrrt.refine import final_beam
 from pliant_tsrrt.repair import pose_errors
 from pliant_tsrrt.repair import restore as repair_restore
 from pliant_tsrrt.repair import retarget as repair_retarget
@@ -60,6 +61,10 @@ PLACE_TRIES = 3
 #: finishing repairs or replannings (in one execution) that may fail to lower the arrangement's cost before execution
 #: stops: their predictions use the models' mean pushes, and a second failure shows the noise outweighs them
 FINISH_TRIES = 2
+
+#: closed-loop finishing pushes (``execution.finish_steps``) in a row that do not lower the observed cost below the
+#: lowest seen before the finishing falls back to a finishing repair or replanning
+FINISH_STALE = 3
 
 #: margin (m) of the final collision verdict and of replanning from a jammed arrangement: footprints shrunk by 1 mm, so
 #: objects that merely touch (pymunk lets resting contacts overlap slightly) do not count as colliding
@@ -154,14 +159,39 @@ class PushPlanStrategy(ScriptedStrategy):
         stalled = False           # a replanning when the plan was done found nothing cheaper than the arrangement
         placed = [0] * len(plan.names)      # repairs of each object after its last push (repair_placed)
         finishing_from = None     # the arrangement's cost when the last finishing repair or replanning began
+        steps_left = e.finish_steps   # closed-loop finishing pushes left (each planned from the observed arrangement)
+        step_best, step_stale = np.inf, 0
+        stepping = False          # the current action is a closed-loop finishing push: not monitored against a plan
         fruitless = 0             # finishing repairs and replannings that did not lower the cost
         j = 0
         while True:
             if j == len(actions):
+                stepping = False
                 # the plan is done: replan if the arrangement is clearly worse than the first plan's
                 cost_now = float(space.cost.cost(observed[None])[0])
                 if cost_now <= ceiling + 1e-12 or stalled:
                     break
+                if steps_left > 0 and step_stale < FINISH_STALE and len(records) < self.action_limit:
+                    # closed-loop finishing: the first push of a beam search from the observed arrangement, then
+                    # observe and plan the next one (a fixed plan toward the first plan's end executes open loop and
+                    # ends off it by the noise of its own pushes)
+                    if cost_now < step_best * (1 - 1e-3):
+                        step_best, step_stale = cost_now, 0
+                    elif np.isfinite(step_best):
+                        step_stale += 1
+                    room = _room_for(space, observed)
+                    predicted_cost, extra = final_beam(room, observed, depth=max(1, imp.beam_depth),
+                                                       width=imp.beam_width, push_cost=imp.push_cost,
+                                                       enough=goal_cost)
+                    if extra and step_stale < FINISH_STALE:
+                        steps_left -= 1
+                        states, _ = room.rollout(observed, extra[:1])
+                        replans.append({"after_action": len(records), "reason": "finish step", "repair": True,
+                                        "cost_before": cost_now, "planned_cost": float(predicted_cost),
+                                        "actions": 1, "repair_pushes": 1, "objects": [plan.names[extra[0] // 6]]})
+                        actions, expected, j, stepping = extra[:1], states, 0, True
+                        continue
+                    steps_left = 0                 # no push is predicted to help: the finishing below decides
                 if finishing_from is not None and cost_now > finishing_from * (1 - 1e-3):
                     fruitless += 1           # the last finishing repair or replanning did not lower the cost
                 if fruitless >= FINISH_TRIES:
@@ -201,7 +231,7 @@ class PushPlanStrategy(ScriptedStrategy):
                     if _replanned(replans) >= e.max_replans:
                         outcome = ExecutionOutcome.FAILURE
                         break
-                    reason = "blocked"
+                    reason, stepping = "blocked", False
                     found = grow(_room_for(space, observed), observed, rng, replan_settings(o, reason),
                                  Termination(max_time=o.replan_time, max_iterations=o.replan_iterations),
                                  seed_plan=actions[j + 1:], goal=goal,
@@ -216,12 +246,14 @@ class PushPlanStrategy(ScriptedStrategy):
                 j += 1
                 err_t, dth = pose_errors(space, observed, expected[j])
                 step_t, step_th = pose_errors(space, observed, predicted)
-                replan = bool(np.any(err_t > e.replan_threshold) or np.any(dth > e.replan_angle))
+                replan = bool(np.any(err_t > e.replan_threshold) or np.any(dth > e.replan_angle)) and not stepping
                 records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "predicted": predicted,
                                 "observed": observed.copy(), "step_error": float(step_t.max()),
                                 "step_angle_error": float(step_th.max()), "plan_error": float(err_t.max()),
                                 "plan_angle_error": float(dth.max()),
                                 "replanned": replan and _replanned(replans) < e.max_replans})
+                if stepping:
+                    continue
                 if not replan and e.repair and e.repair_placed and repairs < e.max_repairs \
                         and placed[obj] < PLACE_TRIES \
                         and obj not in [a // 6 for a in actions[j:]]:

@@ -42,6 +42,7 @@ def _setup(repair: bool = False, finish_tolerance: float = 0.05, **more):
         models.models[object_class(name)] = per
         models.footprints[object_class(name)] = (int(fp.kind[i]), fp.half[i].copy())
     more.setdefault("replan_threshold", 0.02)
+    more.setdefault("finish_steps", 0)          # the finishing repairs and replannings; closed-loop steps: own test
     options = TSRRTOptions(execution=ExecutionOptions(finish_tolerance=finish_tolerance, repair=repair, **more))
     space = build_space(scene, options, models, NAMES)
     return scene, world, models, options, space
@@ -220,3 +221,16 @@ def test_the_outcome_tells_completed_within_tolerance_from_completed_above_it(mo
     first, _, record = _execute_can_plan(monkeypatch, (2, 2, 0.12), [lambda s: []] * 5,
                                          outcome_tolerance=ratio - 1 + 1e-6)
     assert record.outcome == "success"
+
+
+def test_a_done_plan_above_tolerance_is_finished_closed_loop_one_push_at_a_time(monkeypatch):
+    # the last push leaves the can 12 cm back toward the edge (not monitored: a replan_threshold of 1 m); the
+    # closed-loop finishing plans a beam from the observed arrangement, executes its first push, observes, and so
+    # on, until the arrangement is within the tolerance: no replanning, no fixed finishing plan
+    first, calls, record = _execute_can_plan(monkeypatch, (2, 2, 0.12), [lambda s: [15, 15, 15]] * 10,
+                                             replan_threshold=1.0, finish_steps=10)
+    steps = [a for a in record.details.adaptations if a["reason"] == "finish step"]
+    assert steps and all(a["actions"] == 1 for a in steps)
+    assert not calls["grow"]
+    assert len(record.details.actions) == 3 + len(steps) <= 3 + 10
+    assert record.details.final_cost <= 1.05 * first.cost + 1e-9 and record.outcome == "success"
