@@ -80,7 +80,7 @@ lint: $(STAMP) $(ROS_STAMP) $(ROS2_STAMP) $(CHROMIUM_STAMP)
 
 # The suite in two phases.  First everything but the real-time tests on TEST_WORKERS processes (pytest-xdist):
 # tests that share a ROS master or a module's fixtures stay on one worker.  Then the real-time tests (drivers and
-# their peers, watchdogs, the browser, the Ray cluster) one at a time, with nothing else running, so that no other
+# their peers, watchdogs, the browser) one at a time, with nothing else running, so that no other
 # test's load starves their threads (tests/conftest.py; docs/testing.md has the markers and the measured times).
 TEST_WORKERS ?= 2
 # Python caches compiled modules (and pytest its rewritten test modules) in __pycache__ even where the environment

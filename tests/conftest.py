@@ -84,7 +84,7 @@ XDIST_GROUPS = {
     "tests/plugins/reports/viewer/test_viewer_browser.py": "browser",
 }
 #: tests that run threads or processes against wall-clock deadlines (heartbeats, state watchdogs, command streams,
-#: a browser's frames, a cluster's heartbeats), by path prefix: marked ``realtime``, and ``make test`` runs them in a
+#: a browser's frames), by path prefix: marked ``realtime``, and ``make test`` runs them in a
 #: second phase of their own, one at a time, so that the CPU-bound tests of the first phase cannot starve them (on
 #: two cores under two busy workers, threads stalled 0.3 s: a drive's heartbeat consumer and a 0.25 s state
 #: watchdog fired at connection).  A test elsewhere that needs this says ``@pytest.mark.realtime``.
@@ -93,7 +93,6 @@ REALTIME = (
     "tests/framework/hardware/",
     "tests/e2e/test_driver_world.py",
     "tests/plugins/reports/viewer/test_viewer_browser.py",
-    "tests/framework/experiments/test_executor_ray.py",
 )
 #: modules whose quick tests share a module-level cache (functools.cache) worth building once: kept on one worker
 #: (their slow tests, which build their own, spread)
