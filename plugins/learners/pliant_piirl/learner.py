@@ -109,11 +109,14 @@ class PiirlLearner(Learner):
         demonstrations = self._demonstrations(data)
         improved, replaced, demo_features, sample_features = [], [], [], []
         for demonstration in demonstrations:
-            better, count = self.sampler.improve(demonstration, rng)
-            _, drawn_features = self.sampler.draw_with_features(better, rng)
+            # the local optimiser's last round drew its samples around the demonstration it returns: they are the
+            # fit's samples (a fresh draw only when it stopped otherwise), so each path is measured once
+            better, count, mine, drawn_features = self.sampler.improve_with_samples(demonstration, rng)
+            if drawn_features is None:
+                _, drawn_features = self.sampler.draw_with_features(better, rng)
             improved.append(better)
             replaced.append(count)
-            demo_features.append(self.features.of_path(better.path))
+            demo_features.append(mine)
             sample_features.append(drawn_features)
         fitted_at = time.perf_counter()
         result = recover(np.array(demo_features).reshape(len(demonstrations), -1), sample_features,

@@ -208,6 +208,16 @@ class PathSampler:
 
     def improve(self, demonstration: Demonstration, rng: np.random.Generator) -> tuple[Demonstration, int]:
         """The local optimiser; returns the (possibly replaced) demonstration and how many replacements it made."""
+        current, replaced, _, _ = self.improve_with_samples(demonstration, rng)
+        return current, replaced
+
+    def improve_with_samples(self, demonstration: Demonstration, rng: np.random.Generator
+                             ) -> tuple[Demonstration, int, np.ndarray, np.ndarray | None]:
+        """:meth:`improve`, and what it measured last: ``(demonstration, replacements, its features, features
+        of the samples of the round that found nothing dominating it)``.  Those samples were drawn around the
+        returned demonstration, as :meth:`draw_with_features` draws them, so a fit uses them instead of drawing
+        again; the last item is None when the optimiser stopped otherwise (no rounds, its last round replaced the
+        demonstration, or no sample was valid)."""
         current = demonstration
         mine = self.features.of_path(current.path)
         replaced = 0
@@ -217,12 +227,12 @@ class PathSampler:
                 break
             dominating = np.all(feats <= mine, axis=1) & np.any(feats < mine, axis=1)
             if not dominating.any():
-                break
+                return current, replaced, mine, feats
             best = int(np.argmin(np.where(dominating, feats.sum(axis=1), np.inf)))
             current = Demonstration(current.task, samples[best], current.source)
             mine = feats[best]
             replaced += 1
-        return current, replaced
+        return current, replaced, mine, None
 
 
 @numba.njit(cache=True, nogil=True)

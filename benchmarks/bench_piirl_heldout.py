@@ -1,0 +1,207 @@
+"""PIIRL's objectives on a development set and on held-out sets, side by side (docs/experiments.md, "Development and
+held-out sets").
+
+Development: the thesis's truth L : M : H = 1 : 2 : 4 on the hollow cube's x, y, z faces, demonstrated by the
+simulated expert (the optimum plus 0.01 rad of noise), seeds 0 and 1, and two more ratio sets on the same axes with
+the same expert (1 : 3 : 9, seed 2; 1 : 1.5 : 3, seed 3).  This is what the default objective and its temperature
+are chosen on.  Held-out: four other ratio sets, each with the classes on other axes, demonstrated by
+a different generator, the near-optimal demonstrator (a straight insertion drawn from those within 2% of the
+cheapest true cost), with seeds the development set never used.
+
+Each trial shows one demonstration per adjacent pair (12), runs the fit as ``learner.fit`` does (local optimiser,
+100 samples per demonstration, recovery) once, and recovers with every objective on the same features.  Scored: the
+order (every object of a class below every object of the next), each pairwise class ratio (geometric means of the
+class's objects) against the truth, and against the interval the demonstrations allow: the ratios under which every
+shown path stays within its demonstrator's slack of every straight insertion that was on offer (2% for the
+near-optimal demonstrator; for the expert, how far its noisy path is above its optimum).  ``pass`` is a ratio within
+that interval widened by a factor 1.25 at each end.
+
+    pliant bench piirl_heldout [-- --quick]          # quick: seconds, 4 pairs, 20 samples, a coarse search
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import pickle
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import print_table, single_core, write_json
+
+single_core()
+
+AXES = {"x": ("L1", "L2"), "y": ("M1", "M2"), "z": ("H1", "H2")}
+ORDER = ["low", "medium", "high"]
+#: name, ratios low : medium : high, axes of low, medium, high, demonstrator, seeds
+DEVELOPMENT = [("dev 1:2:4 xyz expert", (1.0, 2.0, 4.0), "xyz", "expert", (0, 1)),
+               ("dev 1:3:9 xyz expert", (1.0, 3.0, 9.0), "xyz", "expert", (2,)),
+               ("dev 1:1.5:3 xyz expert", (1.0, 1.5, 3.0), "xyz", "expert", (3,))]
+HELD_OUT = [("held-out 1:1.5:2 yzx", (1.0, 1.5, 2.0), "yzx", "near-optimal", (100,)),
+            ("held-out 1:4:16 zxy", (1.0, 4.0, 16.0), "zxy", "near-optimal", (101,)),
+            ("held-out 1:2.5:5 yxz", (1.0, 2.5, 5.0), "yxz", "near-optimal", (102,)),
+            ("held-out 1:3:6 zyx", (1.0, 3.0, 6.0), "zyx", "near-optimal", (103,))]
+#: (label, RecoveryOptions overrides): the candidates the default is chosen from
+OBJECTIVES = [("ranking h=5", {"objective": "ranking", "temperature": 5.0}),
+              ("ranking h=10", {"objective": "ranking", "temperature": 10.0}),
+              ("ranking h=20", {"objective": "ranking", "temperature": 20.0}),
+              ("ranking h=30", {"objective": "ranking", "temperature": 30.0}),
+              ("ranking h=50", {"objective": "ranking", "temperature": 50.0}),
+              ("likelihood h=10", {"objective": "likelihood", "temperature": 10.0}),
+              ("likelihood h=30", {"objective": "likelihood", "temperature": 30.0})]
+
+
+def trial(name, ratios, axes, demonstrator, seed, quick, context):
+    from pliant_piirl.expert import ExpertOptions, SimulatedExpert
+    from pliant_piirl.heldout import NearOptimalDemonstrator, allowed_ratio_interval, groups_of
+    from pliant_piirl.tasks import rotation_onto
+
+    features, tasks, sampler, pairs, tip = context
+    classes = {o: ORDER[c] for c, axis in enumerate(axes) for o in AXES[axis]}
+    truth = {o: 0.2 * ratios[ORDER.index(classes[o])] for o in classes}
+    grid = ExpertOptions(grid=7, refine=1) if quick else ExpertOptions()
+    measure = NearOptimalDemonstrator(features, truth, tip, grid)
+    shower = measure if demonstrator == "near-optimal" else SimulatedExpert(features, truth, tip, grid)
+    weights = features.sensitivity_vector(truth)
+    rng = np.random.default_rng(seed)
+    demonstrations, shown, candidates, slack = [], [], [], []
+    for a, b in pairs:
+        task = tasks.generate_task(a, b, rng, tip, rotation_onto)
+        demonstration = shower.demonstrate(task, rng)
+        if shower is not measure:
+            measure.demonstrate(task, np.random.default_rng(0))          # fills the candidates only
+        v = features.of_path(demonstration.path)
+        demonstrations.append(demonstration)
+        shown.append(v)
+        candidates.append(measure.candidates)
+        slack.append(max(SLACK_FLOOR, float(v @ weights / (measure.candidates @ weights).min() - 1.0))
+                     if shower is not measure else measure.slack)
+    groups = groups_of(features.names, classes, ORDER)
+    allowed = {f"{ORDER[j]}/{ORDER[i]}": allowed_ratio_interval(shown, candidates, slack, groups, j, i)
+               for i in range(3) for j in range(i + 1, 3)}
+    started = time.process_time()
+    demo_features, sample_features = [], []
+    for demonstration in demonstrations:                                   # as PiirlLearner.fit
+        better, _, mine, drawn = sampler.improve_with_samples(demonstration, rng)
+        if drawn is None:
+            _, drawn = sampler.draw_with_features(better, rng)
+        demo_features.append(mine)
+        sample_features.append(drawn)
+    sampling = time.process_time() - started
+    return {"name": name, "seed": seed, "truth": truth, "classes": classes, "allowed": allowed, "slack": slack,
+            "demo_features": np.array(demo_features), "sample_features": sample_features, "rng": rng,
+            "sampling_cpu_s": sampling}
+
+
+SLACK_FLOOR = 1e-9
+
+
+def score(record, label, overrides):
+    from pliant_piirl.heldout import WIDENING, class_ratios, in_order
+    from pliant_piirl.piirl import RecoveryOptions, recover
+
+    rng = copy.deepcopy(record["rng"])
+    started = time.process_time()
+    result = recover(record["demo_features"], record["sample_features"], RecoveryOptions(**overrides), rng)
+    solve = time.process_time() - started
+    names = list(record["truth"])
+    recovered = dict(zip(FEATURE_NAMES, map(float, result["sensitivities"])))
+    ratios = class_ratios(recovered, record["classes"], ORDER)
+    truth = class_ratios(record["truth"], record["classes"], ORDER)
+    checks = {}
+    for key, value in ratios.items():
+        lo, hi = record["allowed"][key]
+        checks[key] = {"recovered": value, "truth": truth[key], "allowed": [lo, hi],
+                       "inside": lo <= value <= hi, "pass": lo / WIDENING <= value <= hi * WIDENING,
+                       "error": value / truth[key] - 1.0}
+    return {"trial": record["name"], "seed": record["seed"], "objective": label, "options": overrides,
+            "order": in_order(recovered, record["classes"], ORDER), "ratios": checks,
+            "sensitivities": {n: recovered[n] for n in names}, "solve_cpu_s": solve}
+
+
+FEATURE_NAMES: list[str] = []
+
+
+def main() -> None:
+    import pliant
+    from pliant_piirl.features import DeformationFeatures
+    from pliant_piirl.piirl import RecoveryOptions
+    from pliant_piirl.sampling import PathSampler, SampleOptions
+    from pliant_piirl.tasks import TaskSpace
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="seconds: 4 pairs, 20 samples, a coarse search, one "
+                        "development and one held-out trial")
+    parser.add_argument("--cache", help="a file to keep the trials' features in (written when absent, read when "
+                        "present): objectives are scored again without drawing")
+    args = parser.parse_args()
+    scene = pliant.load_scene("hollow-cube")
+    features = DeformationFeatures(scene)
+    FEATURE_NAMES[:] = features.names
+    tip = np.array([0.0, 0.0, -0.06])
+    tasks = TaskSpace(scene)
+    adjacency = tasks.adjacency()
+    pairs = sorted({tuple(sorted((a, b))) for a in adjacency for b in adjacency[a]})
+    sets = DEVELOPMENT + HELD_OUT
+    if args.quick:
+        pairs = [("H1", "L1"), ("H2", "M1"), ("L2", "M2"), ("H2", "L2")]      # every object in a pair
+        sets = [(n, r, a, d, s[:1]) for n, r, a, d, s in (DEVELOPMENT[0], HELD_OUT[2])]
+    sampler = PathSampler(features, tip, SampleOptions(samples=20 if args.quick else 100))
+    context = (features, tasks, sampler, pairs, tip)
+    cache = Path(args.cache) if args.cache else None
+    kept = {}
+    if cache is not None and cache.exists():                # the trials' features, to score objectives again
+        with cache.open("rb") as f:
+            kept = pickle.load(f)
+    records = []
+    for n, r, a, d, seeds in sets:
+        for seed in seeds:
+            if (n, seed, args.quick) not in kept:
+                kept[(n, seed, args.quick)] = trial(n, r, a, d, seed, args.quick, context)
+                if cache is not None:
+                    with cache.open("wb") as f:
+                        pickle.dump(kept, f)
+            records.append(kept[(n, seed, args.quick)])
+    default = RecoveryOptions()
+    scored = [score(r, label, o) for r in records for label, o in OBJECTIVES]
+    scored += [score(r, f"default ({default.objective})", {}) for r in records]
+    rows = []
+    for s in scored:
+        cells = [f"{c['recovered']:.2f} [{c['allowed'][0]:.2f}-{c['allowed'][1]:.2f}]{'' if c['pass'] else ' X'}"
+                 for c in s["ratios"].values()]
+        rows.append((f"{s['trial']} s{s['seed']}", s["objective"], "yes" if s["order"] else "NO", *cells))
+    print_table(f"PIIRL: recovered class ratios [allowed by the demonstrations]; X = outside the allowed interval "
+                f"widened x1.25 ({len(pairs)} demonstrations per trial)",
+                ("trial", "objective", "order", "medium/low", "high/low", "high/medium"), rows)
+    summary = []
+    for label in [lab for lab, _ in OBJECTIVES] + [f"default ({default.objective})"]:
+        line = [label]
+        for part in ("dev", "held-out"):
+            mine = [s for s in scored if s["objective"] == label and s["trial"].startswith(part)]
+            ratios = [c for s in mine for c in s["ratios"].values()]
+            errors = [abs(c["error"]) for c in ratios]
+            line += [f"{sum(s['order'] for s in mine)}/{len(mine)}",
+                     f"{sum(c['pass'] for c in ratios)}/{len(ratios)}",
+                     f"{sum(c['inside'] for c in ratios)}/{len(ratios)}",
+                     f"{min(c['error'] for c in ratios):+.0%}..{max(c['error'] for c in ratios):+.0%}",
+                     f"{np.median(errors):.0%}"]
+        summary.append(tuple(line))
+    print_table("development (tuned on) | held-out (reported): trials in order, ratios within the widened interval, "
+                "within the interval itself, error range against the truth, median |error|",
+                ("objective", "dev order", "dev pass", "dev inside", "dev error", "dev |err|", "held order",
+                 "held pass", "held inside", "held error", "held |err|"), summary)
+    print("sampling (local optimiser + samples) CPU s per trial: "
+          + ", ".join(f"{r['sampling_cpu_s']:.2f}" for r in records))
+    write_json("piirl_heldout" + ("_quick" if args.quick else ""),
+               {"quick": args.quick, "pairs": [list(p) for p in pairs], "widening": 1.25,
+                "trials": [{k: r[k] for k in ("name", "seed", "truth", "classes", "allowed", "slack",
+                                              "sampling_cpu_s")} for r in records],
+                "scored": scored})
+
+
+if __name__ == "__main__":
+    main()
