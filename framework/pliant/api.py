@@ -97,6 +97,8 @@ _NAMES: dict[str, tuple[str, str]] = {
     "matches": ("pliant.planning.clustering", "matches"),
     "perturb": ("pliant.planning.shortcut", "perturb"),
     "shortcut": ("pliant.planning.shortcut", "shortcut"),
+    "time_parameterize": ("pliant.planning.trajectory", "time_parameterize"),
+    "Trajectory": ("pliant.planning.trajectory", "Trajectory"),
     "Tree": ("pliant.planning.tree", "Tree"),
     "warm_up": ("pliant.planning.warmup", "warm_up"),
     # --- spaces, geometry and scenes

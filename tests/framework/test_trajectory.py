@@ -1,0 +1,68 @@
+"""Time-parameterised trajectories of planned paths (pliant.planning.trajectory): known answers, limits, endpoints."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pliant.api import Trajectory, time_parameterize
+from pliant.errors import ConfigError
+from pliant.planning.trajectory import corners, rest_to_rest
+
+
+def test_one_dimensional_rest_to_rest_known_answers():
+    # trapezoid: 1 m at 1 m/s, 2 m/s^2 -> 0.5 s up (0.25 m), 0.5 s cruise (0.5 m), 0.5 s down: 1.5 s
+    trajectory = time_parameterize([[0.0], [1.0]], 1.0, 2.0)
+    assert trajectory.duration == pytest.approx(1.5)
+    q, v, a = trajectory.state([0.25, 0.75, 0.9, 1.25, 1.5])
+    assert q[:, 0] == pytest.approx([0.0625, 0.5, 0.65, 0.9375, 1.0])
+    assert v[:, 0] == pytest.approx([0.5, 1.0, 1.0, 0.5, 0.0])
+    assert a[:, 0] == pytest.approx([2.0, 0.0, 0.0, -2.0, -2.0])
+    # triangle: 0.25 m never reaches 1 m/s: 2 sqrt(0.25 / 2) s, peak speed sqrt(0.25 * 2)
+    short = time_parameterize([[0.0], [-0.25]], 1.0, 2.0)
+    assert short.duration == pytest.approx(2 * math.sqrt(0.125))
+    assert short.state([short.duration / 2])[1][0, 0] == pytest.approx(-math.sqrt(0.5))    # the peak, half way
+    assert rest_to_rest(0.0, 1.0, 1.0)[0] == 0.0
+
+
+def test_limits_hold_at_1khz_and_endpoints_match():
+    rng = np.random.default_rng(0)
+    path = rng.uniform(-1, 1, (6, 3))
+    v, a = np.array([1.0, 0.5, 2.0]), np.array([3.0, 1.0, 4.0])
+    trajectory = time_parameterize(path, v, a)
+    samples = trajectory.sample(1000)
+    assert np.all(np.abs(samples["velocities"]) <= v * (1 + 1e-9))
+    assert np.all(np.abs(samples["accelerations"]) <= a * (1 + 1e-9))
+    assert np.allclose(samples["positions"][0], path[0]) and np.allclose(samples["positions"][-1], path[-1])
+    assert np.allclose(samples["velocities"][[0, -1]], 0.0)
+    # it follows the path: every sample lies on its segment between the knots
+    q, _, _ = trajectory.state(trajectory.knot_times)
+    assert np.allclose(q, path)
+    ratio = trajectory.limit_ratio(1000)
+    assert 0.9 < max(ratio.values()) <= 1.0 + 1e-9          # time-optimal: some limit is reached
+
+
+def test_jerk_limited_profile_respects_all_three_limits():
+    trajectory = time_parameterize([[0.0, 0.0], [1.0, 0.5]], [1.0, 1.0], [2.0, 2.0], jerk=[10.0, 10.0])
+    plain = time_parameterize([[0.0, 0.0], [1.0, 0.5]], [1.0, 1.0], [2.0, 2.0])
+    assert trajectory.duration > plain.duration                 # the jerk limit costs time
+    s = trajectory.sample(1000)
+    assert np.all(np.abs(s["velocities"]) <= 1.0 + 1e-9) and np.all(np.abs(s["accelerations"]) <= 2.0 + 1e-9)
+    jerk = np.diff(s["accelerations"], axis=0) / np.diff(s["times"])[:, None]
+    assert np.max(np.abs(jerk)) <= 10.0 * (1 + 1e-6)
+    assert np.allclose(s["positions"][-1], [1.0, 0.5])
+
+
+def test_straight_runs_do_not_stop():
+    dense = np.linspace([0.0, 0.0], [1.0, 1.0], 11)
+    assert len(corners(dense)) == 2
+    assert time_parameterize(dense, 1.0, 2.0).duration == pytest.approx(1.5)
+    assert isinstance(time_parameterize(dense[:1], 1.0, 1.0), Trajectory)
+    assert time_parameterize(dense[:1], 1.0, 1.0).duration == 0.0
+
+
+def test_bad_limits_name_the_field():
+    with pytest.raises(ConfigError) as err:
+        time_parameterize([[0.0], [1.0]], 0.0, 1.0)
+    assert err.value.field == "velocity"
