@@ -197,20 +197,21 @@ class ControlPeer:
 
 
 def serve(peer: ControlPeer, *, exit_with_parent: int | None = None) -> None:
-    """Run ``peer`` in this thread; fault switches arrive on stdin (one per line); the end of stdin, or the parent
-    process ``exit_with_parent`` gone, ends it."""
+    """Run ``peer`` in this thread until Ctrl-C, ``quit`` on stdin, or (``exit_with_parent``) the parent process
+    gone; fault switches arrive on stdin, one per line.  The end of stdin ends only the reading (a peer started in the
+    background with no stdin keeps running)."""
 
     def read_faults():
         for line in sys.stdin:
             word = line.strip()
             if word == "quit":
-                break
+                peer.stop()
+                return
             if word:
                 try:
                     peer.fault(word)
                 except ValueError as exc:
                     print(f"error: {exc}", flush=True)
-        peer.stop()
 
     def watch_parent():
         while not peer._stop.is_set():
