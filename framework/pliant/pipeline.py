@@ -52,7 +52,7 @@ log = logging.getLogger(__name__)
 
 #: the order in which components are built; each sees the ones before it in its Context
 BUILD_ORDER = ("robot", "cost", "simulator", "controller", "planner", "metric", "learner", "driver")
-TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable", "execution", "planning"}
+TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable", "execution", "planning", "trajectory"}
 EXECUTION_KEYS = {"period": 0.1, "time_limit": 60.0, "action_limit": 100}
 #: ``[execution]`` keys that are not numbers: the world to execute in (a simulator or a driver; ``simulator`` is
 #: the older spelling of ``world``), and the scene variant a simulator simulates
@@ -61,7 +61,8 @@ DEFAULT_ROBOT = {"rigid": "rigid", "urdf": "pinocchio"}
 #: the run folder's list of the files its run wrote (relative names): what the next run into the folder removes
 MANIFEST = ".pliant-files.json"
 #: what pliant writes into a run folder under fixed names (a folder from before the manifest is cleared of these)
-RUN_FILES = ("run.json", "result.json", "execution.json", "learned.json", "report.md", "view-cache.npz")
+RUN_FILES = ("run.json", "result.json", "execution.json", "learned.json", "report.md", "view-cache.npz",
+             "trajectory.json")
 
 
 class RunInterrupted(KeyboardInterrupt):
@@ -110,6 +111,9 @@ class RunRecord:
     outcome: Outcome = Outcome.PLANNED
     error: str = ""
     stage: str = "build"
+    #: the planned path's time parameterisation (:class:`pliant.planning.trajectory.Trajectory`), with a
+    #: ``[trajectory]`` table
+    trajectory: Any = None
 
     @property
     def exit_status(self) -> int:
@@ -187,7 +191,8 @@ class Pipeline:
     def __init__(self, scene: Any = None, *, name: str = "pipeline", seed: int = 0, output: str | Path | None = None,
                  disable: tuple[str, ...] | list[str] = (), description: str = "", execution: dict | None = None,
                  planning: dict | Budget | None = None, source: str = "<python>",
-                 base_dir: Path | None = None, registry: Registry | None = None, **components: Any) -> None:
+                 base_dir: Path | None = None, registry: Registry | None = None, trajectory: dict | None = None,
+                 **components: Any) -> None:
         self.source = source
         self.base_dir = base_dir or Path.cwd()
         self.registry = registry or default_registry()
@@ -211,6 +216,7 @@ class Pipeline:
         except ConfigError as exc:
             raise PipelineError(exc.message, source=source, field=exc.field,
                                 **({"value": exc.value} if exc.has_value else {})) from None
+        self.trajectory = _trajectory_settings(trajectory, source)
         self.scene_spec = scene
         self.components: dict[str, ComponentSpec] = {}
         self.instances: dict[str, Component] = {}
@@ -251,7 +257,7 @@ class Pipeline:
         components = {k: data[k] for k in KINDS if k in data}
         return cls(data.get("scene"), name=name, seed=data.get("seed", 0), output=output,
                    disable=data.get("disable", ()), description=description, execution=data.get("execution"),
-                   planning=data.get("planning"), source=source,
+                   planning=data.get("planning"), source=source, trajectory=data.get("trajectory"),
                    base_dir=base_dir, registry=registry, **components)
 
     @classmethod
@@ -413,8 +419,13 @@ class Pipeline:
             if result.seed is None:
                 result.seed = self.seed
             result.streams = streams.stages()
+            if self.trajectory is not None and result.solved and result.path is not None:
+                record.trajectory = self._time_parameterize(result)
             if write:                                # the plan is on file before anything else can go wrong
                 self._write_file(record, "result.json", result.save)
+                if record.trajectory is not None:
+                    self._write_file(record, "trajectory.json", lambda path: write_json(
+                        path, record.trajectory.to_dict(self.trajectory["rate"])))
             if result.statistics.get("interrupted") is True:
                 record.stage, record.outcome = "plan", Outcome.INTERRUPTED
                 record.error = f"Ctrl-C during planning; the planner's best result so far ({result.status.value}) " \
@@ -448,6 +459,22 @@ class Pipeline:
             last = execution.events[-1] if execution.events else ""
             record.error = f"the execution in {execution.world} ended {execution.outcome}" + \
                            (f" ({last})" if last else "") + " short of the goal"
+
+    def _time_parameterize(self, result: PlanResult):
+        """The ``[trajectory]`` table's time parameterisation of the solved path (its duration in the result's
+        statistics)."""
+        from pliant.planning.trajectory import time_parameterize
+
+        settings = self.trajectory
+        try:
+            trajectory = time_parameterize(result.path.configurations, settings["velocity"],
+                                           settings["acceleration"], settings.get("jerk"))
+        except ConfigError as exc:
+            raise PipelineError(exc.message, source=self.source, field=f"trajectory.{exc.field}",
+                                **({"value": exc.value} if exc.has_value else {})) from None
+        result.statistics["trajectory"] = {"duration": trajectory.duration, "rest_points": len(trajectory.knots),
+                                           "file": "trajectory.json"}
+        return trajectory
 
     def _execute(self, record: RunRecord, world, rng: np.random.Generator, on_step: StepListener | None) -> None:
         """Execute the record's path or policy in ``world``; an exception becomes the partial record of what was
@@ -762,6 +789,48 @@ def _override_execution(table: Any, rest: str, value: Any, source: str, key: str
     return table
 
 
+def _trajectory_settings(table: Any, source: str) -> dict | None:
+    """The ``[trajectory]`` table: ``velocity`` and ``acceleration`` limits (one number for every coordinate, or one
+    per coordinate; per second, squared), an optional ``jerk`` limit, and the ``rate`` (Hz, default 100) of the
+    samples written to ``trajectory.json`` (docs/trajectories.md).  ``None`` without the table."""
+    if table is None:
+        return None
+    if not isinstance(table, dict):
+        raise PipelineError("must be a table (velocity, acceleration, jerk, rate)", source=source,
+                            field="trajectory", value=table)
+    known = {"velocity", "acceleration", "jerk", "rate"}
+    unknown = sorted(set(table) - known)
+    if unknown:
+        raise PipelineError(f"unknown field (fields: {', '.join(sorted(known))})", source=source,
+                            field=f"trajectory.{unknown[0]}", value=table[unknown[0]])
+    out = {"rate": 100.0, "jerk": None}
+    for key in ("velocity", "acceleration", "jerk", "rate"):
+        if key not in table:
+            if key in ("velocity", "acceleration"):
+                raise PipelineError("is required (a number, or one per coordinate)", source=source,
+                                    field=f"trajectory.{key}")
+            continue
+        value = table[key]
+        if isinstance(value, str):
+            try:
+                value = [float(v) for v in value.split(",")] if "," in value else float(value)
+            except ValueError:
+                raise PipelineError("must be a positive number or a list of them", source=source,
+                                    field=f"trajectory.{key}", value=table[key]) from None
+        array = np.asarray(value, dtype=object)
+        try:
+            numbers = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            numbers = None
+        if (numbers is None or numbers.ndim > (0 if key == "rate" else 1) or numbers.size == 0
+                or any(isinstance(v, bool) for v in array.ravel()) or not np.all(np.isfinite(numbers))
+                or np.any(numbers <= 0)):
+            raise PipelineError("must be a positive number" + ("" if key == "rate" else " or a list of them"),
+                                source=source, field=f"trajectory.{key}", value=table[key])
+        out[key] = float(numbers) if numbers.ndim == 0 else numbers
+    return out
+
+
 def _execution_settings(table: Any, source: str) -> tuple[dict[str, float], dict[str, Any]]:
     """The ``[execution]`` table: control ``period`` and ``time_limit`` (s), a policy's ``action_limit``;
     optionally the ``world`` to execute in -- a simulator or a robot driver, a name or a table with options (default
@@ -863,9 +932,9 @@ def apply_overrides(data: dict, overrides: list[str] | dict[str, Any], source: s
         if head == "execution":
             out["execution"] = _override_execution(out.get("execution"), rest, value, source, key)
             continue
-        if head == "planning":                 # planning.max_iterations=N: the request's budget
-            current = out.get("planning")
-            out["planning"] = {**(current if isinstance(current, dict) else {}), rest: value}
+        if head in ("planning", "trajectory"):   # planning.max_iterations=N, trajectory.velocity=1.5: tables
+            current = out.get(head)
+            out[head] = {**(current if isinstance(current, dict) else {}), rest: value}
             continue
         if head in TOP_LEVEL:
             raise PipelineError("this field has no sub-fields", source=source, field=key, value=value)

@@ -66,3 +66,27 @@ def test_bad_limits_name_the_field():
     with pytest.raises(ConfigError) as err:
         time_parameterize([[0.0], [1.0]], 0.0, 1.0)
     assert err.value.field == "velocity"
+
+
+def test_a_pipeline_with_a_trajectory_table_times_its_plan():
+    from pliant.errors import PipelineError
+    from pliant.pipeline import Pipeline
+
+    # not written: the report's figures take seconds (docs/trajectories.md shows trajectory.json and trajectory.png)
+    pipeline = Pipeline.from_file("straight-demo", overrides={"trajectory.velocity": 0.1,
+                                                              "trajectory.acceleration": "0.5,0.5,0.25"})
+    record = pipeline.run(write=False)
+    assert record.result.solved and record.trajectory is not None
+    on_file = record.trajectory.to_dict(pipeline.trajectory["rate"])          # what trajectory.json holds
+    assert on_file["rate"] == 100.0 and on_file["duration"] == pytest.approx(record.trajectory.duration)
+    assert np.allclose(on_file["positions"][0], record.result.path.configurations[0])
+    assert np.allclose(on_file["positions"][-1], record.result.path.configurations[-1])
+    assert record.result.statistics["trajectory"]["duration"] == pytest.approx(record.trajectory.duration)
+    assert np.max(np.abs(np.array(on_file["velocities"])) / 0.1) <= 1 + 1e-9
+    assert np.allclose(record.trajectory.acceleration, [0.5, 0.5, 0.25])
+    with pytest.raises(PipelineError) as err:
+        Pipeline.from_file("straight-demo", overrides={"trajectory.velocity": -1, "trajectory.acceleration": 1})
+    assert err.value.field == "trajectory.velocity"
+    with pytest.raises(PipelineError) as err:
+        Pipeline.from_file("straight-demo", overrides={"trajectory.velocity": 1})
+    assert err.value.field == "trajectory.acceleration"

@@ -1,4 +1,5 @@
-"""Entry point of the report-figure plugin: draws the scene and the planned path."""
+"""Entry point of the report-figure plugin: draws the scene and the planned path, and the path's trajectory over
+time when the run has one."""
 
 from pliant.api import hookimpl
 
@@ -11,5 +12,6 @@ def pliant_register(registrar):
 @hookimpl
 def pliant_report(run, directory):
     from pliant_plots.scene_figure import draw_run
+    from pliant_plots.trajectory_figure import draw_trajectory
 
-    return draw_run(run, directory)
+    return [*(draw_run(run, directory) or []), *(draw_trajectory(run, directory) or [])] or None
