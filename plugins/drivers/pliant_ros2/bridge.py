@@ -62,7 +62,8 @@ class Bridge:
         self.config = config
         self._out = threading.Lock()
         self.context = rclpy.Context()
-        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        rclpy.init(args=["--ros-args", "--disable-external-lib-logs"], context=self.context,
+                   signal_handler_options=SignalHandlerOptions.NO)        # no log files
         self.node = rclpy.create_node(config.get("node", "pliant_ros2_driver"), context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)

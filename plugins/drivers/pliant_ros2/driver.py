@@ -267,7 +267,9 @@ class Ros2ControlDriver(Driver):
                 process.stdin.write(data)
                 process.stdin.flush()
         except (BrokenPipeError, OSError, ValueError) as exc:
-            raise ConnectionLost(f"the ROS 2 node's process is gone: {exc}") from None
+            code = process.poll()
+            why = f"status {code}" if code is not None else str(exc)
+            raise ConnectionLost(f"the ROS 2 node's process exited ({why})") from None
 
     def shutdown(self) -> None:
         """Stop the node's process (a clean exit, then SIGKILL); safe to call twice."""
@@ -291,6 +293,8 @@ class Ros2ControlDriver(Driver):
             reader.join(timeout=2.0)
         if process is not None and process.stdout is not None:
             process.stdout.close()
+        if process is not None and process.returncode == 0 and self._log_path is not None:
+            self._log_path.unlink(missing_ok=True)         # a clean exit: its log (rclpy's stderr) says nothing
 
     def latest_state(self) -> JointState | None:
         return self._state

@@ -59,7 +59,8 @@ class ControlPeer:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self.context = rclpy.Context()
-        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        rclpy.init(args=["--ros-args", "--disable-external-lib-logs"], context=self.context,
+                   signal_handler_options=SignalHandlerOptions.NO)        # no log files
         self.node = rclpy.create_node("pliant_ros2_peer", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)

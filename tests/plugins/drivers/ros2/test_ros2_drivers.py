@@ -147,7 +147,7 @@ def test_no_controller_and_a_crashed_node_are_lost_connections(make_peer, make_d
     driver = make_driver(peer)
     with driver:
         driver._process.kill()
-        with pytest.raises(ConnectionLost, match="exited"):
+        with pytest.raises(ConnectionLost, match="node's process exited"):
             driver.move_to(driver.state() + 0.2)
 
 
