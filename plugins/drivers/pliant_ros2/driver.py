@@ -338,39 +338,58 @@ class Ros2ControlDriver(Driver):
         return self._graph
 
     def trajectory_points(self, times, positions, velocities=None) -> list:
-        """A timed path as JointTrajectory points ``[t, positions, velocities]``, refused (:class:`LimitViolation`)
-        unless every waypoint lies within the position limits and every segment's mean speed within the velocity
-        limits (the controller splines between the points)."""
+        """A timed path as JointTrajectory points ``[t, positions, velocities]`` (``times`` s from now, ``(k,)``;
+        ``positions`` ``(k, d)`` rad in :meth:`joint_names` order), refused with :class:`LimitViolation` unless every
+        waypoint lies within the position limits and the motion from the measured state through the points keeps
+        the limits.  Without ``velocities`` the arm rests at every point and the controller's cubic between two
+        points peaks at 1.5 d/T rad/s, 6 d/T^2 rad/s^2 and 12 d/T^3 rad/s^3 (d the step, T the segment's
+        duration): all three are checked against the velocity, acceleration and jerk limits.  With ``velocities``
+        only each segment's mean speed and the point velocities are checked (the spline is then the controller's).
+        """
         lim = self.limits
         times = np.asarray(times, dtype=np.float64)
         positions = np.atleast_2d(np.asarray(positions, dtype=np.float64))
-        if len(times) != len(positions) or len(times) < 1 or np.any(np.diff(times) <= 0) or times[0] < 0 \
+        if len(times) != len(positions) or len(times) < 1 or np.any(np.diff(times) <= 0) or times[0] <= 0 \
                 or positions.shape[1] != lim.dof or not np.all(np.isfinite(positions)):
             raise LimitViolation("a trajectory needs finite waypoints (d per point) at strictly increasing times "
-                                 "from 0", field="trajectory", value=times.tolist()[:10])
+                                 "after 0", field="trajectory", value=times.tolist()[:10])
         bad = (positions < lim.command_lower) | (positions > lim.command_upper)
         if np.any(bad):
             k, i = map(int, np.argwhere(bad)[0])
             raise LimitViolation(f"waypoint {k} at {positions[k, i]:.6g} rad lies outside the position limits",
                                  joint=lim.names[i], value=float(positions[k, i]),
                                  limit=[float(lim.command_lower[i]), float(lim.command_upper[i])])
-        start = self._measured_positions()
-        steps = np.diff(np.vstack([start, positions]), axis=0)
-        durations = np.diff(np.concatenate([[0.0], times]))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            speed = np.where(durations[:, None] > 0, np.abs(steps) / durations[:, None], np.abs(steps) * np.inf)
-        speed = np.nan_to_num(speed, nan=0.0)
-        if np.any(speed > lim.velocity * (1 + 1e-9)):
-            k, i = map(int, np.argwhere(speed > lim.velocity * (1 + 1e-9))[0])
-            raise LimitViolation(f"reaching waypoint {k} needs {speed[k, i]:.4g} rad/s", joint=lim.names[i],
-                                 value=float(speed[k, i]), limit=float(lim.velocity[i]))
+        steps = np.abs(np.diff(np.vstack([self._measured_positions(), positions]), axis=0))
+        durations = np.diff(np.concatenate([[0.0], times]))[:, None]
         if velocities is None:
+            checks = ((1.5 * steps / durations, lim.velocity, "rad/s"),
+                      (6.0 * steps / durations**2, lim.acceleration, "rad/s^2"),
+                      (12.0 * steps / durations**3, lim.jerk, "rad/s^3"))
             velocities = np.zeros_like(positions)
-        velocities = np.atleast_2d(np.asarray(velocities, dtype=np.float64))
-        if velocities.shape != positions.shape or np.any(np.abs(velocities) > lim.velocity * (1 + 1e-9)):
-            raise LimitViolation("trajectory velocities must be one per joint per point, within the velocity limits",
-                                 field="trajectory.velocities", value=velocities.tolist()[:3])
+        else:
+            velocities = np.atleast_2d(np.asarray(velocities, dtype=np.float64))
+            if velocities.shape != positions.shape or not np.all(np.isfinite(velocities)):
+                raise LimitViolation("trajectory velocities: one per joint per point, finite",
+                                     field="trajectory.velocities", value=velocities.tolist()[:3])
+            checks = ((steps / durations, lim.velocity, "rad/s"), (np.abs(velocities), lim.velocity, "rad/s"))
+        for needed, limit, unit in checks:
+            over = needed > limit * (1 + 1e-9)
+            if np.any(over):
+                k, i = map(int, np.argwhere(over)[0])
+                raise LimitViolation(f"reaching waypoint {k} needs {needed[k, i]:.4g} {unit}", joint=lim.names[i],
+                                     value=float(needed[k, i]), limit=float(limit[i]))
         return [[float(t), p.tolist(), v.tolist()] for t, p, v in zip(times, positions, velocities)]
+
+    def path_times(self, positions) -> np.ndarray:
+        """The shortest times (s from now, ``(k,)``) at which the controller's cubic through ``positions`` ``(k, d)``,
+        resting at every point, keeps the velocity, acceleration and jerk limits (see :meth:`trajectory_points`),
+        from the measured state; each segment at least one command period."""
+        lim = self.limits
+        positions = np.atleast_2d(np.asarray(positions, dtype=np.float64))
+        steps = np.abs(np.diff(np.vstack([self._measured_positions(), positions]), axis=0))
+        durations = np.max(np.maximum.reduce([1.5 * steps / lim.velocity, np.sqrt(6.0 * steps / lim.acceleration),
+                                              np.cbrt(12.0 * steps / lim.jerk)]), axis=1)
+        return np.cumsum(np.maximum(durations * (1 + 1e-6), lim.period))
 
     def _measured_positions(self) -> np.ndarray:
         """The newest joint state's positions in :meth:`joint_names` order (a :class:`ConnectionLost` before the
@@ -394,6 +413,13 @@ class Ros2ControlDriver(Driver):
             raise ConfigError("send_trajectory is for a driver opened without a command stream (driver.open(), not "
                               "`with driver`)", field="mode", value=self.options.mode)
         self._send({"op": "t", "points": self.trajectory_points(times, positions, velocities)})
+
+    def send_path(self, positions) -> np.ndarray:
+        """Send ``positions`` ``(k, d)`` as one trajectory at :meth:`path_times` (within the limits); returns the
+        times.  Same conditions as :meth:`send_trajectory`."""
+        times = self.path_times(positions)
+        self.send_trajectory(times, positions)
+        return times
 
     def hold(self) -> None:
         """Tell the trajectory controller to hold where it is (an empty JointTrajectory)."""

@@ -105,13 +105,20 @@ def test_the_trajectory_controller_mode_and_a_whole_trajectory(make_peer, make_d
         start = np.array(driver.latest_state().positions)
         with pytest.raises(LimitViolation, match="rad/s"):
             driver.send_trajectory([0.1], [start + 1.0])
-        goal = start - 0.2
-        driver.send_trajectory([0.5, 1.0], [start - 0.1, goal])
-        assert wait_until(lambda: np.max(np.abs(driver.latest_state().positions - goal)) < 0.01)
+        with pytest.raises(LimitViolation, match="rad/s\\^2"):          # slow enough, but too sudden
+            driver.send_trajectory([0.5], [start + 0.5])
+        path = np.array([start - 0.1, start - 0.2])
+        times = driver.path_times(path)
+        driver.trajectory_points(times, path)                          # the times it chose keep every limit
+        with pytest.raises(LimitViolation):
+            driver.trajectory_points(times * 0.9, path)                # and they are the shortest that do
+        np.testing.assert_allclose(driver.send_path(path), times)
+        assert wait_until(lambda: np.max(np.abs(driver.latest_state().positions - path[-1])) < 0.01)
     finally:
         driver.shutdown()
     whole = [r for r in peer.records() if r["kind"] == "trajectory" and len(r["points"]) == 2]
     assert len(whole) == 1 and whole[0]["names"] == list(LBR)
+    np.testing.assert_allclose([t for t, _, _ in whole[0]["points"]], times, atol=1e-6)
     assert all(np.all(np.isfinite(r["positions"])) for r in commands(peer))
 
 
