@@ -40,6 +40,7 @@ import numpy as np
 from pliant.components import KINDS, Component, Context, Driver, Planner, PlanningProblem, check_planner
 from pliant.errors import ConfigError, PipelineError, PliantError
 from pliant.execution.loop import ExecutionRecord, StepListener, capture, follow, strategy_for
+from pliant.execution.strategy import TrajectoryStrategy
 from pliant.files import write_json, write_text
 from pliant.registry import Registry, default_registry
 from pliant.results import Outcome, PlanResult
@@ -486,6 +487,8 @@ class Pipeline:
             try:
                 with world if isinstance(world, Driver) else nullcontext():
                     strategy = strategy_for(result, context, settings)
+                    if record.trajectory is not None and result.policy is None:     # [trajectory]: follow it in time
+                        strategy = TrajectoryStrategy(record.trajectory, settings["period"], context.space)
                     record.execution = follow(world, context.controller, strategy, rng, period=settings["period"],
                                               time_limit=settings["time_limit"], on_step=on_step, world_name=name)
             except KeyboardInterrupt:

@@ -90,3 +90,14 @@ def test_a_pipeline_with_a_trajectory_table_times_its_plan():
     with pytest.raises(PipelineError) as err:
         Pipeline.from_file("straight-demo", overrides={"trajectory.velocity": 1})
     assert err.value.field == "trajectory.acceleration"
+
+
+def test_execution_follows_the_trajectory_in_time():
+    from pliant.pipeline import Pipeline
+
+    record = Pipeline.from_file("maze-slide", overrides={"trajectory.velocity": 0.5,
+                                                         "trajectory.acceleration": 1.0}).run(write=False)
+    execution = record.execution
+    assert execution.success and execution.times[-1] == pytest.approx(record.trajectory.duration, abs=0.11)
+    planned = record.trajectory.state(np.asarray(execution.times))[0]
+    assert np.allclose(execution.configurations, planned, atol=1e-6)     # the kinematic world follows it exactly

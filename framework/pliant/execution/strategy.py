@@ -184,6 +184,44 @@ class PathStrategy(ScriptedStrategy):
         return PathDetails(waypoints_reached=self.reached)
 
 
+class TrajectoryStrategy(ScriptedStrategy):
+    """Follow a time-parameterised trajectory (:class:`pliant.planning.trajectory.Trajectory`): place the robot at
+    its start, then each control ``period`` command the velocity that brings the observed configuration to the
+    trajectory's position at the end of the period (its reference velocity plus the correction of the lag, within
+    the trajectory's velocity limits), and finally drive to the last knot.  ``space``: the configuration space
+    (``difference`` gives the tangent velocity).  Ends ``reached``, ``stuck`` or ``timeout`` as
+    :class:`PathStrategy`."""
+
+    def __init__(self, trajectory: Any, period: float, space: Any = None) -> None:
+        super().__init__()
+        self.trajectory = trajectory
+        self.period = float(period)
+        self.space = space
+        self.reached = 0
+
+    def script(self, rng):
+        trajectory = self.trajectory
+        seen = yield Place(trajectory.knots[0])
+        t, end = 0.0, trajectory.duration
+        while t < end - 1e-12:
+            h = min(self.period, end - t)
+            target = trajectory.state([t + h])[0][0]
+            here = seen.configuration
+            delta = self.space.difference(target, here) if self.space is not None else target - here
+            velocity = np.clip(np.asarray(delta, dtype=np.float64) / h, -trajectory.velocity, trajectory.velocity)
+            seen = yield Move(velocity, h)
+            t += h
+        seen = yield Drive(trajectory.knots[-1])
+        if seen.result == "reached":
+            self.reached = len(trajectory.knots) - 1
+            return ExecutionOutcome.REACHED
+        self.events.append(f"t={seen.time:.2f}s: {seen.result} before the trajectory's end")
+        return ExecutionOutcome.STUCK if seen.result == "stuck" else ExecutionOutcome.TIMEOUT
+
+    def details(self) -> PathDetails:
+        return PathDetails(waypoints_reached=self.reached)
+
+
 def strategy_for(result: PlanResult, context: Any = None, settings: dict | None = None) -> ExecutionStrategy:
     """The strategy that executes ``result``: its policy's (the factory its kind names in
     :attr:`~pliant.results.Policy.follower`, given the pipeline's ``context`` and ``[execution]`` ``settings``), else
