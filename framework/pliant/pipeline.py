@@ -466,7 +466,15 @@ class Pipeline:
         statistics)."""
         from pliant.planning.trajectory import time_parameterize
 
-        settings = self.trajectory
+        settings = dict(self.trajectory)
+        if settings["limits"] is not None:                # a limits file: its joints' numbers, unless given here
+            from pliant.hardware.limits import load_limits
+
+            path = Path(settings["limits"])
+            limits = load_limits(path if path.is_absolute() else self.base_dir / path)
+            for key in ("velocity", "acceleration", "jerk"):
+                if settings.get(key) is None:
+                    settings[key] = getattr(limits, key)
         try:
             trajectory = time_parameterize(result.path.configurations, settings["velocity"],
                                            settings["acceleration"], settings.get("jerk"))
@@ -795,21 +803,29 @@ def _override_execution(table: Any, rest: str, value: Any, source: str, key: str
 def _trajectory_settings(table: Any, source: str) -> dict | None:
     """The ``[trajectory]`` table: ``velocity`` and ``acceleration`` limits (one number for every coordinate, or one
     per coordinate; per second, squared), an optional ``jerk`` limit, and the ``rate`` (Hz, default 100) of the
-    samples written to ``trajectory.json`` (docs/trajectories.md).  ``None`` without the table."""
+    samples written to ``trajectory.json``; or ``limits``, a robot's limits file (:mod:`pliant.hardware.limits`: its
+    joints' velocity, acceleration and jerk), which the numbers given replace (docs/trajectories.md).  ``None``
+    without the table."""
     if table is None:
         return None
     if not isinstance(table, dict):
         raise PipelineError("must be a table (velocity, acceleration, jerk, rate)", source=source,
                             field="trajectory", value=table)
-    known = {"velocity", "acceleration", "jerk", "rate"}
+    known = {"velocity", "acceleration", "jerk", "rate", "limits"}
     unknown = sorted(set(table) - known)
     if unknown:
         raise PipelineError(f"unknown field (fields: {', '.join(sorted(known))})", source=source,
                             field=f"trajectory.{unknown[0]}", value=table[unknown[0]])
-    out = {"rate": 100.0, "jerk": None}
+    out = {"rate": 100.0, "jerk": None, "limits": None}
+    limits = table.get("limits")
+    if limits is not None:
+        if not isinstance(limits, str) or not limits.strip():
+            raise PipelineError("must be the path of a limits file", source=source, field="trajectory.limits",
+                                value=limits)
+        out["limits"] = limits
     for key in ("velocity", "acceleration", "jerk", "rate"):
         if key not in table:
-            if key in ("velocity", "acceleration"):
+            if key in ("velocity", "acceleration") and limits is None:
                 raise PipelineError("is required (a number, or one per coordinate)", source=source,
                                     field=f"trajectory.{key}")
             continue

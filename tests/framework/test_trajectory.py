@@ -101,3 +101,26 @@ def test_execution_follows_the_trajectory_in_time():
     assert execution.success and execution.times[-1] == pytest.approx(record.trajectory.duration, abs=0.11)
     planned = record.trajectory.state(np.asarray(execution.times))[0]
     assert np.allclose(execution.configurations, planned, atol=1e-6)     # the kinematic world follows it exactly
+
+
+def test_limits_from_a_robots_limits_file():
+    from pathlib import Path
+
+    from pliant.hardware.limits import load_limits
+    from pliant.pipeline import Pipeline
+    from pliant.results import Path as PlannedPath
+    from pliant.results import PlanResult, Status
+
+    root = Path(__file__).resolve().parents[2]
+    limits_file = root / "plugins/drivers/pliant_ros1/limits/iiwa7_r800.toml"
+    limits = load_limits(limits_file)
+    pipeline = Pipeline("iiwa-shelf", trajectory={"limits": str(limits_file), "acceleration": 1.0})
+    path = np.array([np.zeros(7), np.full(7, 0.5), np.linspace(-1, 1, 7)])
+    result = PlanResult(Status.SOLVED, path=PlannedPath(path))
+    trajectory = pipeline._time_parameterize(result)
+    assert np.array_equal(trajectory.velocity, limits.velocity) and np.array_equal(trajectory.jerk, limits.jerk)
+    assert np.allclose(trajectory.acceleration, 1.0)               # the table's number replaces the file's
+    s = trajectory.sample(1000)
+    assert np.all(np.abs(s["velocities"]) <= limits.velocity * (1 + 1e-9))
+    assert np.all(np.abs(s["accelerations"]) <= 1.0 + 1e-9)
+    assert result.statistics["trajectory"]["duration"] == trajectory.duration
