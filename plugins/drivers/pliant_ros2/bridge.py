@@ -24,6 +24,10 @@ import sys
 import threading
 import time
 
+#: history depth of the command publishers: a second of commands at 100 Hz, so that a burst (this process or the
+#: controller's starved for a moment) is delivered whole instead of losing its oldest commands
+COMMAND_DEPTH = 100
+
 
 def qos(kind: str, depth: int = 10):
     """``reliable`` or ``best_effort`` QoS (volatile, keep last ``depth``)."""
@@ -69,9 +73,9 @@ class Bridge:
         self.executor.add_node(self.node)
         self.node.create_subscription(JointState, config["state_topic"], self._on_state, qos(config["state_qos"]))
         self.commands = self.node.create_publisher(Float64MultiArray, config["command_topic"],
-                                                   qos(config["command_qos"]))
+                                                   qos(config["command_qos"], COMMAND_DEPTH))
         self.trajectories = self.node.create_publisher(JointTrajectory, config["trajectory_topic"],
-                                                       qos(config["command_qos"]))
+                                                       qos(config["command_qos"], COMMAND_DEPTH))
         self._counts = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._spin, name="pliant-ros2-spin", daemon=True)

@@ -64,7 +64,8 @@ class ControlPeer:
         self.node = rclpy.create_node("pliant_ros2_peer", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        # depth 100: a burst of commands after a stall is recorded whole (what the driver sent), not its newest 10
+        reliable = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
         self.topics = {"command": name(forward, "commands"), "trajectory": name(trajectory, "joint_trajectory"),
                        "state": name(state_topic)}
         self._forward = self.node.create_subscription(Float64MultiArray, self.topics["command"], self._on_command,
