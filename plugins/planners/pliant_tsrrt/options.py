@@ -119,6 +119,8 @@ class ImprovementOptions:
                                   "connect to the targets", minimum=1)
     refine_randoms: int = option(128, "random collision-free arrangements whose free descent adds targets",
                                  minimum=0)
+    refine_patterns: int = option(0, "packed table-aligned arrangements (rows, columns, shelves) whose free descent "
+                                  "adds targets (0: none)", minimum=0)
     refine_sweeps: int = option(2, "sweeps over the objects when pushing them toward a target (a later sweep moves "
                                 "objects that others blocked)", minimum=1)
     refine_yaw_quota: int = option(4, "most poses per yaw bin (0.25 degrees) in a box's beam, so that it keeps "

@@ -106,12 +106,14 @@ def random_free(space, rng: np.random.Generator, count: int, margin: float, trie
 
 
 def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, rounds: int = 800,
-            slack: float = 0.003, deadline: float | None = None, randoms: int = 0) -> np.ndarray:
+            slack: float = 0.003, deadline: float | None = None, randoms: int = 0, packed: int = 0) -> np.ndarray:
     """The ``count`` cheapest distinct local minima ``(c, k, 3)`` of the free descent from ``s`` and its
     :func:`variants`, each as it is and with the positions spread by a factor 1.3 about their mean (a variant that
     overlaps cannot descend; spread out it can), and from ``randoms`` random collision-free arrangements (the basins
     that no variant of ``s`` lies in, e.g. the objects in a row where ``s`` has them in a cluster).  The first member
-    descends from ``s`` itself."""
+    descends from ``s`` itself.  ``packed``: the cheapest of ``8 packed`` packed table-aligned arrangements (rows,
+    columns, shelves: :func:`pliant_tsrrt.reference.patterns`) descend too (the basins of compact arrangements of
+    many objects, which neither ``s`` nor random starts tend to lie in)."""
     v = variants(space, s)
     spread = v.copy()
     centre = v[:, :, :2].mean(axis=1, keepdims=True)
@@ -119,6 +121,12 @@ def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, roun
     starts = np.concatenate([v, spread])
     if randoms > 0:
         starts = np.concatenate([starts, random_free(space, rng, randoms, space.checker.margin + slack)])
+    if packed > 0:
+        from pliant_tsrrt.reference import patterns
+
+        pats = patterns(space, rng, 8 * packed, gap=2 * (space.checker.margin + slack) + 5e-4)
+        if len(pats):
+            starts = np.concatenate([starts, pats[np.argsort(space.cost.cost(pats))[:packed]]])
     pop, cost = free_descent(space, starts, rng, rounds=rounds, slack=slack, sigma_start=0.04, deadline=deadline)
     order = np.argsort(cost)
     picked: list[int] = []
@@ -263,7 +271,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
             slack: float = 0.003, depth: int = 20, width: int = 64, max_orders: int = 6, passes: int = 2,
             branch_points: int = 3, deadline: float | None = None, goals: np.ndarray | None = None,
             randoms: int = 0, sweeps: int = 1, yaw_quota: int = 0, push_cost: float = 0.0,
-            enough: float = -np.inf) -> tuple[float, int, list[int], dict]:
+            enough: float = -np.inf, packed: int = 0) -> tuple[float, int, list[int], dict]:
     """The improvement phase on the tree's best path ``path`` ``(m + 1, k, 3)`` (its states, start to best node):
     :func:`targets` from the best node (after the given ``goals`` ``(g, k, 3)`` in the first pass: when replanning
     during execution, the arrangement the first plan ends in), then :func:`connect` to each target from the best
@@ -294,7 +302,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
         if _late(deadline):
             break
         found_targets = targets(space, s, rng, count=count, rounds=rounds, slack=slack, deadline=deadline,
-                                randoms=randoms if p == 0 else 0)
+                                randoms=randoms if p == 0 else 0, packed=packed if p == 0 else 0)
         if p == 0 and goals is not None and len(goals):
             found_targets = np.concatenate([np.asarray(goals, dtype=np.float64).reshape(-1, k, 3),
                                             found_targets.reshape(-1, k, 3)])

@@ -346,7 +346,8 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
                                        depth=imp.refine_depth, width=imp.refine_width,
                                        passes=imp.refine_passes, branch_points=imp.refine_branches,
                                        deadline=deadline, goals=None if goal is None else goal[None],
-                                       randoms=imp.refine_randoms, sweeps=imp.refine_sweeps,
+                                       randoms=imp.refine_randoms, packed=imp.refine_patterns,
+                                       sweeps=imp.refine_sweeps,
                                        yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,
                                        enough=floor)
         stats.update(more, refine_pushes=len(extra))

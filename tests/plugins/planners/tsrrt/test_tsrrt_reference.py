@@ -79,3 +79,16 @@ def test_patterns_are_collision_free_table_aligned_and_on_the_table():
     assert not space.checker.in_collision(pats).any()
     quarter = np.pi / 2
     assert np.allclose((pats[..., 2] + 1e-12) % quarter, 0.0, atol=1e-9)
+
+
+def test_packed_targets_of_the_improvement_phase_keep_the_clearance():
+    from dataclasses import replace
+
+    from pliant_tsrrt.refine import targets
+
+    space = _space(Footprints(np.array([BOX, BOX, CIRCLE]), np.array([[0.1, 0.04], [0.06, 0.06], [0.04, 0.04]])))
+    s = np.array([[0.2, 0.0, 0.3], [0.45, 0.2, 0.0], [0.3, 0.25, 0.0]])
+    found = targets(space, s, np.random.default_rng(0), count=4, rounds=100, slack=0.003, packed=16)
+    assert len(found) >= 1
+    wider = replace(space.checker, margin=space.checker.margin + 0.003)
+    assert not wider.in_collision(found).any()
