@@ -251,7 +251,7 @@ def test_a_tables_own_options_reach_its_runner_and_its_report(tmp_path, capsys):
     assert cli.main(["experiment", "table-8.1", "--ci", "--repetitions", "1", "--seed", "3",
                      "--output", str(tmp_path)]) in (0, 3)
     outcome = json.loads((tmp_path / "table-8.1" / "ci" / "outcome.json").read_text())
-    assert outcome["settings"] == {"repetitions": 1, "force": 1.0, "seed": 3}
+    assert outcome["settings"] == {"repetitions": 1, "force": None, "seed": 3}
 
 
 def test_bench_runs_a_script_as_its_own_program_and_returns_its_status(tmp_path, monkeypatch, capfd):

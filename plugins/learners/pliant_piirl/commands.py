@@ -63,7 +63,8 @@ def table81_arguments(group) -> None:
     """The own options of ``pliant experiment table-8.1``."""
     group.add_argument("--repetitions", type=int, default=None,
                        help="presses per object (full 30, as the thesis; quick 5, ci 3)")
-    group.add_argument("--force", type=float, default=1.0, help="the indenter's force (N, default 1)")
+    group.add_argument("--force", type=float, default=None,
+                       help="the indenter's force (N; default: chosen by the learner from the reference object)")
     add_common_arguments(group, seed=0)
 
 

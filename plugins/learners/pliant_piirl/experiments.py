@@ -529,7 +529,7 @@ def render_table42(summary: dict) -> str:
 THESIS_TABLE_81 = {"truth": (0.75, 0.625, 0.5, 0.375, 0.25), "recovered": (0.813, 0.604, 0.482, 0.413, 0.191)}
 
 
-def run_table81(*, repetitions: int, force: float, seed: int, output: Path, echo=print) -> dict:
+def run_table81(*, repetitions: int, force: float | None, seed: int, output: Path, echo=print) -> dict:
     """Table 8.1: the ``press-deformability`` learner on five objects of the thesis's ground-truth deformability,
     against a known object of deformability 0.5; the mean absolute error and the ranking, the thesis's beside."""
     from pliant import api
@@ -537,7 +537,8 @@ def run_table81(*, repetitions: int, force: float, seed: int, output: Path, echo
 
     started = time.perf_counter()
     context = Context(scene=api.load_scene(SCENE))
-    learner = api.registry.create("learner", "press-deformability", context, repetitions=repetitions, force=force)
+    learner = api.registry.create("learner", "press-deformability", context, repetitions=repetitions,
+                                  **({} if force is None else {"force": force}))
     truth = {f"object {k + 1}": d for k, d in enumerate(THESIS_TABLE_81["truth"])}
     echo(f"pressing the known object and {len(truth)} unknown ones {repetitions} times each ...")
     fitted = learner.fit(truth, np.random.default_rng(seed))
@@ -548,7 +549,8 @@ def run_table81(*, repetitions: int, force: float, seed: int, output: Path, echo
     ranked = sorted(names, key=ours.get) == sorted(names, key=truth.get)
     summary = {"truth": truth, "recovered": ours, "volume_change": fitted["volume_change"],
                "reference": fitted["reference"], "mean_absolute_error": error, "ranking_correct": ranked,
-               "thesis_mean_absolute_error": thesis_error, "repetitions": repetitions, "force": force, "seed": seed,
+               "thesis_mean_absolute_error": thesis_error, "repetitions": repetitions, "force": fitted["force"],
+               "force_chosen": force is None, "above_range": fitted["above_range"], "seed": seed,
                "seconds": time.perf_counter() - started}
     directory = Path(output) / "learn-table-8.1"
     directory.mkdir(parents=True, exist_ok=True)
