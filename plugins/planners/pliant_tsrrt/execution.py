@@ -62,9 +62,10 @@ PLACE_TRIES = 3
 #: stops: their predictions use the models' mean pushes, and a second failure shows the noise outweighs them
 FINISH_TRIES = 2
 
-#: closed-loop finishing pushes (``execution.finish_steps``) in a row that do not lower the observed cost below the
-#: lowest seen before the finishing falls back to a finishing repair or replanning
-FINISH_STALE = 3
+#: closed-loop finishing pushes (``execution.finish_steps``) in a row that may fail to lower the observed cost below
+#: the lowest seen before the finishing falls back to a finishing repair or replanning (one: under noise, a second
+#: and third such push raised it further)
+FINISH_STALE = 1
 
 #: margin (m) of the final collision verdict and of replanning from a jammed arrangement: footprints shrunk by 1 mm, so
 #: objects that merely touch (pymunk lets resting contacts overlap slightly) do not count as colliding
@@ -183,9 +184,12 @@ class PushPlanStrategy(ScriptedStrategy):
                     predicted_cost, extra = final_beam(room, observed, depth=max(1, imp.beam_depth),
                                                        width=imp.beam_width, push_cost=imp.push_cost,
                                                        enough=goal_cost)
-                    if extra and step_stale < FINISH_STALE:
+                    states, _ = room.rollout(observed, extra[:1])
+                    # only a push predicted to lower the cost by itself: the beam's first push may be one that
+                    # first raises it, and executed alone, then re-planned, such pushes raised it push after push
+                    if extra and step_stale < FINISH_STALE and \
+                            float(space.cost.cost(states[-1][None])[0]) < cost_now * (1 - 1e-3):
                         steps_left -= 1
-                        states, _ = room.rollout(observed, extra[:1])
                         replans.append({"after_action": len(records), "reason": "finish step", "repair": True,
                                         "cost_before": cost_now, "planned_cost": float(predicted_cost),
                                         "actions": 1, "repair_pushes": 1, "objects": [plan.names[extra[0] // 6]]})
