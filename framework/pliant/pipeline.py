@@ -53,7 +53,8 @@ log = logging.getLogger(__name__)
 
 #: the order in which components are built; each sees the ones before it in its Context
 BUILD_ORDER = ("robot", "cost", "simulator", "controller", "planner", "metric", "learner", "driver")
-TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable", "execution", "planning", "trajectory"}
+TOP_LEVEL = {"name", "description", "scene", "seed", "output", "disable", "execution", "planning", "trajectory",
+             "goal"}
 EXECUTION_KEYS = {"period": 0.1, "time_limit": 60.0, "action_limit": 100}
 #: ``[execution]`` keys that are not numbers: the world to execute in (a simulator or a driver; ``simulator`` is
 #: the older spelling of ``world``), and the scene variant a simulator simulates
@@ -115,6 +116,8 @@ class RunRecord:
     #: the planned path's time parameterisation (:class:`pliant.planning.trajectory.Trajectory`), with a
     #: ``[trajectory]`` table
     trajectory: Any = None
+    #: the goal configurations ``(k, d)`` inverse kinematics found for a ``[goal]`` pose
+    goal_states: Any = None
 
     @property
     def exit_status(self) -> int:
@@ -193,7 +196,7 @@ class Pipeline:
                  disable: tuple[str, ...] | list[str] = (), description: str = "", execution: dict | None = None,
                  planning: dict | Budget | None = None, source: str = "<python>",
                  base_dir: Path | None = None, registry: Registry | None = None, trajectory: dict | None = None,
-                 **components: Any) -> None:
+                 goal: dict | None = None, **components: Any) -> None:
         self.source = source
         self.base_dir = base_dir or Path.cwd()
         self.registry = registry or default_registry()
@@ -218,6 +221,7 @@ class Pipeline:
             raise PipelineError(exc.message, source=source, field=exc.field,
                                 **({"value": exc.value} if exc.has_value else {})) from None
         self.trajectory = _trajectory_settings(trajectory, source)
+        self.goal = _goal_settings(goal, source)
         self.scene_spec = scene
         self.components: dict[str, ComponentSpec] = {}
         self.instances: dict[str, Component] = {}
@@ -259,6 +263,7 @@ class Pipeline:
         return cls(data.get("scene"), name=name, seed=data.get("seed", 0), output=output,
                    disable=data.get("disable", ()), description=description, execution=data.get("execution"),
                    planning=data.get("planning"), source=source, trajectory=data.get("trajectory"),
+                   goal=data.get("goal"),
                    base_dir=base_dir, registry=registry, **components)
 
     @classmethod
@@ -412,13 +417,16 @@ class Pipeline:
         result = None
         if planner is not None:
             record.stage = "plan"
-            problem = record.problem = PlanningProblem.from_context(context, budget=self.budget)
+            goal = self._goal_configuration(record, context, streams) if self.goal is not None else None
+            problem = record.problem = PlanningProblem.from_context(context, goal=goal, budget=self.budget)
             t0 = time.perf_counter()
             log.info("planning with %s on %s", self.components["planner"].name, context.scene.name)
             result = record.result = planner.plan(problem, streams.rng("planning"))
             timings["plan"] = time.perf_counter() - t0
             if result.seed is None:
                 result.seed = self.seed
+            if goal is not None:
+                result.statistics["goal_states"] = record.goal_states.tolist()
             result.streams = streams.stages()
             if self.trajectory is not None and result.solved and result.path is not None:
                 record.trajectory = self._time_parameterize(result)
@@ -460,6 +468,30 @@ class Pipeline:
             last = execution.events[-1] if execution.events else ""
             record.error = f"the execution in {execution.world} ended {execution.outcome}" + \
                            (f" ({last})" if last else "") + " short of the goal"
+
+    def _goal_configuration(self, record: RunRecord, context: Context, streams) -> np.ndarray:
+        """The ``[goal]`` table's pose solved by the robot's inverse kinematics (valid for the scene's and robot's
+        collision checker): its solutions in ``record.goal_states``; the goal is the one nearest the start."""
+        from pliant.components.validity import ValidityChecker
+
+        pose = self.goal["pose"]
+        checker = ValidityChecker.from_context(context)
+        valid = (lambda q: checker.states_valid(q)) if checker is not None else None
+        try:
+            found = context.robot.inverse_kinematics(
+                pose["frame"], pose["position"], pose.get("orientation"), rng=streams.rng("planning", "goal"),
+                solutions=pose["solutions"], position_tolerance=pose["position_tolerance"],
+                orientation_tolerance=pose["orientation_tolerance"], valid=valid)
+        except ConfigError as exc:
+            raise PipelineError(exc.message, source=self.source, field=f"goal.pose.{exc.field}",
+                                **({"value": exc.value} if exc.has_value else {})) from None
+        if len(found) == 0:
+            raise PipelineError("inverse kinematics found no valid configuration at this pose (unreachable, out of "
+                                "the joint limits or in collision)", source=self.source, field="goal.pose",
+                                value=pose)
+        record.goal_states = found
+        start = np.asarray(context.scene.start, dtype=np.float64)
+        return found[int(np.argmin(context.space.distance(found, start)))]
 
     def _time_parameterize(self, result: PlanResult):
         """The ``[trajectory]`` table's time parameterisation of the solved path (its duration in the result's
@@ -800,6 +832,42 @@ def _override_execution(table: Any, rest: str, value: Any, source: str, key: str
     return table
 
 
+def _goal_settings(table: Any, source: str) -> dict | None:
+    """The ``[goal]`` table: ``pose``, a frame's pose the goal configuration must put it at -- ``frame`` (a link or
+    frame of the robot), ``position`` (m, world), optional ``orientation`` (quaternion ``[qx, qy, qz, qw]``),
+    ``position_tolerance`` (m, default 0.001), ``orientation_tolerance`` (rad, default 0.01), ``solutions`` (how many
+    diverse configurations inverse kinematics looks for, default 4).  ``None`` without the table."""
+    if table is None:
+        return None
+    if not isinstance(table, dict) or set(table) != {"pose"} or not isinstance(table["pose"], dict):
+        raise PipelineError("must be a table with a pose table (frame, position, orientation, ...)", source=source,
+                            field="goal", value=table)
+    pose = dict(table["pose"])
+    known = {"frame", "position", "orientation", "position_tolerance", "orientation_tolerance", "solutions"}
+    unknown = sorted(set(pose) - known)
+    if unknown:
+        raise PipelineError(f"unknown field (fields: {', '.join(sorted(known))})", source=source,
+                            field=f"goal.pose.{unknown[0]}", value=pose[unknown[0]])
+    if not isinstance(pose.get("frame"), str) or not pose["frame"]:
+        raise PipelineError("must name a link or frame of the robot", source=source, field="goal.pose.frame",
+                            value=pose.get("frame"))
+    for key, size in (("position", 3), ("orientation", 4)):
+        value = pose.get(key)
+        if value is None and key == "orientation":
+            continue
+        if (not isinstance(value, (list, tuple)) or len(value) != size
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
+            raise PipelineError(f"must be {size} numbers", source=source, field=f"goal.pose.{key}", value=value)
+    for key, default in (("position_tolerance", 1e-3), ("orientation_tolerance", 1e-2), ("solutions", 4)):
+        value = pose.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0 or (
+                key == "solutions" and not float(value).is_integer()):
+            raise PipelineError("must be a positive " + ("integer" if key == "solutions" else "number"),
+                                source=source, field=f"goal.pose.{key}", value=value)
+        pose[key] = int(value) if key == "solutions" else float(value)
+    return {"pose": pose}
+
+
 def _trajectory_settings(table: Any, source: str) -> dict | None:
     """The ``[trajectory]`` table: ``velocity`` and ``acceleration`` limits (one number for every coordinate, or one
     per coordinate; per second, squared), an optional ``jerk`` limit, and the ``rate`` (Hz, default 100) of the
@@ -951,7 +1019,7 @@ def apply_overrides(data: dict, overrides: list[str] | dict[str, Any], source: s
         if head == "execution":
             out["execution"] = _override_execution(out.get("execution"), rest, value, source, key)
             continue
-        if head in ("planning", "trajectory"):   # planning.max_iterations=N, trajectory.velocity=1.5: tables
+        if head in ("planning", "trajectory", "goal"):   # planning.max_iterations=N, goal.pose={...}: tables
             current = out.get(head)
             out[head] = {**(current if isinstance(current, dict) else {}), rest: value}
             continue

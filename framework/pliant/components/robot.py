@@ -129,6 +129,18 @@ class RobotModel(Component):
         """
         return np.zeros(len(np.atleast_2d(q)), dtype=bool)
 
+    def inverse_kinematics(self, frame: str, position, orientation=None, *, rng: np.random.Generator,
+                           solutions: int = 4, position_tolerance: float = 1e-3,
+                           orientation_tolerance: float = 1e-2, valid=None) -> np.ndarray:
+        """Up to ``solutions`` diverse configurations ``(k, d)`` placing ``frame`` at ``position`` (m, world) and,
+        when given, ``orientation`` (quaternion ``(qx, qy, qz, qw)``) within the tolerances (m, rad) and the joint
+        limits, accepted by ``valid`` (``(n, d) -> bool (n,)``); ``k`` may be 0.  The default: this robot has no
+        inverse kinematics (URDF robots have, :mod:`pliant_pinocchio.ik`)."""
+        from pliant.errors import ConfigError
+
+        raise ConfigError(f"{type(self).__name__} has no inverse kinematics: give the goal as a configuration",
+                          field="goal.pose", value=frame)
+
     def urdf_description(self) -> UrdfDescription | None:
         """The URDF, joint order and fixed posture of an articulated robot; ``None`` (the default) otherwise.
 

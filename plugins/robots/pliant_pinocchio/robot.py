@@ -503,6 +503,16 @@ class PinocchioRobot(RobotModel):
             out[a] = self._point_columns(world[None])[0] * mask
         return out
 
+    def inverse_kinematics(self, frame: str, position, orientation=None, *, rng: np.random.Generator,
+                           solutions: int = 4, position_tolerance: float = 1e-3,
+                           orientation_tolerance: float = 1e-2, valid=None) -> np.ndarray:
+        """Diverse joint configurations placing ``frame`` at a pose (:func:`pliant_pinocchio.ik.solve_ik`)."""
+        from pliant_pinocchio.ik import solve_ik
+
+        return solve_ik(self, frame, position, orientation, rng=rng, solutions=solutions,
+                        position_tolerance=position_tolerance, orientation_tolerance=orientation_tolerance,
+                        valid=valid).solutions
+
     # --- collision ----------------------------------------------------------------------------
 
     def self_collision(self, q: np.ndarray) -> np.ndarray:

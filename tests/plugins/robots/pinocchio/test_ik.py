@@ -60,3 +60,23 @@ def test_bad_targets_name_the_field(iiwa):
     with pytest.raises(ConfigError) as err:
         solve_ik(iiwa, FRAME, [0.0, 0.0, 0.5], [0, 0, 0, 0], rng=np.random.default_rng(0))
     assert err.value.field == "orientation"
+
+
+@pytest.mark.slow           # about 13 s: the iiwa's collision checker and a straight plan through the shelf scene
+def test_a_pipeline_goal_pose_becomes_a_goal_configuration():
+    from pliant.errors import PipelineError
+    from pliant.pipeline import Pipeline
+
+    pose = '{frame = "lbr_iiwa_link_7", position = [0.5, 0.2, 0.6], solutions = 2}'
+    pipeline = Pipeline.from_dict({"scene": "iiwa-shelf", "planner": {"name": "straight", "step": 0.05}},
+                                  overrides=[f"goal.pose={pose}"])
+    record = pipeline.run(write=False)
+    robot, goal = record.context.robot, record.problem.goal
+    assert np.allclose(robot.frame_position(goal, FRAME)[0], [0.5, 0.2, 0.6], atol=1e-3)
+    assert len(record.goal_states) == 2 and any(np.array_equal(goal, g) for g in record.goal_states)
+    assert record.problem.checker.states_valid(record.goal_states).all()        # collision-free goal states
+    assert record.result.statistics["goal_states"] == record.goal_states.tolist()
+    with pytest.raises(PipelineError) as err:
+        Pipeline.from_dict({"scene": "iiwa-shelf", "planner": "straight"},
+                           overrides=['goal.pose={frame = "lbr_iiwa_link_7", position = [0.5, 0.2]}'])
+    assert err.value.field == "goal.pose.position"
