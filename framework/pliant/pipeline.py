@@ -429,7 +429,7 @@ class Pipeline:
                 result.statistics["goal_states"] = record.goal_states.tolist()
             result.streams = streams.stages()
             if self.trajectory is not None and result.solved and result.path is not None:
-                record.trajectory = self._time_parameterize(result)
+                record.trajectory = self._time_parameterize(result, context.robot)
             if write:                                # the plan is on file before anything else can go wrong
                 self._write_file(record, "result.json", result.save)
                 if record.trajectory is not None:
@@ -493,13 +493,22 @@ class Pipeline:
         start = np.asarray(context.scene.start, dtype=np.float64)
         return found[int(np.argmin(context.space.distance(found, start)))]
 
-    def _time_parameterize(self, result: PlanResult):
+    def _time_parameterize(self, result: PlanResult, robot=None):
         """The ``[trajectory]`` table's time parameterisation of the solved path (its duration in the result's
         statistics)."""
         from pliant.planning.trajectory import time_parameterize
 
         settings = dict(self.trajectory)
-        if settings["limits"] is not None:                # a limits file: its joints' numbers, unless given here
+        if settings["limits"] == "robot":                 # the robot's own limits (URDF robots), unless given here
+            for key in ("velocity", "acceleration", "jerk"):
+                own = getattr(robot, f"{key}_limits", None)
+                if settings.get(key) is None and own is None and key != "jerk":
+                    raise PipelineError(f"the robot ({type(robot).__name__}) declares no {key} limits: give "
+                                        f"trajectory.{key}", source=self.source, field="trajectory.limits",
+                                        value="robot")
+                if settings.get(key) is None:
+                    settings[key] = own
+        elif settings["limits"] is not None:              # a limits file: its joints' numbers, unless given here
             from pliant.hardware.limits import load_limits
 
             path = Path(settings["limits"])
@@ -871,9 +880,10 @@ def _goal_settings(table: Any, source: str) -> dict | None:
 def _trajectory_settings(table: Any, source: str) -> dict | None:
     """The ``[trajectory]`` table: ``velocity`` and ``acceleration`` limits (one number for every coordinate, or one
     per coordinate; per second, squared), an optional ``jerk`` limit, and the ``rate`` (Hz, default 100) of the
-    samples written to ``trajectory.json``; or ``limits``, a robot's limits file (:mod:`pliant.hardware.limits`: its
-    joints' velocity, acceleration and jerk), which the numbers given replace (docs/trajectories.md).  ``None``
-    without the table."""
+    samples written to ``trajectory.json``; or ``limits``: ``"robot"`` for the robot's own (a URDF robot's
+    ``velocity_limits``, ``acceleration_limits``, ``jerk_limits``) or a robot's limits file
+    (:mod:`pliant.hardware.limits`: its joints' velocity, acceleration and jerk), which the numbers given replace
+    (docs/trajectories.md).  ``None`` without the table."""
     if table is None:
         return None
     if not isinstance(table, dict):

@@ -124,3 +124,23 @@ def test_limits_from_a_robots_limits_file():
     assert np.all(np.abs(s["velocities"]) <= limits.velocity * (1 + 1e-9))
     assert np.all(np.abs(s["accelerations"]) <= 1.0 + 1e-9)
     assert result.statistics["trajectory"]["duration"] == trajectory.duration
+
+
+def test_limits_of_the_robot_itself():
+    from types import SimpleNamespace
+
+    from pliant.errors import PipelineError
+    from pliant.pipeline import Pipeline
+    from pliant.results import Path as PlannedPath
+    from pliant.results import PlanResult, Status
+
+    robot = SimpleNamespace(velocity_limits=np.array([1.0, 2.0]), acceleration_limits=np.array([4.0, 8.0]),
+                            jerk_limits=None)
+    pipeline = Pipeline("triple-wall", trajectory={"limits": "robot", "velocity": 0.5})
+    result = PlanResult(Status.SOLVED, path=PlannedPath(np.array([[0.0, 0.0], [1.0, 1.0]])))
+    trajectory = pipeline._time_parameterize(result, robot)
+    assert np.allclose(trajectory.velocity, 0.5) and np.allclose(trajectory.acceleration, [4.0, 8.0])
+    assert trajectory.jerk is None
+    with pytest.raises(PipelineError) as err:
+        Pipeline("triple-wall", trajectory={"limits": "robot"})._time_parameterize(result, SimpleNamespace())
+    assert err.value.field == "trajectory.limits"
