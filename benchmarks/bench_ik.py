@@ -60,6 +60,7 @@ def main() -> None:
                      "p95_s": float(np.percentile(times, 95)), "mean_solutions": float(np.mean(counts))}
         rows.append((name, frame, f"{solved}/{args.poses}", "yes" if within else "NO", f"{np.mean(counts):.2f}",
                      f"{np.median(times) * 1000:.1f}", f"{np.percentile(times, 95) * 1000:.1f}"))
+        print(name, out[name], flush=True)
     print_table(f"IK on {args.poses} random reachable poses (1 mm, 0.01 rad), {args.solutions} solution(s) asked",
                 ("robot", "frame", "solved", "errors and limits ok", "solutions", "median ms", "p95 ms"), rows)
     print(f"wrote {write_json('ik', {'args': vars(args), 'robots': out})}")
