@@ -20,5 +20,5 @@ def pliant_reproductions():
                          "pliant_trrt.reproduce:table_31",
                          modes={"full": "30 runs per planner and nFailMax (10, 20), 1200 s budget, as the thesis",
                                 "quick": "4 runs per planner and nFailMax (10, 20)",
-                                "ci": "3 runs per planner at nFailMax 10"},
-                         minutes={"full": 60, "quick": 1, "ci": 0.5})]
+                                "ci": "2 runs per planner at nFailMax 10"},
+                         minutes={"full": 60, "quick": 1, "ci": 0.3})]

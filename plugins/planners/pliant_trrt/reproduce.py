@@ -19,7 +19,7 @@ THESIS = {("trrt", 10): (112.0, 45.6, 515.0, 82.3), ("trrt", 20): (736.0, 260.0,
 #: (8-10 s at nFailMax 10 even at a load average of 24 on 2 cores), so a run's record depends on its seed alone as
 #: long as the budget does not bind: the ci budget is a generous safety cap, so that a slow CI machine checks the
 #: same numbers.
-MODES = {"full": (30, (10, 20), 1200.0), "quick": (4, (10, 20), 120.0), "ci": (3, (10,), 600.0)}
+MODES = {"full": (30, (10, 20), 1200.0), "quick": (4, (10, 20), 120.0), "ci": (2, (10,), 600.0)}
 
 
 def plan_once(planner: str, n_fail_max: int, seed: int, max_time: float) -> dict:
