@@ -146,7 +146,7 @@ class ExecutionOptions:
     outcome_tolerance: float = option(0.1, "an execution that completes collision-free with its final cost above "
                                       "(1 + this) x the first plan's cost ends 'above tolerance', not 'success'",
                                       minimum=0.0)
-    finish_steps: int = option(40, "when a plan is done above finish_tolerance: most closed-loop finishing pushes, "
+    finish_steps: int = option(0, "when a plan is done above finish_tolerance: most closed-loop finishing pushes, "
                                "each the first of a beam search from the observed arrangement (0: off)", minimum=0)
     max_replans: int = option(20, "most replannings in one execution", minimum=0)
     replan_refine: bool = option(False, "run the improvement phase in every replanning; else only in the "
