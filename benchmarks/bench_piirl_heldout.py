@@ -138,6 +138,8 @@ def main() -> None:
                         "development and one held-out trial")
     parser.add_argument("--cache", help="a file to keep the trials' features in (written when absent, read when "
                         "present): objectives are scored again without drawing")
+    parser.add_argument("--only", help="comma-separated parts of trial names: run those only (to spread the trials "
+                        "over processes, each with its own --cache)")
     args = parser.parse_args()
     scene = pliant.load_scene("hollow-cube")
     features = DeformationFeatures(scene)
@@ -150,6 +152,8 @@ def main() -> None:
     if args.quick:
         pairs = [("H1", "L1"), ("H2", "M1"), ("L2", "M2"), ("H2", "L2")]      # every object in a pair
         sets = [(n, r, a, d, s[:1]) for n, r, a, d, s in (DEVELOPMENT[0], HELD_OUT[2])]
+    if args.only:
+        sets = [t for t in sets if any(part in t[0] for part in args.only.split(","))]
     sampler = PathSampler(features, tip, SampleOptions(samples=20 if args.quick else 100))
     context = (features, tasks, sampler, pairs, tip)
     cache = Path(args.cache) if args.cache else None
