@@ -26,6 +26,7 @@ not used: pushes are the primitives' velocity commands.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -43,7 +44,7 @@ from pliant.api import (
 )
 
 from pliant_tsrrt import domain
-from pliant_tsrrt.models import footprints_from_scene
+from pliant_tsrrt.models import footprints_from_scene, object_class, relative
 from pliant_tsrrt.planner import PushPlan, build_space, options_from_dict, replan_settings
 from pliant_tsrrt.pushing import PRIMITIVES
 from pliant_tsrrt.pushing import push_steps as push_action
@@ -67,6 +68,9 @@ FINISH_TRIES = 2
 #: and third such push raised it further)
 FINISH_STALE = 1
 
+#: ``adapt_models``: a push after which another object moved farther than this (m) does not update the models
+ADAPT_STILL = 0.002
+
 #: margin (m) of the final collision verdict and of replanning from a jammed arrangement: footprints shrunk by 1 mm, so
 #: objects that merely touch (pymunk lets resting contacts overlap slightly) do not count as colliding
 TOUCH = -0.001
@@ -86,6 +90,23 @@ def _room_for(space: ObjectSpace, observed: np.ndarray) -> ObjectSpace:
             return replace(space, checker=narrower)
         margin -= 0.001
     return replace(space, checker=replace(space.checker, margin=TOUCH))
+
+
+def _adapt(space: ObjectSpace, models, names: list[str], before: np.ndarray, after: np.ndarray, obj: int,
+           prim: int) -> None:
+    """``execution.adapt_models``: add the displacement of object ``obj`` by primitive ``prim`` observed from
+    ``before`` to ``after`` (``(k, 3)``) to its class's model, and the new mean to ``space`` (every object of the
+    class), unless another object moved by more than :data:`ADAPT_STILL` (then the push touched it, and the
+    displacement is not the model's)."""
+    others = np.arange(len(names)) != obj
+    if np.any(np.linalg.norm(after[others, :2] - before[others, :2], axis=1) > ADAPT_STILL):
+        return
+    cls = object_class(names[obj])
+    model = models.models[cls][prim]
+    model.update(relative(before[obj], after[obj]))
+    for i, n in enumerate(names):
+        if object_class(n) == cls:
+            space.means[i, prim] = model.mean
 
 
 def _replanned(adaptations: list[dict]) -> int:
@@ -140,7 +161,9 @@ class PushPlanStrategy(ScriptedStrategy):
             o = replace(o, push=replace(o.push, placement_noise=self.noise))
         e, imp = o.execution, o.improvement
         yield Place(np.asarray(scene.start, dtype=np.float64), {n: p for n, p in zip(plan.names, plan.start)})
-        space = build_space(scene, o, plan.models, plan.names)
+        # adapt_models: the plan's models are updated with every push observed here (a copy: the plan keeps its own)
+        models = copy.deepcopy(plan.models) if e.adapt_models else plan.models
+        space = build_space(scene, o, models, plan.names)
         space.warm_up()
         push = domain.push_settings(o, scene)
         all_names = domain.movable_names(scene, ())
@@ -246,7 +269,9 @@ class PushPlanStrategy(ScriptedStrategy):
                                     "actions": len(found.actions)})
                     actions, expected, j = found.actions, found.states, 0
                     continue
-                observed = np.array([poses[n] for n in plan.names])
+                before, observed = observed, np.array([poses[n] for n in plan.names])
+                if e.adapt_models:
+                    _adapt(space, models, plan.names, before, observed, obj, prim)
                 j += 1
                 err_t, dth = pose_errors(space, observed, expected[j])
                 step_t, step_th = pose_errors(space, observed, predicted)

@@ -234,3 +234,23 @@ def test_a_done_plan_above_tolerance_is_finished_closed_loop_one_push_at_a_time(
     assert not calls["grow"]
     assert len(record.details.actions) == 3 + len(steps) <= 3 + 10
     assert record.details.final_cost <= 1.05 * first.cost + 1e-9 and record.outcome == "success"
+
+
+def test_adapt_models_adds_an_observed_push_to_its_class_unless_it_moved_another_object():
+    from pliant_tsrrt.execution import _adapt
+
+    _, _, models, _, space = _setup()
+    can = NAMES.index("can-1")
+    before = np.array([[0.2, 0.6, 0.5], [0.8, 0.2, 0.0], [0.7, 0.6, 0.0]])
+    after = before.copy()
+    after[can] = (0.7, 0.6 - 0.03, 0.0)              # push-y moved the can 3 cm (the model: 4.5 cm)
+    model = models.models[object_class("can-1")][3]
+    n0 = model.n
+    _adapt(space, models, NAMES, before, after, can, 3)
+    assert model.n == n0 + 1
+    assert model.mean[1] == pytest.approx((-0.045 * n0 - 0.03) / (n0 + 1))
+    np.testing.assert_allclose(space.means[can, 3], model.mean)
+    moved = after.copy()
+    moved[0, 0] += 0.01                               # the book moved too: the push touched it
+    _adapt(space, models, NAMES, before, moved, can, 3)
+    assert model.n == n0 + 1
