@@ -49,6 +49,8 @@ def run_from_args(args) -> int:
                                                                                      or 0), "--domain-id")
     env = ros2_environment(domain, localhost=args.localhost)
     try:
+        if args.exit_with_parent is None:
+            args.exit_with_parent = os.getpid()          # the node goes when this command goes (SIGTERM, SIGKILL)
         return subprocess.call([python(), "-m", "pliant_ros2.testing", *_peer_arguments(args)], env=env)
     except KeyboardInterrupt:
         return 130
