@@ -168,7 +168,7 @@ def test_check_and_graph_commands(make_peer, capsys):
     out = capsys.readouterr().out
     assert "iiwa-ros2: enabled" in out and "/lbr/forward_position_controller/commands: 1 subscriber" in out
     assert "lbr_iiwa_joint_7" in out and "ok: the robot answers" in out
-    assert main(["robot", "ros2-graph", "iiwa-ros2", *settings]) == 0
+    assert main(["robot", "ros2-graph", "iiwa-ros2", "--duration", "0.3", *settings]) == 0
     out = capsys.readouterr().out
     assert "std_msgs/msg/Float64MultiArray" in out and "sensor_msgs/msg/JointState" in out
     assert "trajectory_msgs/msg/JointTrajectory" in out and "naming lbr_A1, lbr_A2" in out
