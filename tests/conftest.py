@@ -89,8 +89,17 @@ XDIST_GROUPS = {
 #: two cores under two busy workers, threads stalled 0.3 s: a drive's heartbeat consumer and a 0.25 s state
 #: watchdog fired at connection).  A test elsewhere that needs this says ``@pytest.mark.realtime``.
 REALTIME = (
-    "tests/plugins/drivers/",
-    "tests/framework/hardware/",
+    "tests/plugins/drivers/ros1/test_ros1_e2e.py",
+    "tests/plugins/drivers/ros1/test_ros1_drivers.py",
+    "tests/plugins/drivers/ros1/test_ros1_demo.py",
+    "tests/plugins/drivers/ros1/test_ros1_deaths.py",
+    "tests/plugins/drivers/ros1/test_ros1_master.py",
+    "tests/plugins/drivers/ros2/",
+    "tests/plugins/drivers/canopen/test_canopen_driver.py",
+    "tests/plugins/drivers/canopen/test_canopen_e2e.py",
+    "tests/plugins/drivers/canopen/test_canopen_heartbeat.py",
+    "tests/framework/hardware/test_stream.py",
+    "tests/framework/hardware/test_realtime.py",
     "tests/e2e/test_driver_world.py",
     "tests/plugins/reports/viewer/test_viewer_browser.py",
 )
