@@ -419,6 +419,8 @@ class Pipeline:
             record.stage = "plan"
             goal = self._goal_configuration(record, context, streams) if self.goal is not None else None
             problem = record.problem = PlanningProblem.from_context(context, goal=goal, budget=self.budget)
+            if goal is not None:
+                problem.goal_states = record.goal_states
             t0 = time.perf_counter()
             log.info("planning with %s on %s", self.components["planner"].name, context.scene.name)
             result = record.result = planner.plan(problem, streams.rng("planning"))

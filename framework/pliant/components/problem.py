@@ -35,6 +35,8 @@ class PlanningProblem:
     budget: the request's budget (:class:`pliant.termination.Budget`: ``max_iterations`` in the planner's work unit,
     ``max_time`` a wall-clock cap, ``stop_on_first``), for the whole ``plan`` call; a pipeline sets it from its
     ``[planning]`` table.  ``None``: the planner's defaults (docs/determinism.md).
+    goal_states: optional ``(k, d)`` alternative goal configurations (``goal`` among them), e.g. the inverse-kinematics
+    solutions of a task-space goal: reaching any of them within ``goal_tolerance`` reaches the goal (:meth:`in_goal`).
     """
 
     space: Space
@@ -50,6 +52,7 @@ class PlanningProblem:
     goal_region: Callable[[np.ndarray], np.ndarray] | None = None
     checker: Any = None
     budget: Budget | None = None
+    goal_states: np.ndarray | None = None
 
     @classmethod
     def from_context(cls, context: Context, start=None, goal=None, budget: Budget | dict | None = None
@@ -165,4 +168,7 @@ class PlanningProblem:
         q = np.atleast_2d(q)
         if self.goal_region is not None:
             return np.asarray(self.goal_region(q), dtype=bool)
-        return self.space.distance(q, self.goal) <= self.goal_tolerance + 1e-12
+        reached = self.space.distance(q, self.goal) <= self.goal_tolerance + 1e-12
+        for goal in np.atleast_2d(self.goal_states) if self.goal_states is not None else ():
+            reached |= self.space.distance(q, goal) <= self.goal_tolerance + 1e-12
+        return reached

@@ -193,6 +193,12 @@ class OMPLPlanner(Planner):
             si.setup()
             pdef = ob.ProblemDefinition(si)
             pdef.setStartAndGoalStates(mapped.state(start), mapped.state(goal), max(float(tolerance), 1e-9))
+            if problem.goal_states is not None:            # several goal states (e.g. inverse kinematics'): any
+                goals = ob.GoalStates(si)
+                for q in np.atleast_2d(problem.goal_states):
+                    goals.addState(mapped.state(q))
+                goals.setThreshold(max(float(tolerance), 1e-9))
+                pdef.setGoal(goals)
             objective = None
             stop = self.stop_condition(problem, termination, t0, stop_on_first=o.stop_on_first)
             first = bool(getattr(stop, "stop_on_first", False))
@@ -244,8 +250,9 @@ class OMPLPlanner(Planner):
             return PlanResult(Status.TIMEOUT, planner=self.name, statistics=stats, options=options,
                               message=f"OMPL's {o.algorithm} found no solution within the budget ({ompl_status})")
         path[0] = start                                   # exact endpoints (R^n is planned in weighted coordinates)
-        if exact and np.allclose(path[-1], goal, rtol=0.0, atol=1e-9):
-            path[-1] = goal
+        for target in np.atleast_2d(problem.goal_states) if problem.goal_states is not None else [goal]:
+            if exact and np.allclose(path[-1], target, rtol=0.0, atol=1e-9):
+                path[-1] = target
         cost = problem.path_cost(path, step) + length_weight * float(problem.space.path_length(path))
         return PlanResult(Status.SOLVED if exact else Status.APPROXIMATE,
                           path=Path(path, space_kind=problem.space.kind), cost=cost, planner=self.name,

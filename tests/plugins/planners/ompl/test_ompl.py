@@ -162,3 +162,14 @@ def test_specs_follow_the_algorithm():
     assert planner(algorithm="BITstar").specs.anytime
     assert not planner(algorithm="RRTConnect").specs.anytime
     assert set(planner().specs.spaces) == {"rn", "se2", "se3"}
+
+
+def test_several_goal_states_any_of_them_is_the_goal():
+    closed = PlanningProblem(space=RealVectorSpace([0, 0], [1, 1]), start=np.array([0.1, 0.1]),
+                             goal=np.array([0.9, 0.1]), goal_states=np.array([[0.9, 0.1], [0.2, 0.9]]),
+                             validity=lambda q: np.abs(np.atleast_2d(q)[:, 0] - 0.5) > 0.05,
+                             budget=Budget(max_iterations=500))
+    result = planner().plan(closed, np.random.default_rng(0))
+    assert result.status is Status.SOLVED                    # the wall hides the first goal state, not the second
+    assert np.array_equal(result.path.configurations[-1], [0.2, 0.9])
+    assert closed.in_goal(result.path.configurations[-1:])[0]

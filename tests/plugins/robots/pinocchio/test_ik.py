@@ -76,6 +76,7 @@ def test_a_pipeline_goal_pose_becomes_a_goal_configuration():
     assert len(record.goal_states) == 2 and any(np.array_equal(goal, g) for g in record.goal_states)
     assert record.problem.checker.states_valid(record.goal_states).all()        # collision-free goal states
     assert record.result.statistics["goal_states"] == record.goal_states.tolist()
+    assert record.problem.goal_states is record.goal_states          # any of them reaches the goal
     with pytest.raises(PipelineError) as err:
         Pipeline.from_dict({"scene": "iiwa-shelf", "planner": "straight"},
                            overrides=['goal.pose={frame = "lbr_iiwa_link_7", position = [0.5, 0.2]}'])
