@@ -62,7 +62,6 @@ def test_bad_targets_name_the_field(iiwa):
     assert err.value.field == "orientation"
 
 
-@pytest.mark.slow           # about 13 s: the iiwa's collision checker and a straight plan through the shelf scene
 def test_a_pipeline_goal_pose_becomes_a_goal_configuration():
     from pliant.errors import PipelineError
     from pliant.pipeline import Pipeline
