@@ -105,6 +105,60 @@ def random_free(space, rng: np.random.Generator, count: int, margin: float, trie
     return np.array(out[:count]).reshape(-1, space.k, 3)
 
 
+def _extent(fp, o: int, quarter: int) -> tuple[float, float]:
+    """Object ``o``'s full width and height (m) along the table's axes at yaw ``quarter * pi / 2``."""
+    hx, hy = fp.half[o]
+    return (2 * hy, 2 * hx) if quarter % 2 else (2 * hx, 2 * hy)
+
+
+def patterns(space, rng: np.random.Generator, count: int, gap: float | None = None) -> np.ndarray:
+    """Up to ``count`` packed, table-aligned arrangements ``(c, k, 3)`` centred on the table: the objects in one
+    row, one column, or two to four rows (shelves), in a random order, every box at yaw 0 or 90 degrees, each
+    shelf aligned on its top, middle or bottom, neighbours ``gap`` apart (default: twice the clearance margin plus
+    0.5 mm).  Duplicates and colliding ones are dropped.  Starts for the reference's descent: a compact arrangement
+    is the task cost's kind of optimum, and a random start rarely finds the packing of many objects."""
+    k = space.k
+    fp = space.fp
+    gap = 2 * space.checker.margin + 5e-4 if gap is None else gap
+    x0, y0, x1, y1 = space.checker.table
+    centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+    out = []
+    for _ in range(count):
+        order = rng.permutation(k)
+        quarters = rng.integers(0, 2, k)
+        transpose = bool(rng.integers(2))            # rows along x (False) or along y (True)
+        shelves = int(rng.integers(1, min(4, k) + 1))
+        cuts = np.sort(rng.choice(np.arange(1, k), size=shelves - 1, replace=False)) if shelves > 1 else []
+        groups = np.split(order, cuts)
+        pose = np.zeros((k, 3))
+        ext = {o: _extent(fp, o, quarters[o] + (1 if transpose else 0)) for o in range(k)}
+        y = 0.0
+        rows = []
+        for g in groups:
+            h = max(ext[o][1] for o in g)
+            align = rng.integers(3)              # bottom, middle, top
+            x = 0.0
+            for o in g:
+                w, ho = ext[o]
+                dy = (ho / 2) if align == 0 else (h / 2 if align == 1 else h - ho / 2)
+                pose[o, :2] = (x + w / 2, y + dy)
+                x += w + gap
+            rows.append((g, x - gap))
+            y += h + gap
+        width = max(wd for _, wd in rows)
+        for g, wd in rows:                        # each shelf centred along the row
+            pose[g, 0] += (width - wd) / 2
+        pose[:, 0] -= width / 2
+        pose[:, 1] -= (y - gap) / 2
+        if transpose:
+            pose[:, :2] = pose[:, [1, 0]]
+        pose[:, :2] += centre
+        pose[:, 2] = quarters * (np.pi / 2)
+        out.append(pose)
+    pop = np.unique(np.round(np.array(out), 9), axis=0) if out else np.zeros((0, k, 3))
+    return pop[~space.checker.in_collision(pop)] if len(pop) else pop
+
+
 def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, rounds: int = 800,
             slack: float = 0.003, deadline: float | None = None, randoms: int = 0, packed: int = 0) -> np.ndarray:
     """The ``count`` cheapest distinct local minima ``(c, k, 3)`` of the free descent from ``s`` and its
@@ -112,7 +166,7 @@ def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, roun
     overlaps cannot descend; spread out it can), and from ``randoms`` random collision-free arrangements (the basins
     that no variant of ``s`` lies in, e.g. the objects in a row where ``s`` has them in a cluster).  The first member
     descends from ``s`` itself.  ``packed``: the cheapest of ``8 packed`` packed table-aligned arrangements (rows,
-    columns, shelves: :func:`pliant_tsrrt.reference.patterns`) descend too (the basins of compact arrangements of
+    columns, shelves: :func:`patterns`) descend too (the basins of compact arrangements of
     many objects, which neither ``s`` nor random starts tend to lie in)."""
     v = variants(space, s)
     spread = v.copy()
@@ -122,8 +176,6 @@ def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, roun
     if randoms > 0:
         starts = np.concatenate([starts, random_free(space, rng, randoms, space.checker.margin + slack)])
     if packed > 0:
-        from pliant_tsrrt.reference import patterns
-
         pats = patterns(space, rng, 8 * packed, gap=2 * (space.checker.margin + slack) + 5e-4)
         if len(pats):
             starts = np.concatenate([starts, pats[np.argsort(space.cost.cost(pats))[:packed]]])
