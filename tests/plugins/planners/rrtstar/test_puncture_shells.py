@@ -1,8 +1,11 @@
 """Issue 31, item 2: RRT* with the puncture check returns no path that opens a hollow shell's void or cuts it
-when the path is swept at 1/10 voxel -- shells one, two and three voxels thick, placed off the grid, 10 seeds,
+when the path is swept at 1/10 voxel -- shells one, two and three voxels thick, placed off the grid, 4 seeds
+(10 with ``PLIANT_SHELL_SEEDS=10``),
 iteration budgets -- and its final whole-path check agrees with the per-edge checks made while planning."""
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 import pytest
@@ -10,7 +13,9 @@ from pliant.registry import create
 from pliant.results import Status
 from pliant.termination import Termination
 
-SEEDS = range(10)
+#: seeds per shell thickness: 4 in the suite (12 plans of 600 iterations); issue #31 measured 10
+#: (``PLIANT_SHELL_SEEDS=10 pytest tests/plugins/planners/rrtstar/test_puncture_shells.py``: 30 plans, none damaged)
+SEEDS = range(int(os.environ.get("PLIANT_SHELL_SEEDS", "4")))
 
 
 def _plan(shells, thickness: int, seed: int, iterations: int, space: str = "r3", goal_inside: bool = False):
