@@ -43,6 +43,7 @@ def _setup(repair: bool = False, finish_tolerance: float = 0.05, **more):
         models.footprints[object_class(name)] = (int(fp.kind[i]), fp.half[i].copy())
     more.setdefault("replan_threshold", 0.02)
     more.setdefault("finish_steps", 0)          # the finishing repairs and replannings; closed-loop steps: own test
+    more.setdefault("adapt_models", False)      # the scripted kicks are disturbances, not what a push does
     options = TSRRTOptions(execution=ExecutionOptions(finish_tolerance=finish_tolerance, repair=repair, **more))
     space = build_space(scene, options, models, NAMES)
     return scene, world, models, options, space
