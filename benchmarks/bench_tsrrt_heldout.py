@@ -154,6 +154,8 @@ def main() -> None:
     parser.add_argument("--executions", type=int, default=None, help="noisy executions per plan")
     parser.add_argument("--rounds", type=int, default=None, help="rounds of the reference optimiser's descents")
     parser.add_argument("--action-limit", type=int, default=300)
+    parser.add_argument("--only", type=int, nargs="*", default=None, help="run only these held-out tasks (indices; "
+                        "the generator still draws every task before them, so each is the same task as in a full run)")
     parser.add_argument("--name", default=None, help="the JSON file's name (default tsrrt-heldout[-quick])")
     parser.add_argument("--set", action="append", default=[],
                         help="a TS-RRT option, NAME=VALUE (TOML value; a group's option as group.NAME)")
@@ -174,7 +176,9 @@ def main() -> None:
         tasks = [("development", "tsrrt-table", seed) for seed in range(args.dev)]
         gen = np.random.default_rng(33_000)                  # the held-out generator's own stream
         for i in range(args.heldout):
-            tasks.append(("held-out", heldout_scene(gen, counts[i % len(counts)], Path(tmp), i), 500 + i))
+            scene_file = heldout_scene(gen, counts[i % len(counts)], Path(tmp), i)
+            if args.only is None or i in args.only:
+                tasks.append(("held-out", scene_file, 500 + i))
         for label, scene_name, seed in tasks:
             r = run_task(label, scene_name, seed, options, args)
             out["runs"].append(r)
