@@ -148,7 +148,7 @@ class ExecutionOptions:
                                       minimum=0.0)
     finish_steps: int = option(0, "when a plan is done above finish_tolerance: most closed-loop finishing pushes, "
                                "each the first of a beam search from the observed arrangement (0: off)", minimum=0)
-    adapt_models: bool = option(True, "update the push models with every push observed in execution (the pushed "
+    adapt_models: bool = option(False, "update the push models with every push observed in execution (the pushed "
                                 "object's displacement, when no other object moved) before repairs and replans")
     max_replans: int = option(20, "most replannings in one execution", minimum=0)
     replan_refine: bool = option(False, "run the improvement phase in every replanning; else only in the "
