@@ -50,9 +50,9 @@ from pliant_ompl.spaces import KINDS, OMPLSpace
 class OMPLOptions:
     """Options of :class:`OMPLPlanner` (distances in the space's metric)."""
 
-    algorithm: str = option("RRTConnect", "the OMPL geometric planner, by its class name in ompl.geometric "
-                            "(RRTConnect, RRT, RRTstar, InformedRRTstar, SORRTstar, BITstar, AORRTC, FMT, BFMT, "
-                            "KPIECE1, BKPIECE1, LBKPIECE1, ...: those the installed wheel binds)")
+    algorithm: str = option("RRTConnect", "the OMPL geometric planner by its class name in ompl.geometric "
+                            "(RRTConnect, RRTstar, BITstar, KPIECE1, ...: those the installed wheel binds; "
+                            "docs/plugins/ompl.md)")
     parameters: dict | None = option(None, "the planner's own parameters by the names OMPL declares for it "  # noqa: RUF009
                                      "(e.g. {range = 0.05, goal_bias = 0.1}); checked against the declared ones")
     check_step: float | None = option(None, "motions are checked and their cost integrated every this distance "
