@@ -35,7 +35,10 @@ PLANNERS = {
     "belief": ({"mode": "simple", "max_time": None, "max_iterations": 150, "max_step": 0.5}, False, ("r3", "se2")),
     "astar": ({}, True, ("r3",)),
     "astar-pareto": ({"values": 3}, True, ("r3",)),
+    "ompl": ({"algorithm": "RRTConnect"}, False, ("r3", "se2")),   # budgeted by the request (REQUEST_BUDGETS)
 }
+#: planners budgeted by the request ([planning]) rather than by an option
+REQUEST_BUDGETS = {"ompl": {"max_iterations": 300}}
 #: planners that do not plan a robot path in the scene's space: TS-RRT plans pushes of objects (its path lists the
 #: paddle's poses before each push, which the pushes and repositionings connect)
 NOT_PATH_PLANNERS = {"tsrrt"}
@@ -162,7 +165,7 @@ def test_every_solved_path_passes_an_independent_fine_sweep(world, seed):
         cost = needs_cost or bool(rng.integers(2))     # with or without a cost model, where the planner allows
         context = Pipeline(Scene.from_dict(world), planner={"name": planner, **options},
                            **({"cost": "voxel"} if cost else {})).build()
-        problem = PlanningProblem.from_context(context)
+        problem = PlanningProblem.from_context(context, budget=REQUEST_BUDGETS.get(planner))
         result = context.extras["planner"].plan(problem, np.random.default_rng(seed))
         event(f"{planner}: {result.status.value}")    # --hypothesis-show-statistics: how many were solved
         if result.solved:
