@@ -427,51 +427,35 @@ class PunctureChecker:
         takes the voxels beside the corner too and no finer sampling of the motion reaches a voxel the check left
         out.
         """
-        pts = self._body_points(configurations)
-        if pts is None:
-            return [np.zeros(0, dtype=np.int64) for _ in self.ids]
-        return [np.unique(cells) for cells, _ in self._occupied_by_step(pts)]
-
-    def _occupied_by_step(self, pts: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Per watched object, the crop-flat indices of the voxels the body points ``(n, m, 3)`` occupy or sweep
-        (with repeats) and, for each, the step that takes it: the index of the motion between configurations
-        ``step`` and ``step + 1`` (0 for a single configuration)."""
-        out = [(np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)) for _ in self.ids]
-        flat, owner = self._swept_cells(pts)
-        step = owner // pts.shape[1]
-        slot_of = self._slots[flat]
-        hit = slot_of >= 0
-        if not hit.any():
-            return out
-        flat, slot_of, step = flat[hit], slot_of[hit], step[hit]
-        _, py, pz = self._shape + 2
-        for slot in np.unique(slot_of):
-            mine = slot_of == slot
-            cells = flat[mine]
-            # padded-grid (i + 1, j + 1, k + 1) -> crop-local (i - lo), with lo the crop's lower corner
-            i, rest = np.divmod(cells, py * pz)
-            j, k = np.divmod(rest, pz)
-            lo = self._lower[slot] + 1
-            _, cy, cz = self._masks[slot].shape
-            out[slot] = (((i - lo[0]) * cy + (j - lo[1])) * cz + (k - lo[2]), step[mine])
-        return out
-
-    def _body_points(self, configurations: np.ndarray) -> np.ndarray | None:
-        """The robot's body points ``(n, m, 3)`` at ``configurations`` ``(n, d)`` or ``(d,)`` (validated), or
-        ``None`` when no object is watched or there is no configuration."""
         q = np.asarray(configurations, dtype=np.float64)
         if q.ndim == 1:
             q = q[None]
         if q.ndim != 2 or not np.all(np.isfinite(q)):
             raise DimensionError("must be finite configurations (n, d) or (d,)", field="configurations",
                                  value=list(q.shape) if q.ndim != 2 else "non-finite entries")
+        out = [np.zeros(0, dtype=np.int64) for _ in self.ids]
         if not self.ids or len(q) == 0:
-            return None
+            return out
         pts = np.asarray(self.body_points(q), dtype=np.float64)
         if pts.ndim < 2 or pts.shape[-1] != 3:
             raise DimensionError("body_points must return points (n, m, 3)", field="body_points",
                                  value=list(pts.shape))
-        return pts.reshape(len(q), -1, 3)
+        flat = self._swept_cells(pts)
+        slot_of = self._slots[flat]
+        hit = slot_of >= 0
+        if not hit.any():
+            return out
+        flat, slot_of = flat[hit], slot_of[hit]
+        _, py, pz = self._shape + 2
+        for slot in np.unique(slot_of):
+            cells = np.unique(flat[slot_of == slot])
+            # padded-grid (i + 1, j + 1, k + 1) -> crop-local (i - lo), with lo the crop's lower corner
+            i, rest = np.divmod(cells, py * pz)
+            j, k = np.divmod(rest, pz)
+            lo = self._lower[slot] + 1
+            _, cy, cz = self._masks[slot].shape
+            out[slot] = ((i - lo[0]) * cy + (j - lo[1])) * cz + (k - lo[2])
+        return out
 
     def _padded_index(self, c: np.ndarray, axis: int) -> np.ndarray:
         """Voxel coordinates ``c`` (in voxels from the grid's lower corner, any shape) as indices of the padded
@@ -485,10 +469,9 @@ class PunctureChecker:
         _, py, pz = self._shape + 2
         return ((index[0] * py + index[1]) * pz + index[2]).ravel()
 
-    def _swept_cells(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _swept_cells(self, pts: np.ndarray) -> np.ndarray:
         """Flat padded-grid indices of the voxels the body points ``(n, m, 3)`` occupy (n = 1) or sweep between
-        consecutive configurations (see :meth:`occupied`), with repeats, and for each the segment that takes it
-        (``step * m + point``; the point's index for n = 1).
+        consecutive configurations (see :meth:`occupied`).
 
         Each segment (one body point between two consecutive configurations) is cut into its own number of
         pieces, ``ceil`` of its largest per-axis displacement in voxels, so the cells of a path are the union of
@@ -496,8 +479,7 @@ class PunctureChecker:
         whole (:meth:`check`) sweep exactly the same voxels."""
         coords = (pts - self.grid.lower) / self.grid.resolution            # in voxels, (n, m, 3)
         if len(coords) == 1:
-            cells = self._flat([self._padded_index(coords[..., a], a) for a in range(3)])
-            return cells, np.arange(len(cells))
+            return self._flat([self._padded_index(coords[..., a], a) for a in range(3)])
         start, end = coords[:-1].reshape(-1, 3), coords[1:].reshape(-1, 3)
         delta = end - start
         counts = np.maximum(1, np.ceil(np.max(np.abs(delta), axis=1)).astype(np.int64))
@@ -511,12 +493,11 @@ class PunctureChecker:
         first = [self._padded_index(lo[..., a], a).ravel() for a in range(3)]
         last = [self._padded_index(hi[..., a], a).ravel() for a in range(3)]
         span = [last[a] - first[a] for a in range(3)]           # 0, 1 or 2: a piece spans < 2 voxels
-        cells, owners = [self._flat(first)], [owner]
+        cells = [self._flat(first)]
         wide = (span[0] > 0) | (span[1] > 0) | (span[2] > 0)     # most pieces stay inside one voxel
         if wide.any():
             first = [f[wide] for f in first]
             span = [e[wide] for e in span]
-            owner = owner[wide]
             for dx in range(int(span[0].max()) + 1):
                 for dy in range(int(span[1].max()) + 1):
                     for dz in range(int(span[2].max()) + 1):
@@ -526,8 +507,7 @@ class PunctureChecker:
                         if keep.any():
                             cells.append(self._flat([first[0][keep] + dx, first[1][keep] + dy,
                                                      first[2][keep] + dz]))
-                            owners.append(owner[keep])
-        return np.concatenate(cells), np.concatenate(owners)
+        return np.concatenate(cells)
 
     def extend(self, state: PunctureState, configurations: np.ndarray,
                start: np.ndarray | None = None) -> tuple[PunctureState, bool, str]:
@@ -553,40 +533,18 @@ class PunctureChecker:
                 raise DimensionError(f"must be one configuration of the {q.shape[-1]} coordinates of the edge",
                                      field="start", value=list(s0.shape))
             configurations = np.vstack([s0[None], q])
-        pts = self._body_points(configurations)
+        new = self.occupied(configurations)
         removed = list(state.removed)
         problems = []
-        for slot, (cells, steps) in enumerate(self._occupied_by_step(pts) if pts is not None else ()):
-            if len(cells) == 0:
+        for slot, fresh in enumerate(new):
+            if len(fresh) == 0:
                 continue
-            merged = np.union1d(removed[slot], cells)
+            merged = np.union1d(removed[slot], fresh)
             if len(merged) == len(removed[slot]):
                 continue
-            found = self._judge(slot, merged) or self._judge_steps(slot, removed[slot], cells, steps)
             removed[slot] = merged
-            problems.extend(found)
+            problems.extend(self._judge(slot, merged))
         return PunctureState(tuple(removed)), not problems, "; ".join(problems)
-
-    def _judge_steps(self, slot: int, before: np.ndarray, cells: np.ndarray, steps: np.ndarray) -> list[str]:
-        """:meth:`_judge` after each step of the motion that removes a voxel, but the last (judged already).
-
-        A hole and a split piece are not monotone in the removed voxels: a hole made in one step is cut open into
-        a notch by a later one (a path out through a wall's corner and back), a split piece swept away.  The
-        object was punctured all the same, so the verdict holds from the step that did it, and a path gives the
-        same verdict whether it is checked whole or edge by edge, however it is cut into edges."""
-        order = np.argsort(steps, kind="stable")
-        cells, steps = cells[order], steps[order]
-        bounds = np.flatnonzero(np.diff(steps)) + 1
-        removed = before
-        for chunk in np.split(cells, bounds)[:-1]:
-            grown = np.union1d(removed, chunk)
-            if len(grown) == len(removed):
-                continue
-            removed = grown
-            found = self._judge(slot, removed)
-            if found:
-                return found
-        return []
 
     def check(self, configurations: np.ndarray) -> tuple[bool, str]:
         """Check a whole path ``(n, d)`` from the start: ``(ok, reason)``.

@@ -382,8 +382,9 @@ def test_an_edge_is_swept_from_its_parent_when_given_its_start():
 @given(st.integers(1, 3), st.lists(st.tuples(*[st.floats(0.0, 1.19, allow_nan=False)] * 3), min_size=2,
                                    max_size=6), st.integers(1, 4))
 def test_edge_by_edge_from_each_parent_sweeps_exactly_the_whole_path(thickness, waypoints, per_edge):
-    """Any path cut into edges: extending edge by edge, each from its parent, gives the same removed voxels and
-    the same verdict as checking the whole path at once (the planners' per-edge check and their final check)."""
+    """Any path cut into edges: extending edge by edge, each from its parent, gives the same removed voxels as
+    checking the whole path at once, and a path whose edges all pass passes the whole check (the planners' per-edge
+    check and their final check).  The converse does not hold: see the next test."""
     checker = PunctureChecker(_grid({"shell": (_wall_shell(thickness), 0.5)}), _probe())
     q = np.array(waypoints)
     t = np.linspace(0.0, 1.0, per_edge + 1)[1:, None]
@@ -394,23 +395,28 @@ def test_edge_by_edge_from_each_parent_sweeps_exactly_the_whole_path(thickness, 
         ok_edges &= ok
     whole, ok_whole, _ = checker.extend(checker.initial_state(), path)
     assert [r.tolist() for r in state.removed] == [r.tolist() for r in whole.removed]
-    assert ok_edges == ok_whole == checker.check(path)[0]
+    assert ok_whole == checker.check(path)[0]
+    assert ok_whole or not ok_edges                 # every edge passed -> the whole path passes
 
 
-def test_a_hole_cut_open_into_a_notch_later_in_the_path_is_still_a_puncture():
+def test_a_hole_cut_open_into_a_notch_later_in_the_path_is_judged_where_the_path_is_judged():
     """Found by the property above: out through a wall's corner and back along the same line.  The way out leaves
     a hole (tunnels 0 -> 1); the way back sweeps a few voxels more and cuts the hole's rim, leaving a notch with no
-    hole.  Judging only the voxels removed at the end passed the whole path while its first edge failed; every
-    step is judged now, so both say puncture."""
+    hole.  The check judges the removal where it is asked to, as the thesis judges it at every tree node: the edge
+    out fails, and a planner never extends from its node; the whole path judged at its end only passes.
+
+    Judging every interpolated state instead (tried) is stricter than the robot's body allows: its body points are
+    up to a voxel apart, so a state inside an object leaves bridges between them that later states sweep away, and
+    Table 4.2's recovered plan (seed 0, 12,000 iterations) then avoided the demonstrated object O2 (true cost 1021
+    against 435; 1.009 x the uniform plan's, against 0.335)."""
     checker = PunctureChecker(_grid({"shell": (_wall_shell(3), 0.5)}), _probe())
     out, back = np.zeros(3), np.array([0.5, 0.9375, 1 / 3])
     first, ok_first, reason = checker.extend(checker.initial_state(), [back], start=out)
     assert not ok_first and "gained a hole" in reason
     assert checker.topologies(first)[0].tunnels == 1
-    whole, ok_whole, reason_whole = checker.extend(checker.initial_state(), np.array([out, back, out]))
+    whole, ok_whole, _ = checker.extend(checker.initial_state(), np.array([out, back, out]))
     assert checker.topologies(whole)[0].tunnels == 0            # at the end: a notch, not a hole
-    assert not ok_whole and "gained a hole" in reason_whole
-    assert not checker.check(np.array([out, back, out]))[0]
+    assert ok_whole and checker.check(np.array([out, back, out]))[0]
 
 
 def test_a_void_opened_is_caught_even_when_the_sweep_carves_a_new_cavity():
