@@ -1,22 +1,9 @@
-"""A ROS 2 peer's record (JSON lines) read back, and every command it received checked against a limits file."""
+"""Every command a ROS 2 peer received (its record, read with :func:`pliant.api.read_jsonl`) checked against a limits
+file."""
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
 import numpy as np
-
-
-def read_record(path: str | Path) -> list[dict]:
-    """Every line of a peer's record file (a partly written last line is skipped)."""
-    out = []
-    for line in Path(path).read_text().splitlines():
-        try:
-            out.append(json.loads(line))
-        except json.JSONDecodeError:
-            continue
-    return out
 
 
 def command_violations(records: list[dict], limits, *, tolerance: float = 1e-6) -> list[str]:
