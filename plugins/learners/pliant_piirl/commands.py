@@ -70,7 +70,8 @@ def table81_arguments(group) -> None:
 
 def import_arguments(parser) -> None:
     """``pliant learn import``."""
-    parser.add_argument("bag", help="a ROS 1 .bag file or a ROS 2 bag folder")
+    parser.add_argument("bag", help="a ROS 1 .bag file, a ROS 2 bag folder (sqlite3 or MCAP) or a ROS 2 .db3 / "
+                        ".mcap file")
     parser.add_argument("--topic", required=True, help="the topic holding the motion")
     parser.add_argument("--scene", required=True, help="the scene the demonstration was shown in")
     parser.add_argument("--target", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),

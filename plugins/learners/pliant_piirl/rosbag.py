@@ -1,6 +1,11 @@
-"""Demonstrations from ROS bags (the ``rosbags`` package: ROS 1 ``.bag`` files and ROS 2 bag folders).
+"""Demonstrations from ROS bags (the ``rosbags`` package, pure Python: no ROS installation needed).
 
-People record demonstrations on real robots as a topic in a bag.  :func:`read_path` turns one topic into a path:
+People record demonstrations on real robots as a topic in a bag.  Accepted: a ROS 1 ``.bag`` file; a ROS 2
+(rosbag2) bag folder (its ``metadata.yaml`` and storage files: sqlite3 ``.db3`` or MCAP ``.mcap``, split bags and
+zstd compression included); a single rosbag2 storage file (``.db3`` or ``.mcap``) without its folder.  ROS 2
+messages are CDR, decoded with the definitions the bag carries (rosbag2 writes them since Iron, MCAP always) or,
+for a bag without them (sqlite3 bags of Foxy and Humble), with ROS 2's standard definitions; ROS 1 bags always
+carry theirs.  :func:`read_path` turns one topic into a path:
 
 - ``geometry_msgs/PoseStamped``, ``geometry_msgs/Pose`` and ``geometry_msgs/TransformStamped``: SE(3)
   configurations ``(x, y, z, qx, qy, qz, qw)`` (metres; quaternions normalised, their sign made continuous);
@@ -23,6 +28,9 @@ from pliant_piirl.demonstration import Demonstration, DemonstrationTask
 
 POSE_TYPES = ("geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/Pose", "geometry_msgs/msg/TransformStamped")
 JOINT_TYPES = ("sensor_msgs/msg/JointState",)
+#: the files a bag may be given as (a folder is a ROS 2 bag folder)
+BAG_SUFFIXES = (".bag", ".db3", ".mcap")
+FORMS = "a ROS 1 .bag file, a ROS 2 bag folder with its metadata.yaml, or a ROS 2 .db3 / .mcap storage file"
 
 
 def read_path(bag: str | Path, topic: str, *, joints: list[str] | None = None, min_step: float = 0.0) -> np.ndarray:
@@ -35,11 +43,15 @@ def read_path(bag: str | Path, topic: str, *, joints: list[str] | None = None, m
         raise ConfigError("no such bag", field="bag", value=str(path))
     if not (np.isfinite(min_step) and min_step >= 0):
         raise ConfigError("must be a non-negative number", field="min_step", value=min_step)
+    if path.is_file() and path.suffix not in BAG_SUFFIXES:
+        raise ConfigError(f"not a ROS bag: expected {FORMS}", source=str(path), field="bag", value=str(path))
+    # rosbags tells the formats apart by the name: a .bag file is ROS 1, anything else ROS 2
+    store = Stores.ROS1_NOETIC if path.suffix == ".bag" else Stores.ROS2_HUMBLE
     try:
-        reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS1_NOETIC))
+        reader = AnyReader([path], default_typestore=get_typestore(store))
         reader.open()
     except Exception as exc:           # rosbags raises its own error types for every kind of broken bag
-        raise ConfigError(f"not a readable ROS bag: {exc}", source=str(path)) from None
+        raise ConfigError(f"not a readable ROS bag ({FORMS}): {exc}", source=str(path)) from None
     try:
         connections = [c for c in reader.connections if c.topic == topic]
         if not connections:
@@ -54,9 +66,15 @@ def read_path(bag: str | Path, topic: str, *, joints: list[str] | None = None, m
             raise ConfigError("a JointState topic needs the joint names, in configuration order", source=str(path),
                               field="joints", value=joints)
         rows = []
-        for connection, _, raw in reader.messages(connections=connections):
-            message = reader.deserialize(raw, connection.msgtype)
-            rows.append(_configuration(message, kind, joints, str(path)))
+        try:
+            for connection, _, raw in reader.messages(connections=connections):
+                message = reader.deserialize(raw, connection.msgtype)
+                rows.append(_configuration(message, kind, joints, str(path)))
+        except ConfigError:
+            raise
+        except Exception as exc:       # a truncated file, a message its definition does not decode, ...
+            raise ConfigError(f"message {len(rows)} of the topic is not readable: {type(exc).__name__}: {exc}",
+                              source=str(path), field="topic", value=topic) from None
     finally:
         reader.close()
     if not rows:
