@@ -23,6 +23,7 @@ import numpy as np
 from pliant.errors import SceneError
 from pliant.geometry.rotations import UNIT_QUATERNION_TOLERANCE, quat_to_matrix
 from pliant.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere, VoxelArray
+from pliant.physics import PhysicsReader, ScenePhysics
 from pliant.validation import Fields, read_toml, size_limit
 
 ROBOT_SPACES = ("r3", "se2", "se3")
@@ -186,6 +187,7 @@ class Scene:
     variant: str | None = None
     variants: tuple[str, ...] = ()
     pipeline: dict = field(default_factory=dict)
+    physics: ScenePhysics = field(default_factory=ScenePhysics)   # pliant.physics
     raw: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -322,6 +324,7 @@ class _SceneReader:
 
     def read(self) -> Scene:
         top = self.top
+        self.physics = PhysicsReader()
         name = top.string("name")
         description = top.string("description", "")
         bounds = top.table("bounds")
@@ -361,11 +364,13 @@ class _SceneReader:
         self._check_configuration(top, "goal", goal, robot, lower, upper)
         tol = top.number("goal_tolerance", 0.0, minimum=0.0)
         pipeline = top.table("pipeline", default={})   # validated by the pipeline when it is run
+        physics = self.physics.finish(top.table("physics", default={}), planar)
         top.finish()
         return Scene(name=name, lower=lower, upper=upper, resolution=resolution, objects=objects, robot=robot,
                      start=start, goal=goal, regions=regions, planar=planar, goal_tolerance=tol,
                      description=description, source=self.source, variant=self.variant,
-                     variants=self.variant_names, pipeline=dict(pipeline.data), raw=dict(top.data))
+                     variants=self.variant_names, pipeline=dict(pipeline.data), physics=physics,
+                     raw=dict(top.data))
 
     # --- pieces -------------------------------------------------------------------------------
 
@@ -426,6 +431,7 @@ class _SceneReader:
         material = self._material(t, None)
         mass = t.number("mass", None, positive=True)
         friction = t.number("friction", None, minimum=0.0)
+        self.physics.object(t, name, mass, friction)
         t.finish()
         return SceneObject(name, part, material, mass=mass, friction=friction)
 
@@ -446,10 +452,12 @@ class _SceneReader:
             model = t.string("model")
             group = t.string("group", None)
             material = self._material(t, Material())
+            self.physics.robot_fields(t, kind)
             t.finish()
             return RobotSpec(kind=kind, name=name, model=model, group=group, weights=weights, material=material)
         space = t.string("space", choices=set(ROBOT_SPACES))
         material = self._material(t, Material())
+        self.physics.robot_fields(t, kind)
         ref = t.vector("reference_cell", 3, np.zeros(3))
         # robot frame origin = centre of the reference voxel; cell (i, j, k) spans [i - ref - 1/2, i - ref + 1/2]
         origin = -(ref + 0.5) * self.resolution
