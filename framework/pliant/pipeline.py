@@ -46,6 +46,7 @@ from pliant.registry import Registry, default_registry
 from pliant.results import Outcome, PlanResult
 from pliant.scene import Scene, load_scene
 from pliant.seeds import Streams
+from pliant.task import resolve_task, scaled_options
 from pliant.termination import Budget
 from pliant.validation import check_number, read_toml, safe_name
 
@@ -333,10 +334,13 @@ class Pipeline:
                 component.bind(context)
             elif kind in specs:
                 spec = specs[kind]
+                options = scaled_options(spec.options, context.robot, self.source, kind)   # {robot = ...} values
                 component = self.registry.create(kind, spec.name, context, source=self.source,
-                                                 disabled=self.disable, **spec.options)
+                                                 disabled=self.disable, **options)
             else:
                 continue
+            if kind == "robot":             # a robot-independent task: this robot's start and goal (pliant.task)
+                context.scene = _resolve_task(context.scene, component, self.seed)
             if kind in ("robot", "cost", "simulator", "controller"):
                 setattr(context, kind, component)
             else:
@@ -421,13 +425,15 @@ class Pipeline:
             problem = record.problem = PlanningProblem.from_context(context, goal=goal, budget=self.budget)
             if goal is not None:
                 problem.goal_states = record.goal_states
+            elif context.scene.task is not None and context.scene.task.goal_states is not None:
+                record.goal_states = problem.goal_states = context.scene.task.goal_states   # its IK solutions
             t0 = time.perf_counter()
             log.info("planning with %s on %s", self.components["planner"].name, context.scene.name)
             result = record.result = planner.plan(problem, streams.rng("planning"))
             timings["plan"] = time.perf_counter() - t0
             if result.seed is None:
                 result.seed = self.seed
-            if goal is not None:
+            if record.goal_states is not None:
                 result.statistics["goal_states"] = record.goal_states.tolist()
             result.streams = streams.stages()
             if self.trajectory is not None and result.solved and result.path is not None:
@@ -690,8 +696,10 @@ class Pipeline:
             robot_spec = ComponentSpec(DEFAULT_ROBOT[scene.robot.kind], robot_spec.options)
         world_context.robot = self.registry.create("robot", robot_spec.name, world_context, source=self.source,
                                                    disabled=self.disable, **robot_spec.options)
+        world_context.scene = _resolve_task(scene, world_context.robot, self.seed)
         return self.registry.create(kind, spec.name, world_context, source=self.source, disabled=self.disable,
-                                    **spec.options)
+                                    **scaled_options(spec.options, world_context.robot, self.source,
+                                                     "execution.world"))
 
     def _world_kind(self, name: str) -> str:
         """``"simulator"`` or ``"driver"``: the kind registered under ``name``."""
@@ -795,6 +803,16 @@ def _is_pliant_run_json(path: Path) -> bool:
     return isinstance(pipeline, dict) and {"name", "scene", "seed"} <= set(pipeline)
 
 
+def _resolve_task(scene: Scene, robot, seed: int) -> Scene:
+    """The scene with its robot-independent task (pliant.task) resolved for ``robot``: inverse kinematics on the
+    seed's ``task`` stream (the same start and goal in every build of the run), valid for the scene's checker."""
+    if scene.task is None:
+        return scene
+    from pliant.components.validity import ValidityChecker
+
+    return resolve_task(scene, robot, Streams(seed).rng("task"), ValidityChecker(scene, robot))
+
+
 def check_scene(spec: str | Path, registry: Registry | None = None) -> Scene:
     """Load a scene and check everything a run would check before planning, without planning: the file, every
     variant (each must load), and the robot model a pipeline would build for it (the URDF is found and parsed, the
@@ -805,6 +823,7 @@ def check_scene(spec: str | Path, registry: Registry | None = None) -> Scene:
         load_scene(spec, variant=variant)
     context = Context(scene=scene)
     context.robot = registry.create("robot", DEFAULT_ROBOT[scene.robot.kind], context, source=str(scene.source))
+    _resolve_task(scene, context.robot, 0)          # a task's poses are reachable
     return scene
 
 

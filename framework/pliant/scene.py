@@ -24,6 +24,7 @@ from pliant.errors import SceneError
 from pliant.geometry.rotations import UNIT_QUATERNION_TOLERANCE, quat_to_matrix
 from pliant.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere, VoxelArray
 from pliant.physics import PhysicsReader, ScenePhysics
+from pliant.task import Task, read_task
 from pliant.validation import Fields, read_toml, size_limit
 
 ROBOT_SPACES = ("r3", "se2", "se3")
@@ -189,6 +190,8 @@ class Scene:
     pipeline: dict = field(default_factory=dict)
     physics: ScenePhysics = field(default_factory=ScenePhysics)   # pliant.physics
     raw: dict = field(default_factory=dict, repr=False)
+    #: a robot-independent task (:class:`pliant.task.Task`): start and goal are empty until a pipeline resolves it
+    task: Task | None = None
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -358,8 +361,9 @@ class _SceneReader:
                        t.raw("position") if t.has("position") else None)
         regions = [self._region(t) for t in top.tables("regions")]
         robot = self._robot(top.table("robot"))
-        start = top.vector("start")
-        goal = top.vector("goal")
+        task = read_task(top, robot)        # pliant.task: a robot-independent [task] replaces start and goal
+        start = top.vector("start") if task is None else np.zeros(0)
+        goal = top.vector("goal") if task is None else np.zeros(0)
         self._check_configuration(top, "start", start, robot, lower, upper)
         self._check_configuration(top, "goal", goal, robot, lower, upper)
         tol = top.number("goal_tolerance", 0.0, minimum=0.0)
@@ -367,7 +371,7 @@ class _SceneReader:
         physics = self.physics.finish(top.table("physics", default={}), planar)
         top.finish()
         return Scene(name=name, lower=lower, upper=upper, resolution=resolution, objects=objects, robot=robot,
-                     start=start, goal=goal, regions=regions, planar=planar, goal_tolerance=tol,
+                     start=start, goal=goal, task=task, regions=regions, planar=planar, goal_tolerance=tol,
                      description=description, source=self.source, variant=self.variant,
                      variants=self.variant_names, pipeline=dict(pipeline.data), physics=physics,
                      raw=dict(top.data))

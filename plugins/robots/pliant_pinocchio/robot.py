@@ -114,8 +114,13 @@ class PinocchioRobot(RobotModel):
         entry = self._entry(model, scene.source)
         self.model_name = model
         self.entry = entry
+        #: the scene task's table for this model (pliant.task.RobotTask: group, tool, start, base), or None
+        self.task = scene.task.for_robot(model, scene.source) if scene.task is not None else None
         self._load(entry, scene.source, model)
-        self._choose_group(entry, self.options.group or spec.group or "all", from_option=bool(self.options.group))
+        if self.task is not None and self.task.placed:
+            self._place_base(self.task.base_position, self.task.base_orientation)
+        group = self.options.group or (self.task.group if self.task is not None else None) or spec.group or "all"
+        self._choose_group(entry, group, from_option=bool(self.options.group))
         self._set_limits(entry)
         self.base_configuration = self._posture()
         self._sample_body(self.options.resolution or scene.resolution, spec.material)
@@ -133,6 +138,8 @@ class PinocchioRobot(RobotModel):
         self._subtree_mass = np.array(self.data.mass, dtype=np.float64)
         self._broad_phase = None            # built on the first self-collision query
         for key in ("start", "goal"):
+            if scene.task is not None and scene.task.robot is None:
+                break                       # a task not yet resolved for this robot (pliant.task.resolve_task)
             try:
                 self._check_scene_configuration(key, getattr(scene, key))
             except SceneError as exc:
@@ -171,6 +178,27 @@ class PinocchioRobot(RobotModel):
         else:
             self._remove_adjacent_pairs()
         self.data = self.model.createData()
+        self.geometry_data = pin.GeometryData(self.geometry)
+
+    def _place_base(self, position, orientation) -> None:
+        """Move the robot's base to a world placement (the scene task's ``base``): every joint, frame and geometry
+        attached to the world is placed through it, so kinematics, body points and collisions all see it."""
+        base = pin.SE3(pin.Quaternion(float(orientation[3]), float(orientation[0]), float(orientation[1]),
+                                      float(orientation[2])).normalized().matrix(), np.asarray(position, np.float64))
+        model = self.model
+        for j in range(1, model.njoints):
+            if model.parents[j] == 0:
+                model.jointPlacements[j] = base * model.jointPlacements[j]
+        for k in range(len(model.frames)):
+            frame = model.frames[k]
+            if frame.parentJoint == 0 and frame.name != "universe":
+                frame.placement = base * frame.placement
+                model.frames[k] = frame
+        for k in range(len(self.geometry.geometryObjects)):
+            geom = self.geometry.geometryObjects[k]
+            if geom.parentJoint == 0:
+                geom.placement = base * geom.placement
+        self.data = model.createData()
         self.geometry_data = pin.GeometryData(self.geometry)
 
     def _remove_adjacent_pairs(self) -> None:
@@ -369,6 +397,11 @@ class PinocchioRobot(RobotModel):
 
     def urdf_description(self) -> UrdfDescription:
         """The URDF, the group's joints in configuration order, and the posture of every other joint."""
+        if self.task is not None and self.task.placed:
+            raise SceneError(f"{self.model_name}'s base is placed by the scene's task (task.robots.{self.model_name}."
+                             "base) and a URDF simulator loads the robot at the world origin: execute in the "
+                             "kinematic simulator, or put this robot's base at the origin", source=self._source,
+                             field=f"task.robots.{self.model_name}.base", value=self.task.base_position.tolist())
         model, base = self.model, self.base_configuration
         group = set(self.joint_names)
         posture = {}
