@@ -2,9 +2,10 @@
 ``joint_trajectory_controller`` and a ``joint_state_broadcaster`` (runs in the ROS 2 environment: no pliant import).
 
 The arm: each joint a first-order position servo (time constant ``tau``) toward the active command, stepped at the
-controller manager's ``rate``; states published every step, stamped with the wall clock, in the controllers' joint
-order.  The forward controller takes ``std_msgs/Float64MultiArray`` on ``/<ns>/<forward>/commands`` (a message of the
-wrong length is ignored, as ros2_control does); the trajectory controller takes ``trajectory_msgs/JointTrajectory`` on
+controller manager's ``rate``; states published every step, stamped with the wall-clock time of the step (not of
+the publication, which a loaded machine delays), in the controllers' joint order.  The forward controller takes
+``std_msgs/Float64MultiArray`` on ``/<ns>/<forward>/commands`` (a message of the wrong length is ignored, as
+ros2_control does); the trajectory controller takes ``trajectory_msgs/JointTrajectory`` on
 ``/<ns>/<trajectory>/joint_trajectory`` (joint names matched by name, time from receipt, cubic between points with
 velocities, linear without; no points: hold).  Both subscribe reliably, as ros2_control's do.
 
@@ -141,7 +142,7 @@ class ControlPeer:
         if "stale" in self.faults:
             return
         msg = self._JointState()
-        wall = time.time()
+        wall = time.time() - (time.monotonic() - now)     # stamped when sampled, as the broadcaster's update() is
         msg.header.stamp.sec = int(wall)
         msg.header.stamp.nanosec = int((wall - int(wall)) * 1e9)
         msg.name = [f"{j}_wrong" for j in self.joints] if "names-wrong" in self.faults else list(self.joints)
