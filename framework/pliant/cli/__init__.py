@@ -8,6 +8,7 @@
     pliant learn COMMAND ...                             record and import demonstrations
     pliant robot [list | check NAME | PEER ...]          robot drivers; inspect a robot; emulated robots
     pliant bench [NAME] [-- ARGS]                        run a benchmark script from benchmarks/
+    pliant bench FILE.toml [--jobs N] [--fresh] ...      run a benchmark file (planners x problems x seeds)
 
 Plugins add sub-commands to ``experiment``, ``learn`` and ``robot`` (and provide ``view``) through the
 ``pliant_commands`` hook (:class:`pliant.cli.commands.Command`); an old spelling keeps working through an
@@ -44,6 +45,7 @@ EXAMPLES = """examples:
   pliant experiment figure-3.5 --quick           one of them, report in out/reproduce/figure-3.5/quick/
   pliant robot check baxter-ros --set side=right   inspect a robot (state, limits, rates)
   pliant bench                                   list the benchmarks
+  pliant bench benchmarks/files/planners-triple-wall-cube-wall-maze.toml   planners x problems x seeds, from a file
 """
 
 
@@ -256,6 +258,10 @@ def _benchmarks_dir() -> Path:
 
 
 def cmd_bench(args) -> int:
+    if args.name and args.name.endswith(".toml"):     # a benchmark file: planners x problems x seeds x budgets
+        from pliant.experiments.benchfile import main as bench_file
+
+        return bench_file([args.name, *args.args])
     directory = _benchmarks_dir()
     scripts = sorted(p.stem.removeprefix("bench_") for p in directory.glob("bench_*.py"))
     if not args.name:
@@ -478,7 +484,8 @@ def build_parser(declarations: tuple[list[Command], list[Alias]] | None = None) 
     _add_robot(sub, by_group["robot"])
 
     p = sub.add_parser("bench", help=GROUPS["bench"][0])
-    p.add_argument("name", nargs="?", help="benchmark name; omit to list them")
+    p.add_argument("name", nargs="?", help="benchmark name (omit to list them), or a benchmark file FILE.toml "
+                   "(docs/benchmarking.md; pliant bench FILE.toml --help)")
     p.add_argument("args", nargs=argparse.REMAINDER, help="arguments passed to the benchmark")
     p.set_defaults(handler=cmd_bench)
     return parser

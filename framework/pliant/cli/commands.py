@@ -31,7 +31,7 @@ GROUPS: dict[str, tuple[str, bool]] = {
     "experiment": ("every thesis table, figure and experiment (LIST: what exists and what waits)", True),
     "learn": ("record and import demonstrations for the learners", True),
     "robot": ("robot drivers: list, inspect a robot, emulated robots for demos and tests", True),
-    "bench": ("run a benchmark script (prints a table, writes JSON)", False),
+    "bench": ("run a benchmark script (prints a table, writes JSON), or a benchmark file FILE.toml", False),
 }
 #: the groups a plugin may add to (``view``: the one command of that name)
 PLUGIN_GROUPS = ("experiment", "learn", "robot", "view")
