@@ -574,8 +574,9 @@ def draw_figures(bench: BenchFile, records: list[dict]) -> list[Path]:
             chosen = [r for r in records if (r["problem"], r["budget"]) == (problem.name, budget.label)]
             if not chosen:
                 continue
-            horizon = max([r["time"] for r in chosen] + [1e-3])
-            grid = np.linspace(0.0, horizon, 200)
+            times = [r["time"] for r in chosen] + [t for r in chosen for t, _ in r.get("progress") or []]
+            horizon = max(times + [1e-2])
+            grid = np.geomspace(max(min([t for t in times if t > 0] + [horizon]) / 2, 1e-3), horizon * 1.05, 300)
             fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
             labels, firsts = [], []
             for planner in bench.planners:
@@ -598,12 +599,13 @@ def draw_figures(bench: BenchFile, records: list[dict]) -> list[Path]:
                 axes[1].plot(grid, curve, color=line.get_color(), label=planner.label)
                 labels.append(planner.label)
                 firsts.append([r["time_to_first"] for r in runs if r["solved"]])
-            axes[0].set(xlabel="time (s)", ylabel="solved (%)", title="success over time", ylim=(-2, 102))
-            axes[1].set(xlabel="time (s)", ylabel="best cost (median of runs solved)",
+            axes[0].set(xlabel="time (s)", ylabel="solved (%)", title="success over time", ylim=(-2, 102),
+                        xscale="log")
+            axes[1].set(xlabel="time (s)", ylabel="best cost (median of runs solved)", xscale="log",
                         title="cost over time (planner's own objective)")
             axes[2].boxplot([f if f else [np.nan] for f in firsts])
             axes[2].set_xticks(range(1, len(labels) + 1), labels, rotation=40, ha="right", fontsize=8)
-            axes[2].set(ylabel="time to first solution (s)", title="time to first solution")
+            axes[2].set(ylabel="time to first solution (s)", title="time to first solution", yscale="log")
             axes[0].legend(fontsize=7, loc="lower right")
             fig.suptitle(f"{problem.name} ({budget.label}, {len(bench.seeds)} seeds)")
             fig.tight_layout()
