@@ -42,6 +42,7 @@ from pliant.api import (
     checkpoint,
     limit_velocity,
     option,
+    report_ignored,
 )
 
 from pliant_kinematic.contact import FACE_NORMALS, ContactModel
@@ -119,6 +120,10 @@ class KinematicSimulator(Simulator):
         scene = self.require("scene")
         self.robot = self.require("robot")
         self.space = self.robot.space
+        # no dynamics here: masses, friction, restitution, damping and the support do not apply (movable objects are
+        # obstacles fixed at their scene poses; contacts push out without friction)
+        report_ignored(scene.physics, "kinematic", (), "it has no dynamics: movable objects are fixed obstacles and "
+                       "contacts are frictionless")
         self.grid = VoxelGrid.from_scene(scene)
         # an SE(2) body in a one-layer grid never leaves the layer: the grid's z faces are no walls to it
         self.contact = ContactModel(self.grid, planar=self.space.kind == "se2" and self.grid.shape[2] == 1)

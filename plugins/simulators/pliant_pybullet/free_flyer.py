@@ -73,11 +73,13 @@ class FreeFlyer:
 
     ``kind`` is the space's kind (``rn`` / ``se2`` / ``se3``); ``max_force`` (N) caps the pull;
     ``max_torque`` (N m, or ``None``: the fixed constraint's own cap) caps the turn; ``friction`` is the
-    Coulomb coefficient of the robot's surface; ``time_step`` is the physics step (s).
+    Coulomb coefficient of the robot's surface; ``time_step`` is the physics step (s); ``mass`` (kg) and
+    ``restitution``, when given (the scene's ``[robot]``), replace ``density`` x volume and Bullet's default.
     """
 
     def __init__(self, pb, scene, space, density: float, max_force: float, friction: float,
-                 max_torque: float | None = None, time_step: float = 1 / 240) -> None:
+                 max_torque: float | None = None, time_step: float = 1 / 240, mass: float | None = None,
+                 restitution: float | None = None) -> None:
         self.pb = pb
         self.space = space
         self.kind = scene.robot.space
@@ -86,6 +88,9 @@ class FreeFlyer:
         self.time_step = time_step
         self.friction = friction
         self.shape, self.mass = robot_collision_shape(pb, scene, density)
+        if mass is not None:
+            self.mass = mass
+        self.restitution = restitution
         self.body = self.hold = None
         self._orientation = None
 
@@ -115,6 +120,8 @@ class FreeFlyer:
         position, orientation = self._pose(q)
         self.body = self.pb.createMultiBody(self.mass, self.shape, basePosition=position, baseOrientation=orientation)
         self.pb.changeDynamics(self.body, -1, lateralFriction=self.friction, linearDamping=0.0, angularDamping=0.0)
+        if self.restitution is not None:
+            self.pb.changeDynamics(self.body, -1, restitution=self.restitution)
         if self.max_torque is None:
             self.hold = self.pb.createConstraint(self.body, -1, -1, -1, self.pb.JOINT_FIXED, [0, 0, 0], [0, 0, 0],
                                                  position, childFrameOrientation=orientation)

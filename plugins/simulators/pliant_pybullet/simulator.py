@@ -12,21 +12,44 @@ Either way the robot yields against obstacles instead of passing through them; a
 from :mod:`pliant.execution.noise` and ``simulate`` uses the kinematic simulator's P law and velocity limits
 (:mod:`pliant.execution.stepping`), so a pipeline can swap ``kinematic`` for ``pybullet`` by name (thesis 5.4
 executes in a dynamic simulator; 3.3.4 validates the deformation cost in Bullet).
+
+The physical properties are the scene's (:mod:`pliant.physics`): the objects' masses, inertias, friction, rolling
+friction, restitution and damping, the static objects' friction, the robot's mass and friction, and a planar scene's
+support friction (:mod:`pliant_pybullet.objects`); the options hold the numerics, the controllers' caps and gains.
+What Bullet cannot represent (a static friction apart from the dynamic one) is listed once when the simulator is
+built.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.api import SimulationError, SteppedOptions, SteppedSimulator, VoxelGrid, check_batch, option
+from pliant.api import FREE_VOXEL as FREE
+from pliant.api import (
+    OptionDeprecationWarning,
+    SimulationError,
+    SteppedOptions,
+    SteppedSimulator,
+    VoxelGrid,
+    check_batch,
+    option,
+    report_ignored,
+)
+
+#: the scene physics Bullet represents (pliant.physics.ScenePhysics.stated kinds); the rest is reported once
+SUPPORTED_PHYSICS = ("objects.friction", "objects.rolling_friction", "objects.mass", "objects.restitution",
+                     "objects.linear_damping", "objects.angular_damping", "objects.inertia", "robot.friction",
+                     "robot.mass", "robot.restitution", "support.friction")
 
 
 @dataclass(frozen=True)
 class PybulletOptions(SteppedOptions):
     """Options of :class:`PybulletSimulator` (the shared ones: :class:`pliant.execution.stepping.SteppedOptions`)."""
 
-    density: float = option(100.0, "free-flying robot's mass per volume (kg/m^3)", minimum=1e-9)
+    density: float = option(100.0, "free-flying robot's mass per volume (kg/m^3) when the scene's [robot] gives "
+                            "no mass", minimum=1e-9)
     max_force: float = option(200.0, "largest force the free-flying robot's pulling constraint applies (N)",
                               minimum=0.0)
     max_torque: float | None = option(None, "free-flying robot: largest torque turning it toward the commanded "
@@ -41,8 +64,9 @@ class PybulletOptions(SteppedOptions):
     velocity_gain: float = option(1.0, "URDF robots: pybullet position-motor velocity gain (the D of the PD law)",
                                   minimum=0.0, maximum=1.0)
     self_collision: bool = option(False, "URDF robots: links collide with each other (parents excluded)")
-    object_damping: float = option(0.0, "linear and angular damping of movable objects (1/s); stands in for "
-                                   "table friction when gravity is off", minimum=0.0)
+    object_damping: float | None = option(None, "deprecated: the scene objects' linear_damping and angular_damping "
+                                          "(this option, when given, applies to objects whose scene states none, "
+                                          "with a warning)", minimum=0.0)
 
 
 class PybulletSimulator(SteppedSimulator):
@@ -63,20 +87,32 @@ class PybulletSimulator(SteppedSimulator):
         self.pb = BulletClient(connection_mode=pybullet.DIRECT)
         self.pb.setTimeStep(self.dt / self.substeps)
         self.pb.setGravity(0, 0, -o.gravity)
-        for lo, hi in VoxelGrid.from_scene(scene, static_only=True).boxes():
+        physics = scene.physics
+        report_ignored(physics, "pybullet", SUPPORTED_PHYSICS if scene.robot.kind == "rigid" else
+                       [kind for kind in SUPPORTED_PHYSICS if kind not in ("robot.mass", "robot.restitution")],
+                       "Bullet has one friction coefficient per surface")
+        for mu, (lo, hi) in _static_boxes(scene, o.friction):
             shape = self.pb.createCollisionShape(pybullet.GEOM_BOX, halfExtents=((hi - lo) / 2).tolist())
             wall = self.pb.createMultiBody(0, shape, basePosition=((hi + lo) / 2).tolist())
-            self.pb.changeDynamics(wall, -1, lateralFriction=o.friction)
+            self.pb.changeDynamics(wall, -1, lateralFriction=mu)
+        self.robot_friction = o.friction if physics.robot.friction is None else physics.robot.friction
         if scene.robot.kind == "rigid":
             from pliant_pybullet.free_flyer import FreeFlyer
 
-            self.body = FreeFlyer(self.pb, scene, self.space, o.density, o.max_force, o.friction,
-                                  max_torque=o.max_torque, time_step=self.dt / self.substeps)
+            self.body = FreeFlyer(self.pb, scene, self.space, o.density, o.max_force, self.robot_friction,
+                                  max_torque=o.max_torque, time_step=self.dt / self.substeps,
+                                  mass=physics.robot.mass, restitution=physics.robot.restitution)
         else:
             self.body = self._articulated(scene)
         from pliant_pybullet.objects import MovableObjects
 
-        self.objects = MovableObjects(self.pb, scene, o.friction, o.object_damping)
+        damping = 0.0
+        if o.object_damping is not None:
+            warnings.warn("option 'simulator.object_damping' is deprecated: set linear_damping and angular_damping "
+                          "on the scene's movable objects", OptionDeprecationWarning, stacklevel=2)
+            damping = o.object_damping
+        self.objects = MovableObjects(self.pb, scene, o.friction, damping,
+                                      physics.support_friction if scene.planar else None)
         self._contact = False
         # starts are measured against every object's voxels: the static walls are built from them, and every reset
         # puts the movable objects back at their scene poses; no walls close the bounds here
@@ -93,7 +129,8 @@ class PybulletSimulator(SteppedSimulator):
                                   source=scene.source, field="robot", value=type(self.robot).__name__)
         o = self.options
         return ArticulatedRobot(self.pb, description, self.space.lower, self.space.upper, effort_scale=o.effort_scale,
-                                position_gain=o.position_gain, velocity_gain=o.velocity_gain, friction=o.friction,
+                                position_gain=o.position_gain, velocity_gain=o.velocity_gain,
+                                friction=self.robot_friction,
                                 self_collision=o.self_collision, source=scene.source)
 
     def configuration(self):
@@ -142,6 +179,7 @@ class PybulletSimulator(SteppedSimulator):
         for k in range(1, n + 1):
             # the target sweeps from the current configuration to the commanded one over the step
             self.body.command(q, v * dt, k / n, dt)
+            self.objects.before_step(dt / n)
             self.pb.stepSimulation()
             touched = touched or self.body.touching()
         self._contact = touched
@@ -152,3 +190,23 @@ class PybulletSimulator(SteppedSimulator):
             self.pb.disconnect()
         except Exception:  # the client may already be gone at interpreter exit
             pass
+
+
+def _static_boxes(scene, default_friction: float) -> list[tuple[float, tuple[np.ndarray, np.ndarray]]]:
+    """The static objects' voxels merged into boxes, as ``(friction, (lower, upper))``: objects with the same
+    friction (their own, else ``default_friction``) are merged together, so a scene without per-object friction gives
+    the boxes of its whole voxel layer."""
+    grid = VoxelGrid.from_scene(scene, static_only=True)
+    friction = np.array([default_friction if o.friction is None else o.friction for o in scene.objects])
+    static = [not o.movable for o in scene.objects]
+    values = sorted(set(friction[static].tolist())) if len(friction) else []
+    if len(values) <= 1:
+        mu = values[0] if values else float(default_friction)
+        return [(mu, box) for box in grid.boxes()]
+    out = []
+    for mu in values:
+        mask = np.isin(grid.object_id, np.nonzero(friction == mu)[0])
+        sub = VoxelGrid(grid.lower, grid.resolution, grid.deformability, grid.sensitivity,
+                        np.where(mask, grid.object_id, FREE).astype(np.int32), grid.object_names)
+        out.extend((mu, box) for box in sub.boxes())
+    return out

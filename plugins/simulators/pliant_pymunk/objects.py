@@ -1,17 +1,18 @@
 """Movable scene objects (those with a ``mass``) as planar rigid bodies in pymunk.
 
-A movable object becomes a dynamic pymunk body whose shape is the object's cross-section in the
-scene's voxel layer (the plane ``z = layer centre``): a box rotated about z is a rectangle, a cylinder
-along z or a sphere is a circle.  Its mass is the scene's; pymunk computes the moment of inertia from
-the shape (uniform density).  What has no exact planar cross-section of that kind — a mesh, a voxel
-array, cut-outs, a rotation out of the plane, a shape that misses the layer, an overlap with the
-static geometry — is refused with a :class:`~pliant.errors.SimulationError` naming the field.
+A movable object becomes a dynamic pymunk body whose shape is the object's cross-section in the scene's voxel
+layer (the plane ``z = layer centre``): a box rotated about z is a rectangle, a cylinder along z or a sphere
+is a circle. Its mass, friction, restitution, damping and moment of inertia are the scene's
+(:mod:`pliant.physics`; the moment about z from the shape and the mass, uniform density, when the scene gives
+no ``inertia``). What has no exact planar cross-section of that kind — a mesh, a voxel array, cut-outs, a
+rotation out of the plane, a shape that misses the layer, an overlap with the static geometry — is refused
+with a :class:`~pliant.errors.SimulationError` naming the field.
 
-The table: the scene is seen from above with zero gravity, so the friction between an object and the
-table it stands on is modelled by a pivot joint and a gear joint to the static body that hold the
-object's velocity and spin at zero with capped force ``mu m g`` and torque ``mu m g r_mean``
-(``r_mean``: the mean distance of the footprint from its centre, the torque of uniformly distributed
-Coulomb friction).  Force and torque are capped separately: a simple limit surface, documented in
+The table (the scene's support, ``[physics.support]``): the scene is seen from above with zero gravity, so the
+friction between an object and the table it stands on is modelled by a pivot joint and a gear joint to the
+static body that hold the object's velocity and spin at zero with capped force ``mu m g`` and torque ``mu m g
+r_mean`` (``r_mean``: the mean distance of the footprint from its centre, the torque of uniformly distributed
+Coulomb friction). Force and torque are capped separately: a simple limit surface, documented in
 docs/plugins/pymunk.md.
 """
 
@@ -21,9 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.api import Scene, SimulationError, VoxelGrid
-
-STANDARD_GRAVITY = 9.80665   # m/s^2: the normal force of an object on the table is m g
+from pliant.api import Scene, SimulationError, VoxelGrid, support_limits
 
 
 @dataclass(frozen=True)
@@ -34,6 +33,8 @@ class PlanarObject:
     position: ``(2,)`` centre (m); angle: yaw (rad).
     kind: ``"box"`` (``half_extents`` ``(2,)`` m) or ``"circle"`` (``radius`` m).
     mass: kg; friction: the surface's Coulomb coefficient, ``None`` for the simulator's default.
+    restitution: ``None`` for pymunk's default (0); linear_damping / angular_damping: fraction of velocity lost per
+    second (0: none); moment: about z (kg m^2), ``None`` to derive it from the shape.
     """
 
     index: int
@@ -45,6 +46,10 @@ class PlanarObject:
     radius: float | None
     mass: float
     friction: float | None
+    restitution: float | None = None
+    linear_damping: float = 0.0
+    angular_damping: float = 0.0
+    moment: float | None = None
 
     def mean_radius(self) -> float:
         """Mean distance (m) of the footprint's points from its centre (uniform pressure on the table)."""
@@ -108,9 +113,13 @@ def _planar_object(scene: Scene, k: int, walls: VoxelGrid) -> PlanarObject:
             radius = float(part.shape.radius)
     if _overlaps(walls, obj):
         _refuse(scene, k, "position", "the movable object starts inside static geometry", position)
+    physics = scene.physics.body(obj.name)
     return PlanarObject(index=k, name=obj.name, position=np.array(part.pose.position[:2], dtype=np.float64),
                         angle=float(2 * math.atan2(q[2], q[3])), kind="box" if kind == "box" else "circle",
-                        half_extents=half, radius=radius, mass=float(obj.mass), friction=obj.friction)
+                        half_extents=half, radius=radius, mass=float(obj.mass), friction=obj.friction,
+                        restitution=physics.restitution, linear_damping=physics.linear_damping or 0.0,
+                        angular_damping=physics.angular_damping or 0.0,
+                        moment=None if physics.inertia is None else float(physics.inertia[2]))
 
 
 def _overlaps(walls: VoxelGrid, obj) -> bool:
@@ -126,7 +135,7 @@ def add_object(world, pymunk, spec: PlanarObject, friction: float, table_frictio
     coefficient between object and table (0: no table friction).  Returns everything added (the body
     first), so that it can be removed again.
     """
-    body = pymunk.Body()
+    body = pymunk.Body() if spec.moment is None else pymunk.Body(spec.mass, spec.moment)
     body.position = (float(spec.position[0]), float(spec.position[1]))
     body.angle = spec.angle
     if spec.kind == "box":
@@ -134,17 +143,34 @@ def add_object(world, pymunk, spec: PlanarObject, friction: float, table_frictio
         shape = pymunk.Poly(body, [(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)])
     else:
         shape = pymunk.Circle(body, spec.radius)
-    shape.mass = spec.mass                     # the moment follows from the shape (uniform density)
+    if spec.moment is None:
+        shape.mass = spec.mass                 # the moment follows from the shape (uniform density)
     shape.friction = spec.friction if spec.friction is not None else friction
+    if spec.restitution is not None:
+        shape.elasticity = spec.restitution    # pymunk multiplies the two shapes' elasticities, as Bullet does
+    if spec.linear_damping or spec.angular_damping:
+        body.velocity_func = _damped(pymunk, 1.0 - spec.linear_damping, 1.0 - spec.angular_damping)
     added = [body, shape]
     if table_friction > 0:
-        normal = spec.mass * STANDARD_GRAVITY
+        force, torque = support_limits(table_friction, spec.mass, spec.mean_radius())
         slide = pymunk.PivotJoint(world.static_body, body, (0.0, 0.0), (0.0, 0.0))
         slide.max_bias = 0.0                   # resist velocity only; never pull back to a position
-        slide.max_force = table_friction * normal
+        slide.max_force = force
         spin = pymunk.GearJoint(world.static_body, body, 0.0, 1.0)
         spin.max_bias = 0.0
-        spin.max_force = table_friction * normal * spec.mean_radius()
+        spin.max_force = torque
         added += [slide, spin]
     world.add(*added)
     return tuple(added)
+
+
+def _damped(pymunk, keep_linear: float, keep_angular: float):
+    """A body velocity function that integrates as pymunk does, then keeps ``keep ** dt`` of the linear and the
+    angular velocity (the scene's damping ``d`` is the fraction lost per second: keep = 1 - d)."""
+
+    def update(body, gravity, damping, dt):
+        pymunk.Body.update_velocity(body, gravity, damping, dt)
+        body.velocity = body.velocity * keep_linear ** dt
+        body.angular_velocity = body.angular_velocity * keep_angular ** dt
+
+    return update

@@ -9,8 +9,11 @@ accumulates its impulse against a persistent contact and spends the whole force 
 a robot pressed on a surface could not slide along it, not even frictionless; the servo's force follows the
 velocity error.)  Static
 geometry is the voxel layer of the static objects as boxes (:mod:`.world`); movable objects (a scene
-``mass``) are dynamic bodies held back by table friction (:mod:`.objects`), put back at their scene
-pose at rest by every ``reset``.  ``simulate`` uses the same P control law and velocity limits as the
+``mass``) are dynamic bodies held back by the scene's support friction (:mod:`.objects`), put back at their scene
+pose at rest by every ``reset``.  The physical properties (masses, friction, restitution, damping, inertia, the
+support's friction, the robot's mass and friction) are the scene's (:mod:`pliant.physics`); the options hold the
+numerics and the controller's caps.  What pymunk cannot represent (static and rolling friction) is listed once when
+the simulator is built.  ``simulate`` uses the same P control law and velocity limits as the
 kinematic simulator, so the two agree in free space.
 """
 
@@ -19,26 +22,41 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.api import SimulationError, SteppedOptions, SteppedSimulator, VoxelGrid, check_batch, option
+from pliant.api import (
+    OptionDeprecationWarning,
+    SimulationError,
+    SteppedOptions,
+    SteppedSimulator,
+    VoxelGrid,
+    check_batch,
+    option,
+    report_ignored,
+)
 
 from pliant_pymunk.objects import add_object, planar_objects
 from pliant_pymunk.world import check_planar, robot_shapes, static_walls
 
 BLOCK_SPEED = 0.1       # m/s: velocity error into a contact at which the servo pushes with its whole force
+#: the scene physics pymunk represents (pliant.physics.ScenePhysics.stated kinds); the rest is reported once
+SUPPORTED_PHYSICS = ("objects.friction", "objects.mass", "objects.restitution", "objects.linear_damping",
+                     "objects.angular_damping", "objects.inertia", "robot.friction", "robot.mass",
+                     "robot.restitution", "support.friction")
 
 
 @dataclass(frozen=True)
 class PymunkOptions(SteppedOptions):
     """Options of :class:`PymunkSimulator` (the shared ones: :class:`pliant.execution.stepping.SteppedOptions`)."""
 
-    density: float = option(100.0, "robot mass per area (kg/m^2)", minimum=1e-9)
+    density: float = option(100.0, "robot mass per area (kg/m^2) when the scene's [robot] gives no mass",
+                            minimum=1e-9)
     max_force: float = option(2000.0, "largest force the controller applies (N)", minimum=0.0)
     max_torque: float = option(2000.0, "largest torque the controller applies (N m)", minimum=0.0)
-    table_friction: float = option(0.5, "Coulomb friction coefficient between movable objects and the table "
-                                   "(force mu m g, torque mu m g r_mean); 0 lets them glide", minimum=0.0)
+    table_friction: float | None = option(None, "deprecated: the scene's [physics.support] friction (this option, "
+                                          "when given, overrides it with a warning)", minimum=0.0)
     placed_tolerance: float = option(1.0, "deepest a movable object placed by set_object_poses may lie in the robot "
                                      "when the next step starts (voxels): the contact solver pushes it out; deeper "
                                      "is refused",
@@ -64,6 +82,11 @@ class PymunkSimulator(SteppedSimulator):
         self.world = pymunk.Space()
         self.world.gravity = (0.0, 0.0)
         self.world.collision_slop = 0.01 * scene.resolution     # allowed overlap (m); pymunk's 0.1 is for pixels
+        report_ignored(scene.physics, "pymunk", SUPPORTED_PHYSICS, "a 2-D world has one friction coefficient "
+                       "per surface and nothing rolls")
+        self.table_friction = _support_friction(scene, o)
+        robot = scene.physics.robot
+        self.robot_friction = o.friction if robot.friction is None else robot.friction
         for mu, (x0, y0, x1, y1) in static_walls(scene, o.friction):
             wall = pymunk.Poly(self.world.static_body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
             wall.friction = mu
@@ -85,9 +108,13 @@ class PymunkSimulator(SteppedSimulator):
         self.body = pymunk.Body()
         self.body.position = (float(q[0]), float(q[1]))
         self.body.angle = float(q[2])
-        shapes = robot_shapes(self.context.scene, pymunk, self.body, o.friction)
+        robot = self.context.scene.physics.robot
+        shapes = robot_shapes(self.context.scene, pymunk, self.body, self.robot_friction)
+        density = o.density if robot.mass is None else robot.mass / sum(shape.area for shape in shapes)
         for shape in shapes:
-            shape.density = o.density
+            shape.density = density
+            if robot.restitution is not None:
+                shape.elasticity = robot.restitution
         # rotation: a gear joint to a kinematic control body turning at the commanded rate, torque capped (a
         # scalar constraint, solved together with the contacts)
         self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
@@ -108,7 +135,7 @@ class PymunkSimulator(SteppedSimulator):
         o = self.options
         for parts in self._object_parts:
             self.world.remove(*parts)
-        self._object_parts = [add_object(self.world, self.pymunk, spec, o.friction, o.table_friction)
+        self._object_parts = [add_object(self.world, self.pymunk, spec, o.friction, self.table_friction)
                               for spec in self.objects]
 
     def reset(self, q):
@@ -151,7 +178,7 @@ class PymunkSimulator(SteppedSimulator):
         for k, pose in checked.items():
             self.world.remove(*self._object_parts[k])
             spec = dataclasses.replace(self.objects[k], position=pose[:2].copy(), angle=float(pose[2]))
-            self._object_parts[k] = add_object(self.world, self.pymunk, spec, o.friction, o.table_friction)
+            self._object_parts[k] = add_object(self.world, self.pymunk, spec, o.friction, self.table_friction)
         self._placed = self._placed or bool(checked)
 
     def _check_placement(self, placed: dict[int, np.ndarray]) -> None:
@@ -273,6 +300,17 @@ class PymunkSimulator(SteppedSimulator):
         self.body.each_arbiter(collect)
         self._normals = normals
         return bool(normals)
+
+
+def _support_friction(scene, options) -> float:
+    """The Coulomb coefficient between movable objects and the table: the scene's ``[physics.support] friction``,
+    or the deprecated option ``table_friction`` when a pipeline still gives it (with a one-line warning)."""
+    if options.table_friction is None:
+        return scene.physics.support_friction
+    warnings.warn(f"option 'simulator.table_friction' is deprecated: set the scene's [physics.support] friction "
+                  f"(here {options.table_friction:g} overrides the scene's {scene.physics.support_friction:g})",
+                  OptionDeprecationWarning, stacklevel=3)
+    return options.table_friction
 
 
 def _outline(spec, pose: np.ndarray, step: float) -> np.ndarray:

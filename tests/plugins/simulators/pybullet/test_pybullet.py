@@ -167,7 +167,7 @@ def _push(variant, steps=30):
     scene = load_scene("se2-push", variant=variant)
     ctx = Context(scene=scene)
     ctx.robot = registry.create("robot", "rigid", ctx)
-    sim = registry.create("simulator", "pybullet", ctx, object_damping=5.0, max_force=20.0)
+    sim = registry.create("simulator", "pybullet", ctx, max_force=20.0)      # the scene's table friction holds it
     sim.reset(np.array(scene.start))
     rng = np.random.default_rng(0)
     for _ in range(steps):

@@ -18,10 +18,12 @@ PUSH = read_toml(bundled_scenes_dir() / "se2-push.toml")
 CRATE = 1                    # index of the crate in se2-push's objects
 
 
-def _context(patch=None, base_dir=None) -> Context:
-    """se2-push with the crate's table updated by ``patch``."""
+def _context(patch=None, base_dir=None, support=None) -> Context:
+    """se2-push with the crate's table updated by ``patch`` (and the table's friction ``support``, if given)."""
     data = copy.deepcopy(PUSH)
     data.pop("variants")
+    if support is not None:
+        data["physics"]["support"]["friction"] = support
     data["objects"][CRATE].update(patch or {})
     for key in [k for k, v in (patch or {}).items() if v is None]:
         del data["objects"][CRATE][key]
@@ -61,10 +63,17 @@ def test_the_pushed_crate_moves_along_the_push_and_stops_after_it(push):
     assert np.abs(crate[-1] - crate[33]).max() < 1e-9               # at rest: it no longer moves
 
 
-def test_without_table_friction_the_crate_glides_on(push):
-    sim = registry.create("simulator", "pymunk", push, max_force=50.0, table_friction=0.0)
+def test_without_table_friction_the_crate_glides_on():
+    sim = registry.create("simulator", "pymunk", _context(support=0.0), max_force=50.0)
     _, crate = _push(sim, push_steps=30, rest_steps=10)
     assert crate[-1, 0] - crate[30, 0] > 0.1                          # keeps its speed after the push
+
+
+def test_the_deprecated_table_friction_option_still_overrides_the_scene(push):
+    with pytest.warns(FutureWarning, match=r"table_friction' is deprecated: set the scene's \[physics.support\]"):
+        sim = registry.create("simulator", "pymunk", push, max_force=50.0, table_friction=0.0)
+    _, crate = _push(sim, push_steps=30, rest_steps=10)
+    assert crate[-1, 0] - crate[30, 0] > 0.1
 
 
 def test_a_heavier_crate_moves_less_and_a_too_heavy_one_stops_the_pusher():
@@ -82,8 +91,8 @@ def test_a_heavier_crate_moves_less_and_a_too_heavy_one_stops_the_pusher():
     assert robot[-1, 0] == pytest.approx(0.50, abs=0.005) and sim.in_contact()
 
 
-def test_reset_restores_the_crate_at_rest(push):
-    sim = registry.create("simulator", "pymunk", push, max_force=50.0, table_friction=0.0)
+def test_reset_restores_the_crate_at_rest():
+    sim = registry.create("simulator", "pymunk", _context(support=0.0), max_force=50.0)
     _push(sim, push_steps=30, rest_steps=0)
     assert sim.object_poses()["crate"][0] > 0.8
     sim.reset(np.array([0.3, 0.5, 0.0]))
