@@ -58,11 +58,21 @@ class RobotTask:
     placement in the world (``base_position`` (3,) m, ``base_orientation`` (4,) quaternion)."""
 
     model: str
-    tool: str
+    tool: str | dict[str, str]
     group: str | None = None
     start: np.ndarray | TaskPose | None = None
     base_position: np.ndarray = field(default_factory=lambda: np.zeros(3))
     base_orientation: np.ndarray = field(default_factory=lambda: np.array(IDENTITY_QUATERNION))
+
+    def tool_for(self, group: str | None, source: str | None = None) -> str:
+        """The tool frame for joint ``group`` (``tool`` is one frame, or a table of frames by group)."""
+        if isinstance(self.tool, str):
+            return self.tool
+        if group not in self.tool:
+            raise SceneError(f"names no tool frame for {self.model}'s group '{group}' (tools for: "
+                             f"{', '.join(sorted(self.tool))})", source=source, field=f"task.robots.{self.model}.tool",
+                             value=group)
+        return self.tool[group]
 
     @property
     def placed(self) -> bool:
@@ -110,7 +120,14 @@ def _pose(t: Fields, *, tolerances: bool = True) -> TaskPose:
 
 
 def _robot(t: Fields, model: str) -> RobotTask:
-    tool = t.string("tool")
+    if isinstance(t.raw("tool"), dict):             # one tool frame per joint group
+        tools = t.table("tool")
+        tool = {group: tools.string(group) for group in tools.data}
+        if not tool:
+            t.fail("tool", "needs a tool frame (or a table of them by joint group)", {})
+        tools.finish()
+    else:
+        tool = t.string("tool")
     group = t.string("group", None)
     start = None
     if t.has("start"):
@@ -216,6 +233,7 @@ def resolve_task(scene, robot, rng: np.random.Generator, checker=None):
         raise SceneError(f"the scene's task needs a URDF robot with inverse kinematics, not {type(robot).__name__}",
                          source=scene.source, field="task", value=type(robot).__name__)
     entry = task.for_robot(model, scene.source)
+    tool = entry.tool_for(getattr(robot, "group", None), scene.source)
     checker = checker if checker is not None else _InLimits(robot.space)
     where = f"task.robots.{model}.start"
     if isinstance(entry.start, np.ndarray):
@@ -229,16 +247,16 @@ def resolve_task(scene, robot, rng: np.random.Generator, checker=None):
                              value=start.tolist())
     else:
         pose = entry.start if entry.start is not None else task.start
-        found = _reach(robot, entry.tool, pose, rng, 1, checker.states_valid)
+        found = _reach(robot, tool, pose, rng, 1, checker.states_valid)
         if len(found) == 0:
-            raise SceneError(f"{_who(model, robot, entry.tool)} cannot reach the start pose {pose.describe()}: no "
+            raise SceneError(f"{_who(model, robot, tool)} cannot reach the start pose {pose.describe()}: no "
                              "configuration within the joint limits and collision-free",
                              source=scene.source, field=where if entry.start is not None else "task.start",
                              value=model)
         start = found[0]
-    found = _reach(robot, entry.tool, task.goal, rng, task.solutions, checker.states_valid)
+    found = _reach(robot, tool, task.goal, rng, task.solutions, checker.states_valid)
     if len(found) == 0:
-        raise SceneError(f"{_who(model, robot, entry.tool)} cannot reach the goal pose {task.goal.describe()}: no "
+        raise SceneError(f"{_who(model, robot, tool)} cannot reach the goal pose {task.goal.describe()}: no "
                          "configuration within the joint limits and collision-free", source=scene.source,
                          field="task.goal", value=model)
     goal = found[int(np.argmin(robot.space.distance(found, start)))]

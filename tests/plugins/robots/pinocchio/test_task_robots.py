@@ -1,0 +1,96 @@
+"""The pinocchio robots under a robot-independent task (pliant.task): the base placement moves kinematics, body
+points and collisions alike; each of pr2, baxter and iiwa gets its group and tool from the task and a start and goal
+solved by inverse kinematics (tool within the pose's tolerance, inside the joint limits, collision-free, the same
+for the same seed); a placed base is refused by URDF simulators with a clear error.  Seeded, small scenes."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+from pliant import load_scene, registry
+from pliant.components import Context
+from pliant.components.validity import ValidityChecker
+from pliant.errors import SceneError
+from pliant.scene import Scene
+from pliant.task import resolve_task
+
+GOAL, START = [0.68, 0.0, 0.72], [0.64, -0.44, 0.76]
+TOOLS = {"pr2": ("right_arm", "r_gripper_tool_frame"), "baxter": ("right_arm", "right_gripper"),
+         "iiwa": ("arm", "lbr_iiwa_link_7")}
+
+
+def _robot(scene, **options):
+    return registry.create("robot", "pinocchio", Context(scene=scene), **options)
+
+
+@functools.cache
+def _resolved(model: str):
+    scene = load_scene("arm-reach")
+    robot = _robot(scene, model=model)
+    return robot, resolve_task(scene, robot, np.random.default_rng(7), ValidityChecker(scene, robot))
+
+
+@pytest.mark.parametrize("model", sorted(TOOLS))
+def test_each_robot_gets_its_start_and_goal_from_the_task(model):
+    robot, scene = _resolved(model)
+    group, tool = TOOLS[model]
+    assert robot.group == group and scene.task.robot == model
+    assert np.linalg.norm(robot.frame_position(scene.start[None], tool)[0] - START) <= 0.01
+    states = scene.task.goal_states
+    assert len(states) >= 2 and any(np.array_equal(scene.goal, s) for s in states)
+    assert np.all(np.linalg.norm(robot.frame_position(states, tool) - GOAL, axis=1) <= 0.01)
+    checker = ValidityChecker(scene, robot)
+    assert checker.states_valid(np.vstack([scene.start[None], states])).all()
+    # the goal is the solution nearest the start
+    assert robot.space.distance(scene.goal, scene.start) == pytest.approx(
+        np.min(robot.space.distance(states, scene.start)))
+
+
+def test_the_same_seed_gives_the_same_start_and_goal():
+    robot, scene = _resolved("baxter")
+    again = resolve_task(load_scene("arm-reach"), robot, np.random.default_rng(7), ValidityChecker(scene, robot))
+    assert np.array_equal(again.start, scene.start) and np.array_equal(again.goal, scene.goal)
+
+
+def _placed_scene(position, orientation=(0.0, 0.0, 0.0, 1.0)) -> Scene:
+    return Scene.from_dict({
+        "name": "placed", "bounds": {"lower": [-2.0, -2.0, 0.0], "upper": [2.0, 2.0, 2.0], "resolution": 0.08},
+        "robot": {"kind": "urdf", "model": "iiwa"},
+        "task": {"goal": {"position": [0.5, 0.0, 0.8]}, "start": {"position": [0.4, 0.3, 0.9]},
+                 "robots": {"iiwa": {"tool": "lbr_iiwa_link_7", "base": {"position": list(position),
+                                                                          "orientation": list(orientation)}}}},
+    }, source="placed.toml")
+
+
+def test_the_base_placement_moves_frames_and_body_points_alike():
+    origin, placed = _robot(_placed_scene((0.0, 0.0, 0.0))), _robot(_placed_scene((0.3, -0.2, 0.45),
+                                                                                 (0.0, 0.0, 1.0, 0.0)))
+    q = np.random.default_rng(0).uniform(origin.lower, origin.upper, (3, 7))
+    turn = np.diag([-1.0, -1.0, 1.0])                # 180 degrees about z
+    shift = np.array([0.3, -0.2, 0.45])
+    for frame in ("lbr_iiwa_link_7", "lbr_iiwa_link_3"):
+        assert np.allclose(placed.frame_position(q, frame), origin.frame_position(q, frame) @ turn.T + shift)
+    assert np.allclose(placed.body_points(q), origin.body_points(q) @ turn.T + shift)
+    assert not origin.task.placed and placed.task.placed
+    origin.urdf_description()                        # at the origin a URDF simulator can load it
+    with pytest.raises(SceneError, match="a URDF simulator loads the robot at the world origin") as info:
+        placed.urdf_description()
+    assert info.value.field == "task.robots.iiwa.base"
+
+
+def test_an_unreachable_goal_names_the_robot_and_the_pose():
+    scene = load_scene("arm-reach", variant="far")
+    robot = _robot(scene, model="pr2")
+    with pytest.raises(SceneError) as info:
+        resolve_task(scene, robot, np.random.default_rng(0), ValidityChecker(scene, robot))
+    assert str(info.value).count("\n") == 0 and info.value.field == "task.goal"
+    assert "robot 'pr2' (group 'right_arm', tool 'r_gripper_tool_frame') cannot reach the goal pose position " \
+           "[1.5, -0.2, 0.8]" in str(info.value)
+
+
+def test_a_robot_the_task_does_not_list_is_refused():
+    scene = _placed_scene((0.0, 0.0, 0.0))
+    with pytest.raises(SceneError, match=r"no table for robot 'pr2' \(task.robots: iiwa\)"):
+        _robot(scene, model="pr2")
