@@ -46,3 +46,16 @@ def test_every_cell_has_its_documented_outcome(pipeline):
     for label, value in got.items():          # a refusal is one line that names the file and field at fault
         if value["outcome"] == "refused":
             assert "\n" not in value["reason"] and ":" in value["reason"], label
+
+
+def test_a_refusal_is_one_clear_line_and_anything_else_is_a_defect():
+    from pliant.errors import PipelineError, PliantError
+    from pliant.experiments.swap import _refusal
+
+    clear = PipelineError("no such simulator", source="/home/u/pliant/scenes/pipelines/x.toml", field="simulator",
+                          value="nope")
+    assert _refusal(clear, "build") == ("refused", "pipelines/x.toml:simulator: no such simulator (got 'nope')")
+    assert _refusal(PliantError("two\nlines", field="f"), "build")[0] == "defect"
+    assert _refusal(PliantError("x" * 500, field="f"), "build")[0] == "defect"
+    assert _refusal(PliantError("names nothing"), "build")[0] == "defect"
+    assert _refusal(KeyError("joint"), "run") == ("defect", "KeyError at run: 'joint'")

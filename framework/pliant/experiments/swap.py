@@ -37,10 +37,11 @@ simulated time; the others stop after the build.  ``run="all"`` runs every cell 
 differ only in the execution world share one build of the rest of the pipeline.
 
 Outcomes: ``builds`` (built, not run), a run's :class:`~pliant.results.Outcome` (``reached``, ``stuck``, ``planned``,
-``not planned``), ``refused`` (a :class:`~pliant.errors.PliantError` with a one-line message while building, or
-before the run executes), ``n/a``, and the two that are defects: ``failed`` (the execution raised) and ``defect``
-(anything else: an exception that is not a PliantError, a message of several lines or over
-:data:`MAX_REASON` characters).  Reasons are one line, with absolute paths cut to the file name.
+``not planned``), ``refused`` (a :class:`~pliant.errors.PliantError` with a one-line message naming a file or field,
+while building; "refused at run" in the table when it came from a later stage of a run), ``n/a``, and the two that
+are defects: ``failed`` (the execution raised) and ``defect`` (anything else: an exception that is not a PliantError,
+a message of several lines, over :data:`MAX_REASON` characters, or naming no file or field).  Reasons are one line,
+with absolute paths cut to the file name.
 """
 
 from __future__ import annotations
@@ -206,6 +207,8 @@ def _refusal(exc: BaseException, stage: str) -> tuple[str, str]:
             return "defect", f"a message of several lines at {stage}: " + text.strip().replace("\n", " / ")[:300]
         if len(text) > MAX_REASON:
             return "defect", f"a message of {len(text)} characters at {stage}: {text[:200]}..."
+        if not exc.source and not exc.field:
+            return "defect", f"a message naming no file or field at {stage}: {text}"
         return "refused", text
     first = one_line(str(exc)).strip().splitlines()
     return "defect", f"{type(exc).__name__} at {stage}: {first[0][:300] if first else ''}"
@@ -342,6 +345,8 @@ def markdown(results: list[CellResult]) -> str:
         if r is None:
             return ""
         shown = f"**{r.outcome}**" if r.bad else r.outcome
+        if r.outcome == "refused" and r.stage == "run":
+            shown += " at run"
         if r.cell.overrides == () and r.outcome != "n/a":
             shown += " (as bundled)"
         if r.reason:
