@@ -113,3 +113,9 @@ def test_push_slide_ends_the_crate_in_the_same_place_in_pymunk_and_pybullet():
     gap = final["pymunk"] - final["pybullet"]
     assert np.hypot(gap[0], gap[1]) < 0.03 and abs(gap[2]) < 0.1
     assert final["pymunk"][0] > 1.0                       # and it was pushed (from 0.6)
+
+
+def test_the_deprecated_object_damping_option_still_works_with_a_warning():
+    with pytest.warns(FutureWarning, match="object_damping' is deprecated: set linear_damping and angular_damping"):
+        sim = registry.create("simulator", "pybullet", _context(), object_damping=0.5)
+    assert sim.objects.damping == 0.5
