@@ -126,7 +126,8 @@ class CellResult:
 
 def urdf_robots() -> list[tuple[str, str]]:
     """Every (model, group) the bundled scenes use for a URDF robot: their ``[robot]`` and the robots a
-    robot-independent task names (``[task.robots.NAME]``, with its group), sorted."""
+    robot-independent task names (``[task.robots.NAME]``: its group, and every group its ``tool`` table names),
+    sorted."""
     found: set[tuple[str, str]] = set()
     for name in available_scenes():
         try:
@@ -141,8 +142,12 @@ def urdf_robots() -> list[tuple[str, str]]:
             found.add((robot["model"], robot["group"]))
         robots = (raw.get("task") or {}).get("robots") or {}
         for model, table in robots.items() if isinstance(robots, dict) else ():
-            if isinstance(table, dict) and isinstance(table.get("group"), str):
+            if not isinstance(table, dict):
+                continue
+            if isinstance(table.get("group"), str):
                 found.add((model, table["group"]))
+            if isinstance(table.get("tool"), dict):         # a tool frame per group: each of those groups
+                found.update((model, group) for group in table["tool"] if isinstance(group, str))
     return sorted(found)
 
 
@@ -162,6 +167,16 @@ def _own_simulator(pipeline: Pipeline, key: str) -> str | None:
     return spec.name if spec is not None else None
 
 
+def _own_robot(raw: dict) -> tuple[Any, Any]:
+    """The (model, group) a scene file sets up: its ``[robot]``, the group from its task's entry for that model."""
+    robot = raw.get("robot") or {}
+    model, group = robot.get("model"), robot.get("group")
+    entry = ((raw.get("task") or {}).get("robots") or {}).get(model)
+    if group is None and isinstance(entry, dict):
+        group = entry.get("group")
+    return model, group
+
+
 def cells(pipelines: list[str] | None = None, simulators: list[str] | None = None,
           registry: Registry | None = None) -> list[Cell]:
     """The matrix's cells, in order: ``pipelines`` (default every bundled one) x ``simulators`` (default every
@@ -173,19 +188,18 @@ def cells(pipelines: list[str] | None = None, simulators: list[str] | None = Non
     for name in pipelines if pipelines is not None else available_pipelines():
         pipeline = Pipeline.from_file(name, registry=registry)
         key = _swap_key(pipeline)
-        own = _own_simulator(pipeline, key)
+        own_world = _own_simulator(pipeline, key)
         scene = pipeline.load_scene()
         if scene.robot.kind == "urdf":
             robots = robots if robots is not None else urdf_robots()
-            raw = scene.raw.get("robot") or {}
-            rows = [(f"{model} {group}", () if (model, group) == (raw.get("model"), raw.get("group")) or (
-                     model == raw.get("model") and scene.task is not None) else
+            own = _own_robot(scene.raw)
+            rows = [(f"{model} {group}", () if (model, group) == own else
                      (f"robot.model={model}", f"robot.group={group}")) for model, group in robots]
         else:
             rows = [(SCENE_ROBOT, ())]
         for robot, robot_overrides in rows:
             for simulator in simulators:
-                swap = () if not key or simulator == own else (f"{key}={simulator}",)
+                swap = () if not key or simulator == own_world else (f"{key}={simulator}",)
                 out.append(Cell(name, simulator, robot, (*robot_overrides, *swap), key))
     return out
 
