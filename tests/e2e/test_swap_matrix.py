@@ -59,3 +59,18 @@ def test_a_refusal_is_one_clear_line_and_anything_else_is_a_defect():
     assert _refusal(PliantError("x" * 500, field="f"), "build")[0] == "defect"
     assert _refusal(PliantError("names nothing"), "build")[0] == "defect"
     assert _refusal(KeyError("joint"), "run") == ("defect", "KeyError at run: 'joint'")
+
+
+def test_a_new_simulator_plugin_joins_the_matrix_without_a_list_to_edit():
+    from pliant import registry
+    from pliant.experiments.swap import cells, try_cell
+
+    registry.register("simulator", "swap-test-sim", "no_such_module:Simulator", "a simulator that cannot load")
+    try:
+        new = [c for c in cells(["maze-slide"]) if c.simulator == "swap-test-sim"]
+        assert [c.overrides for c in new] == [("simulator=swap-test-sim",)]
+        result = try_cell(new[0])
+        assert (result.outcome, result.stage) == ("refused", "build")
+        assert "cannot load simulator 'swap-test-sim'" in result.reason and "\n" not in result.reason
+    finally:
+        registry.default_registry().unregister("simulator", "swap-test-sim")
