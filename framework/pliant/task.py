@@ -54,13 +54,14 @@ class TaskPose:
 @dataclass(frozen=True)
 class RobotTask:
     """How one robot model does the task: joint ``group`` (``None``: the scene's ``robot.group``), ``tool`` frame,
-    ``start`` (a configuration ``(d,)``, a :class:`TaskPose`, or ``None`` for the task's start pose) and the base
+    ``start`` (a configuration ``(d,)``, the name of one of the robot's postures, a :class:`TaskPose`, or ``None``
+    for the task's start pose) and the base
     placement in the world (``base_position`` (3,) m, ``base_orientation`` (4,) quaternion)."""
 
     model: str
     tool: str | dict[str, str]
     group: str | None = None
-    start: np.ndarray | TaskPose | None = None
+    start: np.ndarray | str | TaskPose | None = None
     base_position: np.ndarray = field(default_factory=lambda: np.zeros(3))
     base_orientation: np.ndarray = field(default_factory=lambda: np.array(IDENTITY_QUATERNION))
 
@@ -136,6 +137,8 @@ def _robot(t: Fields, model: str) -> RobotTask:
             sub = t.table("start")
             start = _pose(sub)
             sub.finish()
+        elif isinstance(raw, str):
+            start = t.string("start")               # a named posture of the robot (e.g. "tuck")
         else:
             start = t.vector("start")
     base = t.table("base", {})
@@ -236,8 +239,15 @@ def resolve_task(scene, robot, rng: np.random.Generator, checker=None):
     tool = entry.tool_for(getattr(robot, "group", None), scene.source)
     checker = checker if checker is not None else _InLimits(robot.space)
     where = f"task.robots.{model}.start"
-    if isinstance(entry.start, np.ndarray):
+    if isinstance(entry.start, (np.ndarray, str)):
         start = entry.start
+        if isinstance(start, str):
+            postures = dict(getattr(robot, "postures", {}) or {})
+            if start not in postures:
+                raise SceneError(f"is not a named posture of {model}'s group '{getattr(robot, 'group', '?')}' "
+                                 f"(postures: {', '.join(sorted(postures)) or 'none'})", source=scene.source,
+                                 field=where, value=start)
+            start = np.asarray(postures[start], dtype=np.float64)
         if start.shape != (robot.space.dim,):
             raise SceneError(f"needs one value per joint of {model}'s group '{getattr(robot, 'group', '?')}' "
                              f"({robot.space.dim})", source=scene.source, field=where, value=start.tolist())

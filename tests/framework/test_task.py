@@ -135,6 +135,14 @@ def test_a_task_resolves_to_the_robot_s_start_and_the_goal_nearest_it():
     assert resolved.goal.tolist() == pytest.approx([0.5, -0.3])         # of (0.5, 0), (0.5, 0.3), (0.5, -0.3)
     assert [c[0] for c in robot.calls] == ["hand", "hand"]
     other = resolve_task(scene, _Robot("other", "right"), np.random.default_rng(0))
+    data = _scene_data()
+    data["task"]["robots"]["other"]["start"] = "rest"                     # a named posture of the robot
+    robot_with_postures = _Robot("other", "right")
+    robot_with_postures.postures = {"rest": np.array([-0.2, 0.4])}
+    named = resolve_task(Scene.from_dict(data, source="t.toml"), robot_with_postures, np.random.default_rng(0))
+    assert named.start.tolist() == [-0.2, 0.4]
+    with pytest.raises(SceneError, match=r"not a named posture of other's group 'right' \(postures: none\)"):
+        resolve_task(Scene.from_dict(data, source="t.toml"), _Robot("other", "right"), np.random.default_rng(0))
     assert other.start.tolist() == [0.1, 0.2] and other.goal.tolist() == pytest.approx([0.5, 0.3])
     plain = Scene.from_dict({k: v for k, v in _scene_data().items() if k != "task"} | {
         "start": [0.0], "goal": [1.0]}, source="t.toml")

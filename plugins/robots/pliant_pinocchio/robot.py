@@ -393,6 +393,13 @@ class PinocchioRobot(RobotModel):
         """Weighted joint-space distance ``|| w * (a - b) ||`` (broadcast), via :attr:`space`."""
         return self._space.distance(self._batch(a, "a"), self._batch(b, "b"))
 
+    @property
+    def postures(self) -> dict[str, np.ndarray]:
+        """The robot's named configurations of the planned group (``pr2``: ``tuck``; ``baxter``: ``neutral``;
+        ``iiwa``: ``zero``), by name, each ``(d,)``."""
+        return {name: np.array(values, dtype=np.float64)
+                for name, values in self.entry.postures.get(self.group, {}).items()}
+
     # --- RobotModel ---------------------------------------------------------------------------
 
     def urdf_description(self) -> UrdfDescription:

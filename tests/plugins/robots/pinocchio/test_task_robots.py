@@ -37,7 +37,10 @@ def test_each_robot_gets_its_start_and_goal_from_the_task(model):
     robot, scene = _resolved(model)
     group, tool = TOOLS[model]
     assert robot.group == group and scene.task.robot == model
-    assert np.linalg.norm(robot.frame_position(scene.start[None], tool)[0] - START) <= 0.01
+    if model == "pr2":                                  # the scene names the PR2's posture
+        assert np.array_equal(scene.start, robot.postures["tuck"])
+    else:
+        assert np.linalg.norm(robot.frame_position(scene.start[None], tool)[0] - START) <= 0.01
     states = scene.task.goal_states
     assert len(states) >= 2 and any(np.array_equal(scene.goal, s) for s in states)
     assert np.all(np.linalg.norm(robot.frame_position(states, tool) - GOAL, axis=1) <= 0.01)
@@ -94,3 +97,20 @@ def test_a_robot_the_task_does_not_list_is_refused():
     scene = _placed_scene((0.0, 0.0, 0.0))
     with pytest.raises(SceneError, match=r"no table for robot 'pr2' \(task.robots: iiwa\)"):
         _robot(scene, model="pr2")
+
+
+def test_named_postures_per_group_and_an_unknown_one_is_refused():
+    scene = load_scene("arm-reach")
+    robot = _robot(scene, model="pr2")
+    assert sorted(robot.postures) == ["tuck"] and robot.postures["tuck"].shape == (7,)
+    assert _robot(scene, model="baxter", group="left_arm").postures["neutral"].tolist() == [0, -0.55, 0, 0.75, 0,
+                                                                                            1.26, 0]
+    data = {"name": "p", "bounds": {"lower": [-1.0, -1.0, 0.0], "upper": [1.0, 1.0, 1.6], "resolution": 0.08},
+            "robot": {"kind": "urdf", "model": "pr2"},
+            "task": {"goal": {"position": [0.6, -0.2, 0.8]},
+                     "robots": {"pr2": {"group": "right_arm", "tool": "r_gripper_tool_frame", "start": "wave"}}}}
+    scene = Scene.from_dict(data, source="p.toml")
+    robot = _robot(scene)
+    with pytest.raises(SceneError, match=r"not a named posture of pr2's group 'right_arm' \(postures: tuck\)") as info:
+        resolve_task(scene, robot, np.random.default_rng(0), ValidityChecker(scene, robot))
+    assert info.value.field == "task.robots.pr2.start" and info.value.value == "wave"
