@@ -24,6 +24,7 @@ nothing else) and writes ``run.json``, then ``result.json`` as soon as planning 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import logging
 import os
@@ -696,7 +697,9 @@ class Pipeline:
             robot_spec = ComponentSpec(DEFAULT_ROBOT[scene.robot.kind], robot_spec.options)
         world_context.robot = self.registry.create("robot", robot_spec.name, world_context, source=self.source,
                                                    disabled=self.disable, **robot_spec.options)
-        world_context.scene = _resolve_task(scene, world_context.robot, self.seed)
+        if scene.task is not None and getattr(context.scene, "task", None) is not None:    # the planned start and goal
+            world_context.scene = dataclasses.replace(scene, start=context.scene.start, goal=context.scene.goal,
+                                                      task=context.scene.task)
         return self.registry.create(kind, spec.name, world_context, source=self.source, disabled=self.disable,
                                     **scaled_options(spec.options, world_context.robot, self.source,
                                                      "execution.world"))

@@ -64,3 +64,13 @@ def test_an_out_of_reach_goal_is_refused_at_build_naming_robot_and_pose(tmp_path
     assert "\n" not in text and info.value.field == "task.goal"
     assert "robot 'iiwa' (group 'arm', tool 'lbr_iiwa_link_7') cannot reach the goal pose position [1.5, -0.2, 0.8]" \
         in text
+
+
+def test_a_separate_execution_world_starts_where_the_plan_starts(tmp_path):
+    pipeline = _pipeline(tmp_path, "robot.model=baxter", "execution.world=kinematic")
+    context = pipeline.build()
+    world = pipeline.execution_world(context)
+    assert world is not context.simulator and world.context.robot is not context.robot
+    assert np.array_equal(world.context.scene.start, context.scene.start)
+    assert np.array_equal(world.context.scene.goal, context.scene.goal)
+    assert world.context.scene.task.robot == "baxter"
