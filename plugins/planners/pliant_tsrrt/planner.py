@@ -71,7 +71,7 @@ class TSRRTPlanner(Planner):
     example_budget = {"max_iterations": 200}
     # the pipelines' paddle: with pymunk's default force cap (2000 N) a 5 cm push throws the 2 kg block 34 cm, and
     # such chaotic pushes depend on the order of pymunk's contact pairs, which changes as bodies are placed
-    example_component_options = {"simulator": {"max_force": 50.0, "table_friction": 0.5}}
+    example_component_options = {"simulator": {"max_force": 50.0}}
 
     def bind(self, context) -> None:
         """Attach to the pipeline; a scene TS-RRT cannot plan on (:func:`pliant_tsrrt.domain.check_scene`: objects

@@ -65,7 +65,7 @@ def world(scene_name: str = SCENE, noise: bool = True):
     ctx = Context(scene=scene)
     ctx.robot = registry.create("robot", "rigid", ctx)
     extra = {"noise": "bounded", "noise_linear": ACTUATION_NOISE, "noise_angular": ACTUATION_NOISE} if noise else {}
-    return scene, registry.create("simulator", "pymunk", ctx, max_force=50.0, table_friction=0.5, **extra)
+    return scene, registry.create("simulator", "pymunk", ctx, max_force=50.0, **extra)
 
 
 def axis_deviation(poses: np.ndarray, circular: np.ndarray) -> float:

@@ -19,7 +19,7 @@ def _world(scene_name="tsrrt-table", **options):
     scene = load_scene(scene_name)
     ctx = Context(scene=scene)
     ctx.robot = registry.create("robot", "rigid", ctx)
-    ctx.simulator = registry.create("simulator", "pymunk", ctx, max_force=50.0, table_friction=0.5, **options)
+    ctx.simulator = registry.create("simulator", "pymunk", ctx, max_force=50.0, **options)
     return scene, ctx
 
 

@@ -29,7 +29,7 @@ def _setup(repair: bool = False, finish_tolerance: float = 0.05, **more):
     scene = load_scene("tsrrt-table")
     ctx = Context(scene=scene)
     ctx.robot = registry.create("robot", "rigid", ctx)
-    world = registry.create("simulator", "pymunk", ctx, max_force=50.0, table_friction=0.5)
+    world = registry.create("simulator", "pymunk", ctx, max_force=50.0)
     fp = footprints_from_scene(scene, NAMES)
     models = PushModels()
     for i, name in enumerate(NAMES):

@@ -20,7 +20,7 @@ def _world(noise: str = "bounded"):
     scene = load_scene("tsrrt-table")
     ctx = Context(scene=scene)
     ctx.robot = registry.create("robot", "rigid", ctx)
-    ctx.simulator = registry.create("simulator", "pymunk", ctx, max_force=50.0, table_friction=0.5, noise=noise,
+    ctx.simulator = registry.create("simulator", "pymunk", ctx, max_force=50.0, noise=noise,
                                     noise_linear=0.01, noise_angular=0.01)
     return scene, ctx.simulator
 
