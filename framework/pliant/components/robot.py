@@ -44,6 +44,8 @@ class UrdfDescription:
     relative to.  joint_names: the planned joints, in the order of the configuration vector ``(d,)``.
     posture: the fixed value (rad or m) of every other single-DoF joint, by name.
     velocity_limits / effort_limits: ``(d,)`` per planned joint (rad/s or m/s; N m or N).
+    base_position / base_orientation: where the URDF's root link frame stands in the world, ``(3,)`` m and a
+    quaternion ``(x, y, z, w)`` (a scene's task may place the base; default the world origin).
     """
 
     urdf: Any
@@ -52,6 +54,8 @@ class UrdfDescription:
     posture: dict[str, float]
     velocity_limits: np.ndarray
     effort_limits: np.ndarray
+    base_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    base_orientation: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
 
 
 class RobotModel(Component):

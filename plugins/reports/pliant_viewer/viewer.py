@@ -19,6 +19,7 @@ execution loop's per-step hook) and moves the robot and the trail live.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import io
 import itertools
 import logging
@@ -123,6 +124,10 @@ def build_content(scene, robot=None, *, run: content.RunData | None = None, poli
                   objects: list[content.VoxelObject] | None = None) -> ViewContent:
     """Translate a scene (and a run's path / policy / execution, or a policy file's JSON) into what is drawn.
     ``objects``: the voxel objects when they are made elsewhere (``[]``: none; the scene is then not voxelised)."""
+    if run is not None and run.path is not None and len(run.path) and np.asarray(scene.start).size == 0:
+        # a robot-independent task (docs/scenes.md) states no configurations: the run's path has the ones it solved
+        scene = dataclasses.replace(scene, start=np.asarray(run.path[0], dtype=np.float64),
+                                    goal=np.asarray(run.path[-1], dtype=np.float64))
     if robot is None:
         robot = make_robot(scene, run.robot_name if run else None, run.robot_options if run else None)
     if grid is None and objects is None:
@@ -219,7 +224,9 @@ class RobotDrawing:
         s = self.server.scene
         poses = meshes.poses(self._q)
         with self.server.atomic():
-            self.root = s.add_frame("/robot", show_axes=False)
+            x, y, z, w = getattr(description, "base_orientation", (0.0, 0.0, 0.0, 1.0))
+            self.root = s.add_frame("/robot", show_axes=False, wxyz=(w, x, y, z),
+                                    position=tuple(getattr(description, "base_position", (0.0, 0.0, 0.0))))
             self.group_frames = []
             for g, name in enumerate(meshes.names):
                 wxyz, position = _pose(poses[g])

@@ -403,12 +403,8 @@ class PinocchioRobot(RobotModel):
     # --- RobotModel ---------------------------------------------------------------------------
 
     def urdf_description(self) -> UrdfDescription:
-        """The URDF, the group's joints in configuration order, and the posture of every other joint."""
-        if self.task is not None and self.task.placed:
-            raise SceneError(f"{self.model_name}'s base is placed by the scene's task (task.robots.{self.model_name}."
-                             "base) and a URDF simulator loads the robot at the world origin: execute in the "
-                             "kinematic simulator, or put this robot's base at the origin", source=self._source,
-                             field=f"task.robots.{self.model_name}.base", value=self.task.base_position.tolist())
+        """The URDF, the group's joints in configuration order, the posture of every other joint, and the base's
+        placement in the world (the scene's task's, else the origin)."""
         model, base = self.model, self.base_configuration
         group = set(self.joint_names)
         posture = {}
@@ -424,7 +420,14 @@ class PinocchioRobot(RobotModel):
         effort = model.effortLimit[self.idx_v].astype(np.float64)
         return UrdfDescription(urdf=self.entry.urdf, package_dirs=tuple(self.entry.package_dirs),
                                joint_names=tuple(self.joint_names), posture=posture,
-                               velocity_limits=self.velocity_limits.copy(), effort_limits=effort)
+                               velocity_limits=self.velocity_limits.copy(), effort_limits=effort,
+                               **self._base_placement())
+
+    def _base_placement(self) -> dict:
+        if self.task is None or not self.task.placed:
+            return {}
+        return {"base_position": tuple(float(v) for v in self.task.base_position),
+                "base_orientation": tuple(float(v) for v in self.task.base_orientation)}
 
     def point_materials(self) -> np.ndarray:
         """``(m, 2)``: deformability and sensitivity of each body point."""

@@ -3,7 +3,8 @@
 The robot model (``pinocchio``, or any :class:`~pliant.interfaces.RobotModel` that offers
 :meth:`~pliant.interfaces.RobotModel.urdf_description`) says which URDF, which joints are planned (in
 configuration order) and where the other joints are held, so the configuration vector means the same
-joints here as in the kinematic simulator.  The base is fixed at the world origin, as in the robot model.
+joints here as in the kinematic simulator.  The base is fixed where the description places it (a scene's task may
+place it; else the world origin), as in the robot model.
 
 Every joint is driven by pybullet's position motor: a PD law whose torque is capped at the joint's
 effort limit (N m or N) times ``effort_scale``, so a robot pushed into an obstacle stops there with a
@@ -88,7 +89,9 @@ class ArticulatedRobot:
         self.velocity_gain = velocity_gain
         self.self_collision = self_collision
         urdf = Path(description.urdf)
-        self.body = self._load(urdf, description.package_dirs, self_collision, source)
+        self.body = self._load(urdf, description.package_dirs, self_collision, source,
+                               getattr(description, "base_position", (0.0, 0.0, 0.0)),
+                               getattr(description, "base_orientation", (0.0, 0.0, 0.0, 1.0)))
         index = {}
         for j in range(pb.getNumJoints(self.body)):
             info = pb.getJointInfo(self.body, j)
@@ -110,7 +113,8 @@ class ArticulatedRobot:
         held_efforts = [pb.getJointInfo(self.body, j)[10] for j in self.held]
         self.held_efforts = np.array([e if e > 0 else float(efforts.max()) for e in held_efforts]) * effort_scale
 
-    def _load(self, urdf: Path, package_dirs, self_collision: bool, source: str) -> int:
+    def _load(self, urdf: Path, package_dirs, self_collision: bool, source: str, position=(0.0, 0.0, 0.0),
+              orientation=(0.0, 0.0, 0.0, 1.0)) -> int:
         pb = self.pb
         flags = pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS if self_collision else 0
         expected = _links_with_collisions(urdf, source)
@@ -119,7 +123,8 @@ class ArticulatedRobot:
             pb.setAdditionalSearchPath(str(directory))
             with _captured_native_output() as output:
                 try:
-                    body = pb.loadURDF(str(urdf), useFixedBase=True, flags=flags)
+                    body = pb.loadURDF(str(urdf), basePosition=list(position), baseOrientation=list(orientation),
+                                       useFixedBase=True, flags=flags)
                 except pb.error:
                     body = -1
             log = output()

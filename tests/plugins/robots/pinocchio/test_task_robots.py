@@ -77,10 +77,34 @@ def test_the_base_placement_moves_frames_and_body_points_alike():
         assert np.allclose(placed.frame_position(q, frame), origin.frame_position(q, frame) @ turn.T + shift)
     assert np.allclose(placed.body_points(q), origin.body_points(q) @ turn.T + shift)
     assert not origin.task.placed and placed.task.placed
-    origin.urdf_description()                        # at the origin a URDF simulator can load it
-    with pytest.raises(SceneError, match="a URDF simulator loads the robot at the world origin") as info:
-        placed.urdf_description()
-    assert info.value.field == "task.robots.iiwa.base"
+    # a URDF simulator is told where the base stands
+    assert origin.urdf_description().base_position == (0.0, 0.0, 0.0)
+    assert placed.urdf_description().base_position == (0.3, -0.2, 0.45)
+    assert placed.urdf_description().base_orientation == (0.0, 0.0, 1.0, 0.0)
+
+
+def test_pybullet_places_the_base_where_pinocchio_does():
+    """The same link in pybullet (loaded from the description) and in pinocchio, at three configurations of the
+    placed iiwa: the link frames' world positions agree."""
+    import pybullet
+    from pybullet_utils.bullet_client import BulletClient
+
+    placed = _robot(_placed_scene((0.3, -0.2, 0.45), (0.0, 0.0, np.sin(0.4), np.cos(0.4))))
+    description = placed.urdf_description()
+    pb = BulletClient(connection_mode=pybullet.DIRECT)
+    try:
+        body = pb.loadURDF(str(description.urdf), basePosition=list(description.base_position),
+                           baseOrientation=list(description.base_orientation), useFixedBase=True)
+        joints = {pb.getJointInfo(body, j)[1].decode(): j for j in range(pb.getNumJoints(body))}
+        links = {pb.getJointInfo(body, j)[12].decode(): j for j in range(pb.getNumJoints(body))}
+        for q in np.random.default_rng(1).uniform(placed.lower, placed.upper, (3, 7)):
+            for name, value in zip(description.joint_names, q):
+                pb.resetJointState(body, joints[name], float(value))
+            for frame in ("lbr_iiwa_link_7", "lbr_iiwa_link_3"):
+                world = pb.getLinkState(body, links[frame], computeForwardKinematics=True)[4]
+                assert np.allclose(world, placed.frame_position(q[None], frame)[0], atol=1e-6)
+    finally:
+        pb.disconnect()
 
 
 def test_an_unreachable_goal_names_the_robot_and_the_pose():
