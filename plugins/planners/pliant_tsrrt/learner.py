@@ -51,6 +51,10 @@ class PushModelsLearner(Learner):
         if context is not None and context.scene is not None:
             domain.movable_names(context.scene, self.options.objects)
             domain.check_scene(context.scene, self.options)
+        world = getattr(context, "simulator", None) if context is not None else None
+        if world is not None and not getattr(world, "can_place_objects", False):     # refused when built, not at fit
+            raise PlanningError("learning push models needs a simulator that can place objects (pymunk)",
+                                field="simulator", value=type(world).__name__)
 
     def fit(self, data, rng: np.random.Generator) -> dict:
         """Learn the models by pushing in the simulator.  ``data``: ``None`` (the pipeline's case: the classes of the

@@ -81,6 +81,11 @@ class TSRRTPlanner(Planner):
         if context is not None and context.scene is not None:
             domain.movable_names(context.scene, self.options.objects)
             domain.check_scene(context.scene, self.options)
+        world = getattr(context, "simulator", None) if context is not None else None
+        if self.options.models in ("auto", "") and world is not None and not getattr(world, "can_place_objects", False):
+            # the models are learned by pushing in this simulator (here or by a push-models learner): refused now
+            raise PlanningError("learning push models needs a simulator that can place objects (pymunk)",
+                                field="simulator", value=type(world).__name__)
         # one-off loading when the pipeline is built, not inside max_time (pliant.planning.warmup)
         warm_up(context)
         if context is not None and context.scene is not None:
