@@ -31,9 +31,12 @@ class NoOptions:
 
 
 def option(default: Any, doc: str, *, minimum: float | None = None, maximum: float | None = None,
-           choices: tuple | None = None, default_factory=None) -> Any:
-    """A documented dataclass field for an ``Options`` class (``doc`` states units)."""
-    meta = {"doc": doc, "minimum": minimum, "maximum": maximum, "choices": choices}
+           choices: tuple | None = None, default_factory=None, deprecated: str | None = None) -> Any:
+    """A documented dataclass field for an ``Options`` class (``doc`` states units).
+
+    ``deprecated``: what replaces the option (e.g. "set the scene's [physics.support] friction"); setting it still
+    works, with one :class:`OptionDeprecationWarning` line ``option 'NAME' is deprecated: <deprecated>``."""
+    meta = {"doc": doc, "minimum": minimum, "maximum": maximum, "choices": choices, "deprecated": deprecated}
     if default_factory is not None:
         return dataclasses.field(default_factory=default_factory, metadata=meta)
     return dataclasses.field(default=default, metadata=meta)
@@ -179,6 +182,9 @@ def build_options(options_cls: type, values: dict[str, Any] | None, *, source: s
         f = names[key]
         value = _convert(raw, hints[key], source, field_name)
         meta = f.metadata
+        if meta.get("deprecated") and value is not None:
+            warnings.warn_explicit(f"option '{field_name}' is deprecated: {meta['deprecated']}",
+                                   OptionDeprecationWarning, filename=source or "<options>", lineno=0)
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             if meta.get("minimum") is not None and value < meta["minimum"]:
                 raise ConfigError(f"must be >= {meta['minimum']}", source=source, field=field_name, value=raw)

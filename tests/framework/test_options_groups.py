@@ -65,6 +65,23 @@ def test_an_old_flat_name_works_with_one_warning_naming_the_new_spelling():
     assert warned[0].filename == "p.toml"
 
 
+@dataclass(frozen=True)
+class WithDeprecated:
+    table_friction: float | None = option(None, "old friction", minimum=0.0, deprecated="set the scene's friction")
+    gain: float = option(1.0, "gain")
+
+
+def test_a_deprecated_option_still_works_with_one_warning_saying_what_replaces_it():
+    with pytest.warns(OptionDeprecationWarning) as warned:
+        o = build_options(WithDeprecated, {"table_friction": 0.5, "gain": 2.0}, source="p.toml", prefix="simulator")
+    assert (o.table_friction, o.gain) == (0.5, 2.0)
+    assert [str(w.message) for w in warned] == [
+        "option 'simulator.table_friction' is deprecated: set the scene's friction"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert build_options(WithDeprecated, {"gain": 2.0}).table_friction is None     # not given: no warning
+
+
 @pytest.mark.parametrize(("values", "field", "text"), [
     ({"improvement.share": 2}, "planner.improvement.share", "<= 1.0"),
     ({"improvement": {"depth": "x"}}, "planner.improvement.depth", "integer"),

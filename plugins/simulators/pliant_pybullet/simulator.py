@@ -22,13 +22,11 @@ built.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from pliant.api import FREE_VOXEL as FREE
 from pliant.api import (
-    OptionDeprecationWarning,
     SimulationError,
     SteppedOptions,
     SteppedSimulator,
@@ -66,7 +64,9 @@ class PybulletOptions(SteppedOptions):
     self_collision: bool = option(False, "URDF robots: links collide with each other (parents excluded)")
     object_damping: float | None = option(None, "deprecated: the scene objects' linear_damping and angular_damping "
                                           "(this option, when given, applies to objects whose scene states none, "
-                                          "with a warning)", minimum=0.0)
+                                          "with a warning)", minimum=0.0,
+                                          deprecated="set linear_damping and angular_damping on the scene's "
+                                                     "movable objects")
 
 
 class PybulletSimulator(SteppedSimulator):
@@ -106,11 +106,7 @@ class PybulletSimulator(SteppedSimulator):
             self.body = self._articulated(scene)
         from pliant_pybullet.objects import MovableObjects
 
-        damping = 0.0
-        if o.object_damping is not None:
-            warnings.warn("option 'simulator.object_damping' is deprecated: set linear_damping and angular_damping "
-                          "on the scene's movable objects", OptionDeprecationWarning, stacklevel=2)
-            damping = o.object_damping
+        damping = 0.0 if o.object_damping is None else o.object_damping     # deprecated (its warning: pliant.options)
         self.objects = MovableObjects(self.pb, scene, o.friction, damping,
                                       physics.support_friction if scene.planar else None)
         self._contact = False

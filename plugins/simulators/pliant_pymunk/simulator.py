@@ -22,12 +22,10 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from pliant.api import (
-    OptionDeprecationWarning,
     SimulationError,
     SteppedOptions,
     SteppedSimulator,
@@ -56,7 +54,8 @@ class PymunkOptions(SteppedOptions):
     max_force: float = option(2000.0, "largest force the controller applies (N)", minimum=0.0)
     max_torque: float = option(2000.0, "largest torque the controller applies (N m)", minimum=0.0)
     table_friction: float | None = option(None, "deprecated: the scene's [physics.support] friction (this option, "
-                                          "when given, overrides it with a warning)", minimum=0.0)
+                                          "when given, overrides it with a warning)", minimum=0.0,
+                                          deprecated="set the scene's [physics.support] friction")
     placed_tolerance: float = option(1.0, "deepest a movable object placed by set_object_poses may lie in the robot "
                                      "when the next step starts (voxels): the contact solver pushes it out; deeper "
                                      "is refused",
@@ -304,13 +303,8 @@ class PymunkSimulator(SteppedSimulator):
 
 def _support_friction(scene, options) -> float:
     """The Coulomb coefficient between movable objects and the table: the scene's ``[physics.support] friction``,
-    or the deprecated option ``table_friction`` when a pipeline still gives it (with a one-line warning)."""
-    if options.table_friction is None:
-        return scene.physics.support_friction
-    warnings.warn(f"option 'simulator.table_friction' is deprecated: set the scene's [physics.support] friction "
-                  f"(here {options.table_friction:g} overrides the scene's {scene.physics.support_friction:g})",
-                  OptionDeprecationWarning, stacklevel=3)
-    return options.table_friction
+    or the deprecated option ``table_friction`` when a pipeline still gives it (its warning: pliant.options)."""
+    return scene.physics.support_friction if options.table_friction is None else options.table_friction
 
 
 def _outline(spec, pose: np.ndarray, step: float) -> np.ndarray:

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from pliant.errors import ConfigError
 from pliant.experiments.benchfile import WALL_TIME_FIELDS, load_benchfile, parse_benchfile, run_benchfile, run_cell
 from pliant.experiments.executor import Executor, TaskResult
+from test_ompl_benchmark import dump_database
 
 ROOT = Path(__file__).resolve().parents[3]
 EXAMPLE = ROOT / "benchmarks" / "files" / "planners-triple-wall-cube-wall-maze.toml"
@@ -118,20 +119,6 @@ def test_the_loader_accepts_or_names_the_field_never_crashes(tmp_path, field, va
         assert bench.grid() and all(isinstance(s, int) and s >= 0 for s in bench.seeds)
 
 
-def _dump(path) -> dict:
-    connection = sqlite3.connect(path)
-    try:
-        out = {}
-        for (table,) in connection.execute("SELECT name FROM sqlite_master WHERE type IN ('table', 'view') "
-                                           "AND name NOT LIKE 'sqlite_%' ORDER BY name"):
-            columns = [row[1] for row in connection.execute(f"PRAGMA table_info({table})")]
-            rows = connection.execute(f"SELECT * FROM {table}").fetchall()
-            out[table] = (sorted(columns), sorted(tuple(sorted(zip(columns, map(str, r)))) for r in rows))
-        return out
-    finally:
-        connection.close()
-
-
 def test_a_tiny_grid_runs_resumes_and_its_logs_load_with_ompls_tools(tmp_path):
     bench = parse_benchfile(_tiny(tmp_path / "out"), source="tiny.toml")
     lines = []
@@ -166,7 +153,7 @@ def test_a_tiny_grid_runs_resumes_and_its_logs_load_with_ompls_tools(tmp_path):
     theirs = tmp_path / "ompl.db"
     tools.readBenchmarkLog(str(theirs), [str(log) for log in logs], False)
     tools.computeViews(str(theirs), False)
-    assert _dump(theirs) == _dump(out / "benchmark.db")
+    assert dump_database(theirs) == dump_database(out / "benchmark.db")
 
     # a cell on file whose definition changed is refused, naming it
     changed = copy.deepcopy(_tiny(tmp_path / "out"))

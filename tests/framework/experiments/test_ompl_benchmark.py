@@ -20,7 +20,8 @@ def _planners() -> list[PlannerRuns]:
             PlannerRuns("trrt", {"n_fail_max": 10}, [run_properties(records[0])])]
 
 
-def _dump(path) -> dict:
+def dump_database(path) -> dict:
+    """Every table and view of the SQLite database at ``path``: sorted columns and rows (order-free comparison)."""
     connection = sqlite3.connect(path)
     try:
         out = {}
@@ -43,7 +44,7 @@ def test_the_log_replays_through_omplss_statistics_script_and_our_database_match
     tools.readBenchmarkLog(str(theirs), [str(log)], False)
     tools.computeViews(str(theirs), False)
     ours = ompl_database(tmp_path / "pliant.db", [log])
-    assert _dump(ours) == _dump(theirs)
+    assert dump_database(ours) == dump_database(theirs)
     connection = sqlite3.connect(ours)
     runs = connection.execute("SELECT plannerConfigs.name, solved, status, best_cost, graph_states FROM runs JOIN "
                               "plannerConfigs ON runs.plannerid = plannerConfigs.id ORDER BY runs.id").fetchall()
