@@ -95,6 +95,11 @@ class SafetyLayer:
         self._within(velocity, -lim.velocity, lim.velocity, "target velocity", "rad/s")
         return position, velocity
 
+    @property
+    def fresh_at(self) -> float | None:
+        """:func:`time.monotonic` when the newest fresh joint state arrived (None before the first)."""
+        return self._last_fresh
+
     def begin(self, positions: np.ndarray) -> None:
         """Start checking steps from the measured ``positions`` (the robot at rest)."""
         self.last_positions = np.array(positions, dtype=np.float64)

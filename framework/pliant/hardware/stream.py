@@ -181,6 +181,8 @@ class CommandStream:
         self._expires: float | None = None
         self._streamed: tuple[np.ndarray, float] | None = None
         self._path: tuple[float, np.ndarray, np.ndarray] | None = None
+        #: monotonic time of the cycle whose command finished the smoother's trajectory (None while moving)
+        self._settled_at: float | None = None
         self._closing = False
         self._writing = True
         self._thread: threading.Thread | None = None
@@ -228,7 +230,7 @@ class CommandStream:
                 time.sleep(0.01)
         self.safety.check_status(status)
         positions, velocities = self.safety.read_state(self.driver.latest_state(), time.monotonic())
-        self._measured = Measured(positions, velocities, time.monotonic())
+        self._measured = Measured(positions, velocities, self.safety.fresh_at or time.monotonic())
         self.smoother.reset(positions)
         self.safety.begin(positions)
         self._thread = threading.Thread(target=self._run, name=f"pliant-{type(self.driver).__name__}", daemon=True)
@@ -273,7 +275,7 @@ class CommandStream:
         now = time.monotonic()
         try:
             positions, velocities = self.safety.read_state(self.driver.latest_state(), now)
-            measured = Measured(positions, velocities, now)
+            measured = Measured(positions, velocities, self.safety.fresh_at or now)
             self.measured_log.append((now, positions))
             with self._lock:
                 self._measured = measured    # kept current while braking after a status fault too
@@ -287,6 +289,10 @@ class CommandStream:
                 self._advance_target(now)
                 command = self.smoother.update()
                 self.safety.check_command(*command)
+                if not self.smoother.finished:
+                    self._settled_at = None
+                elif self._settled_at is None:
+                    self._settled_at = now
             except DriverError as exc:
                 self._fault(exc)
                 self._writing = False
@@ -393,6 +399,7 @@ class CommandStream:
     def _aim(self, position: np.ndarray, velocity: np.ndarray, hold: float | None) -> None:
         with self._lock:
             self._path = None
+            self._settled_at = None
             self.smoother.set_target(position, velocity)
             self._expires = time.monotonic() + (4 * self.limits.period if hold is None else hold) \
                 if np.any(velocity) else None
@@ -420,8 +427,11 @@ class CommandStream:
         return self.measured().positions
 
     def _arrived(self, target: np.ndarray) -> bool:
-        measured = self._measured
-        return measured is not None and bool(np.all(np.abs(measured.positions - target) <= self.reach_tolerance))
+        """Within ``reach_tolerance`` of ``target`` by a state that arrived after the last command was written:
+        an older state (a robot that has just gone quiet) can read as arrived without having followed."""
+        measured, settled = self._measured, self._settled_at
+        return (measured is not None and settled is not None and measured.time > settled
+                and bool(np.all(np.abs(measured.positions - target) <= self.reach_tolerance)))
 
     def follow(self, path, *, wait: bool = True) -> np.ndarray:
         """Follow a timed path (``path.times`` strictly increasing, s); returns the measured positions at the end."""
@@ -440,6 +450,7 @@ class CommandStream:
         with self._lock:
             self._expires = None
             self._streamed = None
+            self._settled_at = None
             self._path = (time.monotonic() - times[0], times, positions)
         if not wait:
             return self.measured().positions

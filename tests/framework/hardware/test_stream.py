@@ -173,6 +173,20 @@ def test_faults_mid_motion_stop_the_robot(robot_and_driver, fault, error):
     assert robot.violations() == []
 
 
+def test_arrival_needs_a_state_measured_after_the_last_command(robot_and_driver):
+    """A robot that goes quiet where it stands has not arrived anywhere: the newest state is still younger than the
+    watchdog, and within tolerance of the target, but it was measured before the command (the ROS 1 peer-death
+    test in CI returned 'arrived' this way when the arm had barely left its start)."""
+    robot, driver = robot_and_driver
+    with driver:
+        here = driver.state()
+        robot.publishing = False
+        with pytest.raises(StaleState, match="old"):
+            driver.move_to(here)
+        driver.stop()
+    assert robot.violations() == []
+
+
 def test_connect_enables_a_disabled_robot(robot_and_driver):
     robot, driver = robot_and_driver
     robot.enabled = False
