@@ -525,6 +525,13 @@ class PunctureChecker:
         if len(state.removed) != len(self.ids):
             raise DimensionError(f"state has {len(state.removed)} objects, the checker watches {len(self.ids)}",
                                  field="state", value=len(state.removed))
+        return self.extend_swept(state, self.sweep(configurations, start))
+
+    def sweep(self, configurations: np.ndarray, start: np.ndarray | None = None) -> list[np.ndarray]:
+        """Per watched object, the crop-flat voxels an edge sweeps (:meth:`occupied` of ``start`` followed by
+        ``configurations``; see :meth:`extend`).  They depend on the edge alone, not on the state it extends, so a
+        planner that re-derives the states below a rewired node may keep each edge's sweep and pass it to
+        :meth:`extend_swept` instead of sweeping the edge again."""
         if start is not None:
             q = np.asarray(configurations, dtype=np.float64)
             q = q[None] if q.ndim == 1 else q
@@ -533,7 +540,13 @@ class PunctureChecker:
                 raise DimensionError(f"must be one configuration of the {q.shape[-1]} coordinates of the edge",
                                      field="start", value=list(s0.shape))
             configurations = np.vstack([s0[None], q])
-        new = self.occupied(configurations)
+        return self.occupied(configurations)
+
+    def extend_swept(self, state: PunctureState, new: list[np.ndarray]) -> tuple[PunctureState, bool, str]:
+        """:meth:`extend` from an edge's :meth:`sweep`: ``(new_state, ok, reason)``."""
+        if len(state.removed) != len(self.ids) or len(new) != len(self.ids):
+            raise DimensionError(f"state and sweep must have one entry per watched object ({len(self.ids)})",
+                                 field="state", value=[len(state.removed), len(new)])
         removed = list(state.removed)
         problems = []
         for slot, fresh in enumerate(new):

@@ -159,6 +159,10 @@ class RRTStarPlanner(Planner):
         self.tree = Tree(space)
         self.tree.add(start, -1, c_start, 0.0)
         self.topology = [self.punctures.initial_state()] if self.punctures is not None else None
+        #: per node, the voxels its incoming edge sweeps (PunctureChecker.sweep): rewiring re-derives the states
+        #: below a node from them without sweeping those edges again
+        self.swept = [[np.zeros(0, dtype=np.int64) for _ in self.punctures.ids]] if self.punctures is not None \
+            else None
         self.stats = {"rewires": 0, "rewires_refused": 0, "punctures_refused": 0, "invalid_edges": 0}
         self.goal_nodes: list[int] = []
         self.goal_pool: list[np.ndarray] = []
@@ -284,8 +288,8 @@ class RRTStarPlanner(Planner):
             if not np.isfinite(totals[i]):
                 break
             if self.punctures is not None:
-                topology, ok, _ = self.punctures.extend(self.topology[near[i]], edges.of(i),
-                                                       start=tree.configurations[near[i]])
+                swept = self.punctures.sweep(edges.of(i), start=tree.configurations[near[i]])
+                topology, ok, _ = self.punctures.extend_swept(self.topology[near[i]], swept)
                 if not ok:
                     self.stats["punctures_refused"] += 1
                     continue
@@ -296,6 +300,7 @@ class RRTStarPlanner(Planner):
         node = tree.add(q_new, parent, float(c_new[0]), float(totals[i]))
         if self.topology is not None:
             self.topology.append(topology)
+            self.swept.append(swept)
         self._rewire(node, near[near != parent])
         return node
 
@@ -325,23 +330,31 @@ class RRTStarPlanner(Planner):
             self.stats["rewires"] += 1
 
     def _rewire_topology(self, node: int, x: int, edge: np.ndarray) -> bool:
-        """Re-derive the puncture state of ``x`` under ``node`` and of all its descendants; commit if all pass."""
+        """Re-derive the puncture state of ``x`` under ``node`` and of its descendants; commit if all pass.
+
+        A descendant's state is its parent's extended by its own edge's sweep (kept per node), so the subtree is
+        walked level by level and a branch whose state comes out unchanged is not followed further: everything
+        below it is unchanged too."""
         tree, checker = self.tree, self.punctures
-        state, ok, _ = checker.extend(self.topology[node], edge, start=tree.configurations[node])
+        swept = checker.sweep(edge, start=tree.configurations[node])
+        state, ok, _ = checker.extend_swept(self.topology[node], swept)
         if not ok:
             return False
         new = {x: state}
-        if not _same(state, self.topology[x]):       # descendants only depend on x through its swept voxels
-            q = tree.configurations
-            parents = tree.parents
-            for d in tree.descendants(x):
-                p = int(parents[d])
-                edge_states = self.problem.space.discretize(q[p], q[d], self.check_step)[1:]
-                new[int(d)], ok, _ = checker.extend(new[p], edge_states, start=q[p])
+        parents = tree.parents
+        frontier = [x] if not _same(state, self.topology[x]) else []
+        while frontier:
+            changed = []
+            for d in np.nonzero(np.isin(parents, frontier))[0].tolist():
+                new[d], ok, _ = checker.extend_swept(new[int(parents[d])], self.swept[d])
                 if not ok:
                     return False
+                if not _same(new[d], self.topology[d]):
+                    changed.append(d)
+            frontier = changed
         for k, s in new.items():
             self.topology[k] = s
+        self.swept[x] = swept
         return True
 
     def _final_check(self, best_node: int, best: float) -> tuple[int, float, int]:

@@ -123,6 +123,17 @@ def test_a_puncturing_path_is_never_returned_and_every_node_is_puncture_free():
         path = tree.path_to(int(node))
         if len(path) > 1:
             assert not _punctures(problem, path, checked.check_step), node
+    # every node's stored state is its branch's, swept from the root edge by edge: rewiring re-derives the states
+    # below a re-parented node from the kept sweeps and stops where they come out unchanged
+    punctures, q = checked.punctures, tree.configurations
+    for node in range(1, len(tree)):
+        state = punctures.initial_state()
+        branch = tree.branch(node)
+        for parent, child in itertools.pairwise(branch):
+            edge = problem.space.discretize(q[parent], q[child], checked.check_step)[1:]
+            state, ok, _ = punctures.extend(state, edge, start=q[parent])
+            assert ok, node
+        assert all(np.array_equal(a, b) for a, b in zip(state.removed, checked.topology[node].removed)), node
 
 
 def test_the_near_radius_follows_karaman_and_frazzoli():
