@@ -48,7 +48,7 @@ from pliant.results import Outcome, PlanResult
 from pliant.scene import Scene, load_scene
 from pliant.seeds import Streams
 from pliant.task import resolve_task, scaled_options
-from pliant.termination import Budget
+from pliant.termination import Budget, interrupted_by
 from pliant.validation import check_number, read_toml, safe_name
 
 log = logging.getLogger(__name__)
@@ -376,7 +376,7 @@ class Pipeline:
             self._run_stages(record, on_step, write)
         except KeyboardInterrupt as exc:
             record.outcome = Outcome.INTERRUPTED
-            record.error = record.error or f"Ctrl-C during {record.stage}"
+            record.error = record.error or f"{interrupted_by()} during {record.stage}"
             if write and record.files:                  # the folder holds this run: finish it
                 self._write_report_after(record)
             raise (exc if isinstance(exc, RunInterrupted) else RunInterrupted(record)) from None
@@ -446,8 +446,8 @@ class Pipeline:
                         path, record.trajectory.to_dict(self.trajectory["rate"])))
             if result.statistics.get("interrupted") is True:
                 record.stage, record.outcome = "plan", Outcome.INTERRUPTED
-                record.error = f"Ctrl-C during planning; the planner's best result so far ({result.status.value}) " \
-                               "is kept, nothing was executed"
+                record.error = (f"{interrupted_by()} during planning; the planner's best result so far "
+                                f"({result.status.value}) is kept, nothing was executed")
                 return
             metric = context.extras.get("metric")
             if metric is not None and result.path is not None and result.solved:   # a refused path is not scored
@@ -551,7 +551,7 @@ class Pipeline:
                                               time_limit=settings["time_limit"], on_step=on_step, world_name=name)
             except KeyboardInterrupt:
                 record.execution = captured.partial("interrupted", "Ctrl-C", name, context.space.dim)
-                record.error = "Ctrl-C during the execution; execution.json holds the steps executed"
+                record.error = f"{interrupted_by()} during the execution; execution.json holds the steps executed"
                 raise
             except Exception as exc:
                 # any error of the world or the controller ends this execution, not the run: the plan and the steps

@@ -202,21 +202,23 @@ class Condition:
     # -- Ctrl-C ------------------------------------------------------------------------------------------------
     @contextmanager
     def watch(self) -> Iterator[Condition]:
-        """Start the clock and turn SIGINT into :meth:`terminate` for the duration (main thread only; elsewhere
-        only the clock starts -- stop such a loop with :meth:`terminate`)."""
+        """Start the clock and turn SIGINT and SIGTERM into :meth:`terminate` for the duration (main thread only;
+        elsewhere only the clock starts -- stop such a loop with :meth:`terminate`)."""
         self.start()
         if threading.current_thread() is not threading.main_thread():
             yield self
             return
 
         def handler(signum, frame):
+            _note_interrupt(signum)
             self.terminate()
 
-        previous = signal.signal(signal.SIGINT, handler)
+        previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
         try:
             yield self
         finally:
-            signal.signal(signal.SIGINT, previous)
+            for s, h in previous.items():
+                signal.signal(s, h)
 
     # -- composition -------------------------------------------------------------------------------------------
     def __or__(self, other: Condition) -> AnyOf:
@@ -518,6 +520,46 @@ def budget_deprecation(options, owner: str = "planner") -> Budget:
                   "table in the pipeline file, --set planning.max_iterations=N, or PlanningProblem.budget)",
                   BudgetDeprecationWarning, stacklevel=3)
     return Budget(**found)
+
+
+#: what interrupted this process's work last (:func:`interrupted_by`)
+_interrupted = ["Ctrl-C"]
+
+
+def _note_interrupt(signum: int) -> None:
+    _interrupted[0] = "SIGTERM" if signum == signal.SIGTERM else "Ctrl-C"
+
+
+def interrupted_by() -> str:
+    """What interrupted the work under way: ``"Ctrl-C"`` (SIGINT, or a ``KeyboardInterrupt`` raised any other way)
+    or ``"SIGTERM"``, for the messages and records that say why a run stopped."""
+    return _interrupted[0]
+
+
+@contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM (``kill``, a service manager, a cluster's scheduler) stops the work inside as Ctrl-C does: a
+    ``KeyboardInterrupt`` (robots brake, experiments keep their finished tasks, anytime planners inside
+    :meth:`Condition.watch` return their best result), and :func:`interrupted_by` says ``"SIGTERM"``.  Needed
+    beyond politeness: a command started in the background by a script (``pliant experiment ... &``) inherits
+    SIGINT *ignored*, so SIGTERM is the only polite way to stop it.  A second SIGTERM ends the process at once.
+    Main thread only (elsewhere it does nothing); the previous handler is restored on leaving; pool workers restore
+    the default themselves (:func:`pliant.experiments.executor.worker_init`)."""
+    _interrupted[0] = "Ctrl-C"
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        _note_interrupt(signum)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def checkpoint() -> None:

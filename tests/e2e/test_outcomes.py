@@ -311,30 +311,42 @@ def test_a_world_that_fails_before_the_first_step_leaves_an_empty_record(tmp_pat
     assert "the execution (0 control steps, up to the failure)" in (out / "report.md").read_text()
 
 
-def test_a_real_ctrl_c_while_planning_exits_130_and_keeps_the_best_result(tmp_path):
+def _ignore_sigint():
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@pytest.mark.parametrize("stop", ["SIGINT", "SIGTERM to a background job"])
+def test_a_real_ctrl_c_while_planning_exits_130_and_keeps_the_best_result(stop, tmp_path):
     """SIGINT to a `pliant run` process once its anytime planner shows progress: exit status 130, run.json and
-    report.md say interrupted during plan, the planner's best result so far is in result.json, nothing executed."""
+    report.md say interrupted during plan, the planner's best result so far is in result.json, nothing executed.
+
+    SIGTERM does the same -- also to a process started in the background by a script (``pliant run ... &``), which
+    inherits SIGINT ignored, so SIGTERM is the only polite way to stop it."""
     import os
     import signal
     import subprocess
     import sys
 
     out = tmp_path / "o"
+    background = stop != "SIGINT"
     process = subprocess.Popen([sys.executable, "-m", "pliant.cli", "run", "straight-demo", "--set", "planner=rrtstar",
                                 "--set", "planner.max_time=600", "--set", "planner.progress=true",
-                                "--output", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                                "--output", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                               preexec_fn=_ignore_sigint if background else None)
     try:
         seen = b""
         while b"rrtstar: iterations" not in seen:       # the progress line: the planner's loop is running
             chunk = os.read(process.stderr.fileno(), 4096)
             assert chunk, f"the run ended before planning: {seen.decode(errors='replace')}"
             seen += chunk
-        process.send_signal(signal.SIGINT)
-        process.communicate(timeout=300)
+        process.send_signal(signal.SIGTERM if background else signal.SIGINT)
+        _, err = process.communicate(timeout=300)
     finally:
         if process.poll() is None:
             process.kill()
     assert process.returncode == 130
+    assert ("SIGTERM during plan" in err.decode()) == background, err.decode()
     run = _run_json(out)
     assert run["outcome"] == "interrupted" and run["stage"] == "plan"
     assert "**Outcome: interrupted** (exit status 130)" in (out / "report.md").read_text()

@@ -544,21 +544,24 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "handler", None):
         parser.print_help()
         return 0
+    from pliant.termination import interrupted_by, sigterm_as_interrupt
+
     try:
         from pliant.experiments.executor import from_args, using
         from pliant.files import check_path_name
 
         if isinstance(getattr(args, "output", None), str):      # any command's --output: "" is not "here"
             check_path_name(args.output, "--output")
-        # a command given add_executor_arguments: its tasks run with the executor asked for (--executor ray)
+        # a command given add_executor_arguments: its tasks run with the executor asked for (--executor ray);
+        # SIGTERM stops any command as Ctrl-C does (a background job ignores SIGINT)
         executor = from_args(args) if hasattr(args, "executor") else None
-        with using(executor):
+        with sigterm_as_interrupt(), using(executor):
             return int(args.handler(args) or 0)
     except PliantError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+        print("interrupted (SIGTERM)" if interrupted_by() == "SIGTERM" else "interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:       # `pliant plugins | head`: the reader left; say nothing more
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

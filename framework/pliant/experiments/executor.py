@@ -344,6 +344,7 @@ def worker_init(parent: int, channel=None, threads: int | None = 1) -> None:
         pin_threads(threads)
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)      # the CLI's handler (forked with the pool) is the parent's
     try:
         import ctypes
 

@@ -180,3 +180,65 @@ def test_pliant_bench_takes_a_file_and_reports_a_bad_field_in_one_line(tmp_path,
     assert main(["bench", str(bad)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and "seeds" in err and "-1" in err and len(err.splitlines()) == 1
+
+
+def _session_processes(session: int) -> list[int]:
+    """The live processes of a session (Linux /proc): a command started with ``start_new_session`` and its pool."""
+    import os
+
+    alive = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    fields = f.read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[3]) == session and fields[0] != "Z":      # field 6 of stat: the session id
+                alive.append(int(entry))
+    return alive
+
+
+def test_sigterm_to_a_background_bench_keeps_the_finished_cells_and_ends_the_pool(tmp_path):
+    """`pliant bench ... &` from a script inherits SIGINT ignored; SIGTERM stops it as Ctrl-C does: exit status 130,
+    the cells finished so far on file, the report written from them, and no worker left running."""
+    import json
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "out"
+    data = {**_tiny(out), "seeds": 40, "planners": [{"name": "rrtstar"}],
+            "budgets": [{"max_iterations": 150, "max_time": 600.0}]}
+    lines = [f'name = "{data["name"]}"', f'output = "{out}"', "seeds = 40",
+             '[[problems]]', 'scene = "triple-wall"', 'cost = "voxel"', 'length_weight = 20.0',
+             '[[planners]]', 'name = "rrtstar"', '[[budgets]]', 'max_iterations = 150', 'max_time = 600.0']
+    path = tmp_path / "bench.toml"
+    path.write_text("\n".join(lines) + "\n")
+    assert parse_benchfile(data, source="bench.toml").grid()          # the file above is that grid
+
+    def background():                                               # what `&` in a script does to SIGINT
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    process = subprocess.Popen([sys.executable, "-m", "pliant.cli", "bench", str(path), "--jobs", "2"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, preexec_fn=background,
+                               start_new_session=True)
+    runs = out / "runs.jsonl"
+    try:
+        while not (runs.exists() and runs.read_text().count("\n") >= 1):  # polled: the first cell is on file
+            assert process.poll() is None, process.stderr.read().decode()
+            time.sleep(0.2)
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=300)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 130 and "interrupted (SIGTERM)" in err.decode(), err.decode()
+    records = [json.loads(line) for line in runs.read_text().splitlines()]
+    assert 1 <= len(records) < 40 and len({r["key"] for r in records}) == len(records)
+    assert (out / "report.md").exists()
+    deadline = time.monotonic() + 30.0                               # the workers end with their parent
+    while _session_processes(process.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert _session_processes(process.pid) == []
