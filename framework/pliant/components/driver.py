@@ -35,6 +35,8 @@ class DriverOptions:
                                 "jerk with its cube)", minimum=1e-3, maximum=1.0)
     state_timeout: float | None = option(None, "stale-state watchdog deadline (s); default the limits file's",
                                          minimum=1e-3)
+    max_state_rate: float | None = option(None, "joint-state messages per second beyond which the robot floods "
+                                          "(a fault); default the limits file's", minimum=1.0)
     connect_timeout: float = option(5.0, "seconds to wait for the robot's first state when connecting",
                                     minimum=0.01)
     reach_tolerance: float = option(0.01, "move_to / follow: largest joint error (rad) that counts as arrived",
@@ -114,6 +116,8 @@ class Driver(Component):
                 limits = limits.with_rate(o.command_rate)
             if o.state_timeout is not None:
                 limits = replace(limits, state_timeout=o.state_timeout)
+            if o.max_state_rate is not None:
+                limits = replace(limits, max_state_rate=o.max_state_rate)
             self._limits = limits.scaled(o.speed_scale) if o.speed_scale < 1 else limits
         return self._limits
 

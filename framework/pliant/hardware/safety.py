@@ -9,8 +9,9 @@ naming the joint, the value and the limit:
 * targets (before ruckig): non-finite values, positions outside the commanded range, velocities beyond limits;
 * robot states: joints missing, repeated or unnamed where names are expected (names and order are mapped by
   name, so a robot reporting both arms and a head is fine); non-finite values; time stamps that go backwards, or
-  repeat with different values; no fresh state within ``state_timeout`` (the watchdog); more state messages per
-  second than ``max_state_rate`` (a flood);
+  repeat with different values; positions that jump further between two stamps than the velocity limits allow
+  (:func:`state_jump`: a broken encoder, a restarted controller, a remapped joint); no fresh state within
+  ``state_timeout`` (the watchdog); more state messages per second than ``max_state_rate`` (a flood);
 * robot status: lost (a link or a part of it gone), disabled, e-stopped, faulted.
 
 The checks allow a relative tolerance of 1e-6 (and 1e-9 absolute) for floating-point rounding in ruckig's output.
@@ -41,6 +42,22 @@ RELATIVE_TOLERANCE = 1e-6
 ABSOLUTE_TOLERANCE = 1e-9
 #: seconds of state messages the flood check counts over
 FLOOD_WINDOW = 0.5
+#: two joint states jump when a joint moved more than JUMP_FACTOR x its velocity limit x the time between their stamps
+#: (at least JUMP_MIN_INTERVAL s: stamps jitter, and a drive may step a late cycle's worth at once) + JUMP_SLACK rad
+#: (encoder noise)
+JUMP_FACTOR = 2.0
+JUMP_MIN_INTERVAL = 0.05
+JUMP_SLACK = 0.02
+
+
+def state_jump(previous: np.ndarray, positions: np.ndarray, interval: float,
+               velocity: np.ndarray) -> tuple[int, float] | None:
+    """``(joint index, allowed move in rad)`` of the first joint whose move from ``previous`` to ``positions``
+    (``(d,)`` rad, ``interval`` s apart by their stamps) an arm within ``velocity`` ``(d,)`` rad/s cannot make, or
+    None.  Allowed: ``JUMP_FACTOR * velocity * max(interval, JUMP_MIN_INTERVAL) + JUMP_SLACK``."""
+    allowed = JUMP_FACTOR * np.asarray(velocity, dtype=np.float64) * max(interval, JUMP_MIN_INTERVAL) + JUMP_SLACK
+    bad = np.flatnonzero(~(np.abs(np.asarray(positions) - np.asarray(previous)) <= allowed))
+    return (int(bad[0]), float(allowed[bad[0]])) if bad.size else None
 
 
 class SafetyLayer:
@@ -182,6 +199,15 @@ class SafetyLayer:
                              "positions", value=state.stamp)
         self._count(state.sequence, now)
         if fresh:
+            if self._fresh_positions is not None and self._last_stamp is not None:
+                interval = state.stamp - self._last_stamp
+                jump = state_jump(self._fresh_positions, positions, interval, lim.velocity)
+                if jump is not None:
+                    i, allowed = jump
+                    raise StateError(f"the joint states jump: moved {positions[i] - self._fresh_positions[i]:+.4g} "
+                                     f"rad in {interval:.4g} s between two stamps (an arm within "
+                                     f"{lim.velocity[i]:.4g} rad/s moves at most {allowed:.4g} rad)",
+                                     joint=lim.names[i], value=float(positions[i]))
             if velocities is None:
                 if self._fresh_positions is not None and self._last_stamp is not None:
                     velocities = (positions - self._fresh_positions) / (state.stamp - self._last_stamp)

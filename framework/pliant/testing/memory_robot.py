@@ -4,7 +4,8 @@
 command at up to its velocity limit (a first-order servo with gain ``1 / servo_time``) and publishes the joint
 state with a time stamp.  It records every command it receives (so a test can check each against the limits),
 and has fault switches: ``publishing`` (stale state when false), ``names`` (what it reports), ``enabled``,
-``estop``, ``fault``, ``stamp_offset`` (a negative jump makes stamps go backwards), ``repeat_stamp``.
+``estop``, ``fault``, ``stamp_offset`` (a negative jump makes stamps go backwards), ``repeat_stamp``,
+``position_offset`` (rad, added to every reported position: a non-zero value set mid-motion is an encoder jump).
 :class:`MemoryDriver` is the driver of such a robot (kind ``driver``; not registered by default: tests create it
 directly).  It goes through the same command stream and safety layer as every driver.
 """
@@ -43,6 +44,7 @@ class MemoryRobot:
         self.fault = ""
         self.stamp_offset = 0.0
         self.repeat_stamp = False
+        self.position_offset = 0.0
         self.state: JointState | None = None
         self.sequence = 0
         self._lock = threading.Lock()
@@ -83,7 +85,7 @@ class MemoryRobot:
                     stamp += dt
                 if self.publishing:
                     self.sequence += 1
-                    self.state = JointState(self.names, self.positions.copy(), self.velocities.copy(),
+                    self.state = JointState(self.names, self.positions + self.position_offset, self.velocities.copy(),
                                             stamp + self.stamp_offset, time.monotonic(), self.sequence)
             time.sleep(dt)
 

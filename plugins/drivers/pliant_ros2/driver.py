@@ -16,10 +16,8 @@
   reliable (ros2_control subscribes reliably: a best-effort publisher would never connect, silently).
 * **status**: ``lost`` when the node's process dies, when the state topic loses its publisher, or when the command
   topic loses its subscriber (the controller was deactivated or crashed): the core then brakes and raises
-  :class:`~pliant.errors.ConnectionLost`.  ``fault`` (the core brakes and raises :class:`~pliant.errors.DriveFault`)
-  from the first pair of joint states whose positions jump further than the arm can move between their stamps
-  (:func:`state_jump`), until the driver reconnects: a broken encoder, a restarted controller or a remapped joint
-  must not be taken for the arm's motion.
+  :class:`~pliant.errors.ConnectionLost`.  Joint states that jump further than the arm can move between their
+  stamps are refused by the core's safety layer for every driver (:func:`pliant.hardware.safety.state_jump`).
 
 The ROS 2 node itself runs in a child process (:mod:`pliant_ros2.bridge`, started with
 :func:`pliant_ros2.environment.ros2_environment`): rclpy from the pip wheels needs its library path set before the
@@ -90,28 +88,6 @@ class Ros2ControlOptions(DriverOptions):
                                     minimum=0.1)
 
 
-#: a joint-state pair jumps when a joint moved more than JUMP_FACTOR x its velocity limit x the time between their
-#: stamps (at least JUMP_MIN_INTERVAL s: stamps jitter) + JUMP_SLACK rad (encoder noise)
-JUMP_FACTOR = 2.0
-JUMP_MIN_INTERVAL = 0.05
-JUMP_SLACK = 0.02
-
-
-def state_jump(names, previous, positions, interval: float, speeds: dict[str, float]) -> str | None:
-    """Why ``positions`` cannot follow ``previous`` ``interval`` s later for an arm within the velocity limits
-    ``speeds`` (joint name -> rad/s; joints not in it are not checked), or None."""
-    dt = max(interval, JUMP_MIN_INTERVAL)
-    for name, before, after in zip(names, previous, positions):
-        speed = speeds.get(name)
-        if speed is None:
-            continue
-        allowed = JUMP_FACTOR * speed * dt + JUMP_SLACK
-        if not abs(after - before) <= allowed:
-            return (f"the joint states jump: {name} moved {after - before:+.4g} rad in {interval:.4g} s between two "
-                    f"stamps (an arm within {speed:.4g} rad/s moves at most {allowed:.4g} rad)")
-    return None
-
-
 def _lines(stream):
     """Lines of a binary pipe, ending at EOF (no read-ahead buffering beyond one line)."""
     return iter(stream.readline, b"")
@@ -153,8 +129,6 @@ class Ros2ControlDriver(Driver):
         self._send_lock = threading.Lock()
         self._connected = False
         self._log_path: Path | None = None
-        self._speeds: dict[str, float] = {}
-        self._jump: str | None = None
 
     # --- what the robot is -----------------------------------------------------------------------------------
 
@@ -219,11 +193,7 @@ class Ros2ControlDriver(Driver):
         self._log_path = Path(tempfile.mkstemp(prefix="pliant-ros2-bridge-", suffix=".log",
                                                dir=env["ROS_LOG_DIR"])[1])
         self._state, self._count, self._counts, self._ever = None, 0, None, {}
-        self._error, self._exited, self._jump = None, None, None
-        try:
-            self._speeds = dict(zip(self.limits.names, map(float, self.limits.velocity)))
-        except ConfigError:                       # no limits file (ros2-control on its own): no jump check
-            self._speeds = {}
+        self._error, self._exited = None, None
         self._ready.clear()
         with open(self._log_path, "wb") as log:
             self._process = subprocess.Popen([python(), "-m", "pliant_ros2.bridge", json.dumps(config)], env=env,
@@ -284,11 +254,7 @@ class Ros2ControlDriver(Driver):
         names = tuple(self._to_pliant.get(n, n) for n in message["n"])
         velocities = message.get("v")
         positions = np.asarray(message["p"], dtype=np.float64)
-        previous = self._state
         stamp = float(message["t"])
-        if (self._jump is None and previous is not None and previous.names == names and stamp > previous.stamp
-                and positions.shape == previous.positions.shape):
-            self._jump = state_jump(names, previous.positions, positions, stamp - previous.stamp, self._speeds)
         self._count += 1
         self._state = JointState(names, positions, None if velocities is None else np.asarray(velocities,
                                                                                              dtype=np.float64),
@@ -347,7 +313,7 @@ class Ros2ControlDriver(Driver):
 
     def robot_status(self) -> RobotStatus:
         """Ready while connected; ``lost`` when the node's process died, the state topic lost its publisher or the
-        controller in use stopped subscribing; ``fault`` once the joint states jumped (:func:`state_jump`)."""
+        controller in use stopped subscribing."""
         if not self._connected:
             return RobotStatus(enabled=False, detail="not connected")
         if self._exited is not None:
@@ -360,8 +326,6 @@ class Ros2ControlDriver(Driver):
                                     "deactivated or is gone)")
         if self._ever.get("state") and not counts.get("state"):
             return RobotStatus(lost=f"nothing publishes {topics['state']} any more")
-        if self._jump is not None:
-            return RobotStatus(fault=self._jump)
         return RobotStatus(detail=f"{topics[wanted]}: {counts.get(wanted, 0)} subscriber(s); {topics['state']}: "
                                   f"{counts.get('state', 0)} publisher(s); ROS domain {self.options.domain_id}")
 

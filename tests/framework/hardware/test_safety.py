@@ -17,7 +17,7 @@ from pliant.errors import (
     StateError,
     StepTooLarge,
 )
-from pliant.hardware.safety import SafetyLayer
+from pliant.hardware.safety import SafetyLayer, state_jump
 from pliant.hardware.state import JointState, RobotStatus
 
 
@@ -92,6 +92,26 @@ def test_stamps_backwards_or_repeated_with_new_values(limits):
         layer.read_state(_state("abc", [0.1, 0, 0], 2.0, 1.002, 3), 1.002)
     with pytest.raises(StateError, match="backwards"):
         layer.read_state(_state("abc", [0, 0, 0], 1.5, 1.003, 4), 1.003)
+
+
+def test_a_jump_is_a_move_beyond_what_the_velocity_limits_allow_between_two_stamps():
+    """Twice the velocity limit over the stamps' interval (at least 50 ms: stamps jitter) plus 0.02 rad."""
+    velocity = np.array([1.0, 2.0])
+    assert state_jump([0, 0], [0.119, -0.219], 0.01, velocity) is None              # 2 x 0.05 s x v + 0.02
+    assert state_jump([0, 0], [0.379, 0.0], 0.18, velocity) is None                 # 2 x 0.18 s x 1 + 0.02
+    assert state_jump([0, 0], [0.381, 0.0], 0.18, velocity) == (0, pytest.approx(0.38))
+    assert state_jump([0, 0], [0.0, -0.5], 0.01, velocity) == (1, pytest.approx(0.22))
+    assert state_jump([0, 0], [np.nan, 0.0], 0.01, velocity) is not None
+
+
+def test_joint_states_that_jump_are_refused_naming_the_joint(limits):
+    layer = SafetyLayer(limits)                                  # velocity limits a 1, b 2, c 0.5 rad/s
+    layer.read_state(_state("abc", [0, 0, 0], 1.0, 5.0, 1), 5.0)
+    layer.read_state(_state("abc", [0.1, 0.2, 0.05], 1.01, 5.01, 2), 5.01)   # within 2 x 0.05 s x v + 0.02
+    layer.read_state(_state("abc", [0.6, 0.2, 0.05], 1.25, 5.25, 3), 5.25)   # 0.5 rad in 0.24 s: 0.5 <= 0.5
+    with pytest.raises(StateError, match=r"jump: moved \+0.13 rad in 0.01 s") as caught:
+        layer.read_state(_state("abc", [0.6, 0.2, 0.18], 1.26, 5.26, 4), 5.26)  # c: 0.13 > 2 x 0.05 x 0.5 + 0.02
+    assert caught.value.joint == "c"
 
 
 def test_watchdog_and_flood(limits):

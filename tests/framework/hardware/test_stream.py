@@ -157,6 +157,7 @@ def test_a_jump_in_a_stream_is_refused(robot_and_driver):
     (lambda r: setattr(r, "estop", True), EmergencyStop),
     (lambda r: setattr(r, "names", ("a", "b", "x")), JointMismatch),
     (lambda r: setattr(r, "stamp_offset", -10.0), StateError),
+    (lambda r: setattr(r, "position_offset", np.array([0.0, 0.5, 0.0])), StateError),     # an encoder jump
 ])
 def test_faults_mid_motion_stop_the_robot(robot_and_driver, fault, error):
     robot, driver = robot_and_driver

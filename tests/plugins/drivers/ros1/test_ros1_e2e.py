@@ -127,7 +127,10 @@ def test_a_fault_mid_motion_stops_the_arm_with_a_clear_error(fault, error, words
     since = time.monotonic()
     # the watchdog test: 0.3 s, short enough to stop the arm on the way, long enough that the thread stalls of a
     # loaded machine do not fire it at connection (the limits files' own 0.1 s did, in CI)
-    driver = make_driver("baxter-ros", **({"state_timeout": 0.3} if fault == "stale" else {}))
+    # the flood test: 300 states/s (three times Baxter's 100 Hz), not the limits file's 1,000: on a loaded machine
+    # neither the peer's 10 kHz publisher nor rospy's reader reaches 1,000 messages a second every time
+    settings = {"stale": {"state_timeout": 0.3}, "flood": {"max_state_rate": 300.0}}.get(fault, {})
+    driver = make_driver("baxter-ros", **settings)
     with driver:
         q0 = driver.move_to(_home(baxter_peer, rng))
         target = reachable_target(q0, driver.limits, rng, 0.4, 0.6)
