@@ -348,7 +348,27 @@ class Pipeline:
                 context.extras[kind] = component
             if kind == "planner" and isinstance(component, Planner):
                 check_planner(component, context, source=self.source)     # an impossible pipeline fails here
+        self._check_simulator_used(context)
         return context
+
+    def _check_simulator_used(self, context: Context) -> None:
+        """A simulator nothing would use is an error, not silently ignored (``--set simulator=pybullet`` on a pipeline
+        that only plans): nothing executes in it without a controller, and the planner does not simulate.  Metrics
+        and learners may simulate without declaring it, so a pipeline with either is not judged."""
+        simulator = context.simulator
+        if simulator is None or context.controller is not None or "simulator" in self.instances:
+            return
+        if "metric" in context.extras or "learner" in context.extras:
+            return
+        planner = context.extras.get("planner")
+        if isinstance(planner, Planner) and planner.specs.needs_simulator:
+            return
+        name = self.components["simulator"].name
+        planner_name = f" '{self.components['planner'].name}'" if "planner" in self.components else ""
+        raise PipelineError(f"nothing would use the simulator '{name}': no [controller] executes the plan in it "
+                            f"and the planner{planner_name} does not simulate; add a controller to execute in it "
+                            "(--set controller=NAME, `pliant plugins` lists them) or remove the simulator",
+                            source=self.source, field="simulator", value=name)
 
     def run(self, *, write: bool = True, on_step: StepListener | None = None) -> RunRecord:
         """Build, plan, score, execute and (if ``write``) write the report; returns the :class:`RunRecord`.

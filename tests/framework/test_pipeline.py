@@ -109,6 +109,19 @@ def test_a_run_without_execution_is_planned_and_writes_its_manifest(tmp_path):
     assert "**Outcome: planned** (exit status 0)" in (tmp_path / "report.md").read_text()
 
 
+def test_a_simulator_nothing_would_use_is_refused_naming_it():
+    """`--set simulator=kinematic` on a pipeline that only plans: no controller executes in it and the planner does
+    not simulate, so the setting would change nothing -- an error naming it, not a silent no-op.  With a controller
+    the same simulator is the execution world."""
+    plan_only = {"name": "t", "scene": "se2-maze", "planner": {"name": "straight", "step": 0.01}, "cost": "voxel",
+                 "simulator": "kinematic"}
+    with pytest.raises(PipelineError, match="nothing would use the simulator 'kinematic'") as caught:
+        Pipeline.from_dict(plan_only).build()
+    assert caught.value.field == "simulator" and "'straight' does not simulate" in str(caught.value)
+    context = Pipeline.from_dict({**plan_only, "controller": "contact"}).build()
+    assert context.simulator is not None and context.controller is not None
+
+
 def test_clearing_a_folder_removes_only_files_the_earlier_run_wrote(tmp_path):
     from pliant.pipeline import MANIFEST
 
