@@ -301,19 +301,23 @@ class RRTStarPlanner(Planner):
         if self.topology is not None:
             self.topology.append(topology)
             self.swept.append(swept)
-        self._rewire(node, near[near != parent])
+        others = near != parent
+        self._rewire(node, near[others], edges.valid[others])
         return node
 
     # --- rewiring ----------------------------------------------------------------------------------
 
-    def _rewire(self, node: int, near: np.ndarray) -> None:
-        """Re-parent each of ``near`` under ``node`` when that makes its path cheaper (and valid, and no puncture)."""
+    def _rewire(self, node: int, near: np.ndarray, motions: np.ndarray) -> None:
+        """Re-parent each of ``near`` under ``node`` when that makes its path cheaper (and valid, and no puncture).
+
+        ``motions``: whether each near node's edge to ``node`` was valid when the parent was chosen; a motion is
+        valid both ways or neither, so the reverse edges' motions are not checked again."""
         if len(near) == 0:
             return
         o, tree = self.options, self.tree
         q_node = tree.configurations[node]
         edges = evaluate_edges(self.problem, q_node, tree.configurations[near], self.check_step, o.length_weight,
-                               o.max_cost)
+                               o.max_cost, motions=motions)
         ancestors = set(tree.branch(node).tolist())
         for i in np.argsort(edges.cost, kind="stable"):
             if not edges.valid[i]:
