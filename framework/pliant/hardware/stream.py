@@ -427,8 +427,9 @@ class CommandStream:
         return self.measured().positions
 
     def _arrived(self, target: np.ndarray) -> bool:
-        """Within ``reach_tolerance`` of ``target`` by a state that arrived after the last command was written:
-        an older state (a robot that has just gone quiet) can read as arrived without having followed."""
+        """Within ``reach_tolerance`` of ``target`` by a state that arrived after the cycle whose command finished
+        the trajectory began (microseconds before that command is written): an older state, from a robot that has
+        just gone quiet, could read as arrived without the robot having followed."""
         measured, settled = self._measured, self._settled_at
         return (measured is not None and settled is not None and measured.time > settled
                 and bool(np.all(np.abs(measured.positions - target) <= self.reach_tolerance)))
