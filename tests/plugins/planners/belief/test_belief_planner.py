@@ -15,8 +15,10 @@ from pliant_belief.local import LocalPlannerSettings, extend
 
 
 def maze(**planner):
-    pipe = Pipeline("se2-maze", simulator={"name": "kinematic", "kp": 0.5, "angular_velocity_limit": 0.125},
-                    planner={"name": "belief", "max_time": None, **planner})
+    # Simple RRT plans without a simulator, and a pipeline refuses a simulator nothing would use
+    simulator = {} if planner.get("mode") == "simple" else \
+        {"simulator": {"name": "kinematic", "kp": 0.5, "angular_velocity_limit": 0.125}}
+    pipe = Pipeline("se2-maze", planner={"name": "belief", "max_time": None, **planner}, **simulator)
     ctx = pipe.build()
     return PlanningProblem.from_context(ctx), ctx.extras["planner"]
 
