@@ -522,9 +522,6 @@ class PunctureChecker:
         at fault and what changed (``"puncture: ..."`` or ``"cut: ..."``).  Objects that
         gained no removed voxel are not recounted (they were valid at ``state``).
         """
-        if len(state.removed) != len(self.ids):
-            raise DimensionError(f"state has {len(state.removed)} objects, the checker watches {len(self.ids)}",
-                                 field="state", value=len(state.removed))
         return self.extend_swept(state, self.sweep(configurations, start))
 
     def sweep(self, configurations: np.ndarray, start: np.ndarray | None = None) -> list[np.ndarray]:
@@ -544,9 +541,12 @@ class PunctureChecker:
 
     def extend_swept(self, state: PunctureState, new: list[np.ndarray]) -> tuple[PunctureState, bool, str]:
         """:meth:`extend` from an edge's :meth:`sweep`: ``(new_state, ok, reason)``."""
-        if len(state.removed) != len(self.ids) or len(new) != len(self.ids):
-            raise DimensionError(f"state and sweep must have one entry per watched object ({len(self.ids)})",
-                                 field="state", value=[len(state.removed), len(new)])
+        if len(state.removed) != len(self.ids):
+            raise DimensionError(f"state has {len(state.removed)} objects, the checker watches {len(self.ids)}",
+                                 field="state", value=len(state.removed))
+        if len(new) != len(self.ids):
+            raise DimensionError(f"the sweep has {len(new)} objects, the checker watches {len(self.ids)}",
+                                 field="swept", value=len(new))
         removed = list(state.removed)
         problems = []
         for slot, fresh in enumerate(new):

@@ -11,7 +11,7 @@ first part, a box whose x extent is the paddle's thickness and y extent its widt
 from __future__ import annotations
 
 import numpy as np
-from pliant.api import ConfigError
+from pliant.api import ConfigError, PlanningError
 
 from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import CollisionChecker, Footprints
@@ -118,6 +118,18 @@ def penetration(pa: np.ndarray, ka: int, ha: np.ndarray, pb: np.ndarray, kb: int
                 reach += half[0] * abs(n @ u) + half[1] * abs(n @ v)
             depth = min(depth, reach - abs(n @ d))
     return float(depth)
+
+
+def placing_simulator(world, *, required: bool = True):
+    """``world`` if it can place objects (push models are learned by placing an object and pushing it: pymunk can,
+    the kinematic simulator and pybullet cannot), else a :class:`PlanningError`; with ``required`` false (a component
+    being bound to a context without a simulator yet) a missing world is let through as None."""
+    if world is None and not required:
+        return None
+    if world is None or not getattr(world, "can_place_objects", False):
+        raise PlanningError("learning push models needs a simulator that can place objects (pymunk)",
+                            field="simulator", value=type(world).__name__ if world is not None else None)
+    return world
 
 
 def check_scene(scene, options: PushOptions) -> None:

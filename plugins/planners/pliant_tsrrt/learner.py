@@ -51,10 +51,7 @@ class PushModelsLearner(Learner):
         if context is not None and context.scene is not None:
             domain.movable_names(context.scene, self.options.objects)
             domain.check_scene(context.scene, self.options)
-        world = getattr(context, "simulator", None) if context is not None else None
-        if world is not None and not getattr(world, "can_place_objects", False):     # refused when built, not at fit
-            raise PlanningError("learning push models needs a simulator that can place objects (pymunk)",
-                                field="simulator", value=type(world).__name__)
+        domain.placing_simulator(getattr(context, "simulator", None), required=False)    # refused when built
 
     def fit(self, data, rng: np.random.Generator) -> dict:
         """Learn the models by pushing in the simulator.  ``data``: ``None`` (the pipeline's case: the classes of the
@@ -64,10 +61,7 @@ class PushModelsLearner(Learner):
 
         o = self.options
         scene = self.require("scene")
-        world = self.require("simulator")
-        if not getattr(world, "can_place_objects", False):
-            raise PlanningError("learning push models needs a simulator that can place objects (pymunk)",
-                                field="simulator", value=type(world).__name__)
+        world = domain.placing_simulator(self.require("simulator"))
         if data is not None:
             if isinstance(data, str) or not isinstance(data, (list, tuple)) or not data:
                 raise PlanningError("push-models learns from a non-empty list of movable object names (or None)",

@@ -81,11 +81,8 @@ class TSRRTPlanner(Planner):
         if context is not None and context.scene is not None:
             domain.movable_names(context.scene, self.options.objects)
             domain.check_scene(context.scene, self.options)
-        world = getattr(context, "simulator", None) if context is not None else None
-        if self.options.models in ("auto", "") and world is not None and not getattr(world, "can_place_objects", False):
-            # the models are learned by pushing in this simulator (here or by a push-models learner): refused now
-            raise PlanningError("learning push models needs a simulator that can place objects (pymunk)",
-                                field="simulator", value=type(world).__name__)
+        if self.options.models in ("auto", ""):     # learned by pushing in this simulator (here or by a learner)
+            domain.placing_simulator(getattr(context, "simulator", None), required=False)
         # one-off loading when the pipeline is built, not inside max_time (pliant.planning.warmup)
         warm_up(context)
         if context is not None and context.scene is not None:
@@ -149,10 +146,7 @@ class TSRRTPlanner(Planner):
         learned = getattr(learner, "models", None)
         if isinstance(learned, PushModels) and all(object_class(n) in learned.models for n in names):
             return learned, 0.0
-        world = problem.simulator
-        if world is None or not getattr(world, "can_place_objects", False):
-            raise PlanningError("learning push models needs a simulator that can place objects (pymunk)",
-                                field="simulator", value=type(world).__name__ if world is not None else None)
+        world = domain.placing_simulator(problem.simulator)
         t0 = time.perf_counter()
         models, _ = learn_models(arena(world, scene, o), o.learning, rng, only=names)
         return models, time.perf_counter() - t0
