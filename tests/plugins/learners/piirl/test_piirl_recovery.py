@@ -1,5 +1,6 @@
-"""Eq. 4.1 (objective "ratio"), the normalised PIIRL likelihood and the ranking objective (the default): known
-answers on small cases, gradients against finite differences, invariances, bad input."""
+"""Eq. 4.1 (objective "ratio"), the normalised PIIRL likelihood and the ranking objective (the default, its margins
+relative to the samples' mean cost or to the demonstration's): known answers on small cases, gradients against finite
+differences, invariances, bad input."""
 
 import numpy as np
 import pytest
@@ -52,35 +53,70 @@ def test_the_ranking_balances_the_samples_relative_margins():
     # ratios at which the demonstration is the cheapest (1 < r < 3), tending to the equal-margin point r = 2 as h grows
     demos, samples = np.array([[1.0, 1.0]]), [np.array([[4.0, 0.0], [0.0, 2.0]])]
     for h in (3.0, 10.0, 30.0):
-        s = recover(demos, samples, RecoveryOptions(objective="ranking", temperature=h))["sensitivities"]
+        options = RecoveryOptions(objective="ranking", temperature=h, margin="demonstration")
+        s = recover(demos, samples, options)["sensitivities"]
         r = s[1] / s[0]
         assert s[0] == pytest.approx(0.1) and 1.0 < r < 3.0
         u1, u2 = (3 - r) / (1 + r), (r - 1) / (1 + r)
         assert 2 * expit(-h * u1) == pytest.approx(expit(-h * u2), rel=1e-4)
-    s = recover(demos, samples, RecoveryOptions(objective="ranking", temperature=100.0))["sensitivities"]
+    s = recover(demos, samples, RecoveryOptions(objective="ranking", temperature=100.0, margin="demonstration"))[
+        "sensitivities"]
     assert s[1] / s[0] == pytest.approx(2.0, rel=1e-2)
-    # symmetric samples (3, 0) and (0, 3): equal sensitivities, whatever h
-    assert recover(demos, [np.array([[3.0, 0.0], [0.0, 3.0]])], RecoveryOptions(objective="ranking"))[
-        "sensitivities"] == pytest.approx([0.1, 0.1], rel=1e-6)
+    # symmetric samples (3, 0) and (0, 3): equal sensitivities, whatever h and scale
+    for margin in ("samples", "demonstration"):
+        assert recover(demos, [np.array([[3.0, 0.0], [0.0, 3.0]])], RecoveryOptions(margin=margin))[
+            "sensitivities"] == pytest.approx([0.1, 0.1], rel=1e-6)
+
+
+def test_with_the_samples_scale_the_margins_balance_at_the_same_ratio_by_another_weighting():
+    # the same case with the default scale, the samples' mean cost (4 + 2r) / 2 = 2 + r: the margins are
+    # u1 = (3 - r) / (2 + r) and u2 = (r - 1) / (2 + r), with the same signs as before, so the optimum stays between
+    # the ratios at which the demonstration is the cheapest; with u1' = -5 / (2 + r)^2 and u2' = 3 / (2 + r)^2 it is
+    # where 5 sigmoid(-h u1) = 3 sigmoid(-h u2)
+    demos, samples = np.array([[1.0, 1.0]]), [np.array([[4.0, 0.0], [0.0, 2.0]])]
+    for h in (3.0, 5.0, 30.0):
+        s = recover(demos, samples, RecoveryOptions(objective="ranking", temperature=h))["sensitivities"]
+        r = s[1] / s[0]
+        assert s[0] == pytest.approx(0.1) and 1.0 < r < 3.0
+        u1, u2 = (3 - r) / (2 + r), (r - 1) / (2 + r)
+        assert 5 * expit(-h * u1) == pytest.approx(3 * expit(-h * u2), rel=1e-4)
+
+
+def test_along_a_class_the_demonstration_avoids_only_the_samples_scale_keeps_the_ratio_finite():
+    # the demonstration deforms object 0 only; of its samples, one deforms object 0 more, one both a little less and
+    # object 1.  With r = S1 / S0: c0 = 1, samples 2 and 0.8 + 0.5 r.  Relative to the demonstration, the second
+    # sample's margin -0.2 + 0.5 r grows without bound with r, so the ranking drives r to the box's end (1000 / 0.1);
+    # relative to the samples' mean (1.4 + 0.25 r) both margins tend to finite limits (-4, 2) and r stops inside
+    demos, samples = np.array([[1.0, 0.0]]), [np.array([[2.0, 0.0], [0.8, 0.5]])]
+    own = recover(demos, samples, RecoveryOptions(margin="demonstration"))["sensitivities"]
+    mean = recover(demos, samples, RecoveryOptions())["sensitivities"]
+    assert own[1] / own[0] > 1000
+    assert 1.0 < mean[1] / mean[0] < 100
 
 
 def test_each_objective_has_its_own_default_temperature_and_restarts():
     rng = np.random.default_rng(3)
     demos, samples = rng.uniform(0, 1, (3, 3)), [rng.uniform(0, 2, (6, 3)) for _ in range(3)]
-    for objective, h, restarts in (("likelihood", 30.0, 4), ("ranking", 10.0, 4), ("ratio", None, 2)):
+    for objective, h, restarts in (("likelihood", 30.0, 4), ("ranking", 5.0, 4), ("ratio", None, 2)):
         a = recover(demos, samples, RecoveryOptions(objective=objective))
         b = recover(demos, samples, RecoveryOptions(objective=objective, temperature=h, restarts=restarts))
         assert a["sensitivities"] == pytest.approx(b["sensitivities"]) and a["objective"] == b["objective"]
         assert a["iterations"] == b["iterations"]
+    a = recover(demos, samples, RecoveryOptions(margin="demonstration"))
+    b = recover(demos, samples, RecoveryOptions(margin="demonstration", temperature=10.0))
+    assert a["sensitivities"] == pytest.approx(b["sensitivities"]) and a["objective"] == b["objective"]
 
 
-def ranking(s, demos, samples, h=10.0):
+def ranking(s, demos, samples, h=5.0, margin="samples"):
     """The ranking objective at ``s`` (one point ``(n,)`` or many ``(P, n)``): the logistic loss of every
-    (demonstration, sample) pair, summed and divided by the mean number of samples per demonstration."""
+    (demonstration, sample) pair's margin relative to the samples' mean cost (or the demonstration's), summed and
+    divided by the mean number of samples per demonstration."""
     s = np.atleast_2d(s)
     total = np.zeros(len(s))
     for v, w in zip(demos, samples):
-        m = (s @ w.T) / (s @ v)[:, None] - 1.0
+        costs = s @ w.T
+        scale = costs.mean(axis=1) if margin == "samples" else s @ v
+        m = (costs - (s @ v)[:, None]) / scale[:, None]
         total += np.logaddexp(0.0, -h * m).sum(axis=1)
     total *= len(demos) / sum(len(w) for w in samples)
     return total if len(total) > 1 else float(total[0])
@@ -99,7 +135,16 @@ def likelihood(s, demos, samples, h=30.0):
 
 
 #: each objective: its options, its reference implementation above, its batched builder and its default temperature
-OBJECTIVES = {"ranking": (RecoveryOptions(), ranking, _ranking, 10.0),
+def ranking_own(s, demos, samples, h=10.0):
+    return ranking(s, demos, samples, h, margin="demonstration")
+
+
+def _ranking_own(demos, samples, h):
+    return _ranking(demos, samples, h, margin="demonstration")
+
+
+OBJECTIVES = {"ranking": (RecoveryOptions(), ranking, _ranking, 5.0),
+              "ranking-demonstration": (RecoveryOptions(margin="demonstration"), ranking_own, _ranking_own, 10.0),
               "likelihood": (LIKELIHOOD, likelihood, _likelihood, 30.0)}
 
 
@@ -195,3 +240,6 @@ def test_nothing_to_learn_from_says_so_and_bad_input_is_an_error():
         recover(np.ones((1, 2)), [np.ones((2, 2))], RecoveryOptions(lower=5.0, initial=1.0))
     with pytest.raises(ConfigError, match="likelihood"):
         recover(np.ones((1, 2)), [np.ones((2, 2))], RecoveryOptions(objective="margin"))
+    with pytest.raises(ConfigError, match="samples, demonstration") as raised:
+        recover(np.ones((1, 2)), [np.ones((2, 2))], RecoveryOptions(margin="costs"))
+    assert raised.value.field == "margin"
