@@ -31,6 +31,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
+from pliant.api import PlanningError
 
 from pliant_tsrrt import kernels
 from pliant_tsrrt.models import compose
@@ -103,6 +104,93 @@ def random_free(space, rng: np.random.Generator, count: int, margin: float, trie
         batch = np.stack([space.random_config(rng) for _ in range(4 * count)])
         out.extend(batch[~check.in_collision(batch)])
     return np.array(out[:count]).reshape(-1, space.k, 3)
+
+
+def random_arrangements(space, rng: np.random.Generator, count: int, tries: int = 2000,
+                        clearance: float = 0.0) -> np.ndarray:
+    """``count`` collision-free arrangements ``(count, k, 3)``, each object uniform on the table with any yaw, every
+    footprint at least ``clearance`` (m) from the others, the obstacles and the table's edge (besides the margin)."""
+    checker = replace(space.checker, margin=space.checker.margin + 0.5 * clearance)
+    out = []
+    for _ in range(tries):
+        batch = np.stack([space.random_config(rng) for _ in range(256)])
+        out.extend(batch[~checker.in_collision(batch)])
+        if len(out) >= count:
+            return np.array(out[:count])
+    raise PlanningError("could not place the objects without collision on the table", field="objects",
+                        value=space.k)
+
+
+def reference_optimum(space, rng: np.random.Generator, rounds: int = 4000, population: int = 64,
+                      starts: np.ndarray | None = None, pattern_count: int = 512,
+                      restarts: int = 2) -> tuple[np.ndarray, float]:
+    """The reference optimum of the task cost over collision-free free placements (the figure of merit's
+    denominator): the cheapest of several multi-start descents.  Starts: random collision-free arrangements (each
+    box's yaw either uniform or snapped to a multiple of 90 degrees: multi-start over orientations), the
+    ``population`` cheapest of ``pattern_count`` packed :func:`patterns` (rows, columns, shelves), and ``starts``
+    (e.g. the planner's result).  Each of ``restarts`` rounds descends (:func:`free_descent`, ``rounds`` rounds) from
+    a wide step and then polishes the best members with a narrow one.  A work budget (rounds, members), so the same
+    answer under a seed on any machine."""
+    k = space.k
+    rand = random_arrangements(space, rng, population)
+    snapped = rand.copy()
+    box = space.scale > 0
+    half = rng.random(population) < 0.5
+    snapped[np.ix_(half, box, [2])] = (np.pi / 2) * rng.integers(0, 4, (int(half.sum()), int(box.sum()), 1))
+    snapped = snapped[~space.checker.in_collision(snapped)]
+    pats = patterns(space, rng, pattern_count)
+    if len(pats):
+        pats = pats[np.argsort(space.cost.cost(pats))[:population]]
+    pools = [rand, snapped, pats]
+    if starts is not None and len(starts):
+        s = np.asarray(starts, dtype=np.float64).reshape(-1, k, 3)
+        pools.append(s[~space.checker.in_collision(s)])
+    pop = np.concatenate([p for p in pools if len(p)])
+    best, best_cost = None, np.inf
+    for _ in range(restarts):
+        desc, cost = free_descent(space, pop, rng, rounds=rounds, slack=0.0, sigma_start=0.05, sigma_end=5e-4)
+        top = desc[np.argsort(cost)[: max(8, population // 4)]]
+        fine, fcost = free_descent(space, np.repeat(top, 2, axis=0), rng, rounds=rounds, slack=0.0,
+                                   sigma_start=0.005, sigma_end=1e-5)
+        i = int(np.argmin(fcost))
+        if fcost[i] < best_cost:
+            best, best_cost = fine[i].copy(), float(fcost[i])
+        pop = np.concatenate([fine[np.argsort(fcost)[: len(pop) // 2]], pop[: len(pop) - len(pop) // 2]])
+    return best, best_cost
+
+
+def table_mirrors(space, s: np.ndarray) -> np.ndarray:
+    """Arrangement ``s`` ``(k, 3)`` and its mirror images across the table's two centre lines and both, those that
+    are collision-free ``(m, k, 3)`` (``m`` <= 4).  Boxes and circles are symmetric, so a mirrored pose is a pose of the
+    same object; without obstacles or a table setting the task cost is the same for all four, but from a given start
+    one may be far nearer to reach by pushing than another."""
+    x0, y0, x1, y1 = space.cost.table
+    out = [np.asarray(s, dtype=np.float64)]
+    for flip_x, flip_y in ((True, False), (False, True), (True, True)):
+        m = out[0].copy()
+        if flip_x:
+            m[:, 0] = x0 + x1 - m[:, 0]
+        if flip_y:
+            m[:, 1] = y0 + y1 - m[:, 1]
+        # a heading theta mirrored across a vertical line is pi - theta, across a horizontal one -theta
+        theta = m[:, 2]
+        theta = (np.pi - theta) if flip_x and not flip_y else (-theta if flip_y and not flip_x else theta + np.pi)
+        m[:, 2] = (theta + np.pi) % (2 * np.pi) - np.pi
+        out.append(m)
+    out = np.array(out)
+    return out[~space.checker.in_collision(out)]
+
+
+def optimum_targets(space, rng: np.random.Generator, rounds: int) -> np.ndarray:
+    """Targets from the multi-start free-placement optimum (:func:`reference_optimum` with ``rounds`` rounds): the
+    optimum and its mirror images (:func:`table_mirrors`), ``(m, k, 3)``; none when the table is too crowded to
+    place random starts."""
+
+    try:
+        best, _ = reference_optimum(space, rng, rounds=rounds)
+    except PlanningError:
+        return np.zeros((0, space.k, 3))
+    return table_mirrors(space, best) if best is not None else np.zeros((0, space.k, 3))
 
 
 def _extent(fp, o: int, quarter: int) -> tuple[float, float]:

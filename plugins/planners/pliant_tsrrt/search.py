@@ -58,7 +58,7 @@ from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corn
 from pliant_tsrrt.models import compose
 from pliant_tsrrt.options import PlanningOptions, TSRRTOptions
 from pliant_tsrrt.pushing import PushSettings, contact_frames, paddle_sweep_rows
-from pliant_tsrrt.refine import final_beam, improve, plan_score
+from pliant_tsrrt.refine import final_beam, improve, optimum_targets, plan_score
 
 N_PRIMITIVES = 6
 
@@ -341,11 +341,15 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     plan, polished = descend(space, s0, plan, push_cost=imp.push_cost, enough=floor)
     if imp.refine and not interrupted:
         path, _ = space.rollout(s0, plan)
+        goals = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(-1, k, 3)
+        if imp.refine_optimum and goal is None:      # a replanning's goal (the first plan's end) is target enough
+            # its own child stream: the draws after it are those of a run without it
+            goals = optimum_targets(space, rng.spawn(1)[0], imp.refine_optimum)
         _, keep, extra, more = improve(space, path, rng, count=imp.refine_targets,
                                        rounds=imp.refine_rounds, slack=imp.refine_slack,
                                        depth=imp.refine_depth, width=imp.refine_width,
                                        passes=imp.refine_passes, branch_points=imp.refine_branches,
-                                       deadline=deadline, goals=None if goal is None else goal[None],
+                                       deadline=deadline, goals=goals,
                                        randoms=imp.refine_randoms, packed=imp.refine_patterns,
                                        sweeps=imp.refine_sweeps,
                                        yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,

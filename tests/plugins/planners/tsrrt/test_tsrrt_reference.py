@@ -92,3 +92,46 @@ def test_packed_targets_of_the_improvement_phase_keep_the_clearance():
     assert len(found) >= 1
     wider = replace(space.checker, margin=space.checker.margin + 0.003)
     assert not wider.in_collision(found).any()
+
+
+def test_mirror_images_across_the_table_cost_the_same_and_are_the_same_footprints_mirrored():
+    """Without obstacles or a table setting the task cost is symmetric across the table's centre lines; each mirror
+    image's box corners are the original's corners mirrored (so the yaw map is right), and the original comes first."""
+    from pliant_tsrrt.geometry import box_corners
+    from pliant_tsrrt.refine import table_mirrors
+
+    fp = Footprints(np.array([BOX, BOX, CIRCLE]), np.array([(0.12, 0.04), (0.05, 0.03), (0.04, 0.04)]))
+    space = _space(fp)
+    s = np.array([[0.3, 0.1, 0.3], [0.45, 0.22, -1.1], [0.5, 0.03, 2.0]])
+    assert not space.checker.in_collision(s[None])[0]
+    images = table_mirrors(space, s)
+    assert len(images) == 4 and np.array_equal(images[0], s)
+    assert space.cost.cost(images) == pytest.approx(np.full(4, space.cost.cost(s[None])[0]), rel=1e-12)
+    x0, y0, x1, y1 = TABLE
+    for image, (fx, fy) in zip(images[1:], ((True, False), (False, True), (True, True))):
+        for o in range(2):
+            corners = box_corners(s[o], fp.half[o])
+            mirrored = corners.copy()
+            if fx:
+                mirrored[:, 0] = x0 + x1 - mirrored[:, 0]
+            if fy:
+                mirrored[:, 1] = y0 + y1 - mirrored[:, 1]
+            got = box_corners(image[o], fp.half[o])
+            # the same set of corners (their order may differ)
+            assert np.allclose(np.sort(np.round(got, 9), axis=0), np.sort(np.round(mirrored, 9), axis=0))
+
+
+def test_a_mirror_image_that_collides_with_an_obstacle_is_left_out():
+    from pliant_tsrrt.refine import table_mirrors
+
+    fp = Footprints(np.array([CIRCLE]), np.array([(0.04, 0.04)]))
+    obstacle = Footprints(np.array([CIRCLE]), np.array([(0.05, 0.05)]))
+    x0, _, x1, _ = TABLE
+    s = np.array([[0.2, 0.05, 0.0]])
+    # an obstacle where the x-mirror of the object lands
+    checker = CollisionChecker(fp, obstacle, np.array([[x0 + x1 - 0.2, 0.05, 0.0]]), TABLE, 0.01)
+    space = ObjectSpace(fp, np.zeros((1, 6, 3)), checker, TaskCost(fp, TABLE, (1.0, 1.0, 1.0, 0.0)), PushSettings(),
+                        BOUNDS)
+    images = table_mirrors(space, s)
+    assert len(images) == 3
+    assert not any(np.allclose(image[0, :2], (x0 + x1 - 0.2, 0.05)) for image in images)
