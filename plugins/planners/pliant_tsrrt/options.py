@@ -125,6 +125,10 @@ class ImprovementOptions:
                                  "uniform or axis-aligned yaws, packed patterns) whose optimum and its mirror images "
                                  "across the table's centre lines are targets too (0: none; not in replanning)",
                                  minimum=0)
+    refine_optimum_orders: int = option(120, "orders of the objects in which the tree's best arrangement connects "
+                                        "to the refine_optimum targets: every permutation when there are at most "
+                                        "this many (five objects: 120), else this many at random (0: the "
+                                        "refine orders only)", minimum=0)
     refine_sweeps: int = option(2, "sweeps over the objects when pushing them toward a target (a later sweep moves "
                                 "objects that others blocked)", minimum=1)
     refine_yaw_quota: int = option(4, "most poses per yaw bin (0.25 degrees) in a box's beam, so that it keeps "

@@ -342,14 +342,18 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     if imp.refine and not interrupted:
         path, _ = space.rollout(s0, plan)
         goals = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(-1, k, 3)
+        optimum, optimum_orders = None, None
         if imp.refine_optimum and goal is None:      # a replanning's goal (the first plan's end) is target enough
             # its own child stream: the draws after it are those of a run without it
-            goals = optimum_targets(space, rng.spawn(1)[0], imp.refine_optimum)
+            optimum, optimum_orders = optimum_targets(space, rng.spawn(1)[0], imp.refine_optimum,
+                                                      imp.refine_optimum_orders)
+            goals = optimum              # connected to from every branch point too, in the refine orders
         _, keep, extra, more = improve(space, path, rng, count=imp.refine_targets,
                                        rounds=imp.refine_rounds, slack=imp.refine_slack,
                                        depth=imp.refine_depth, width=imp.refine_width,
                                        passes=imp.refine_passes, branch_points=imp.refine_branches,
-                                       deadline=deadline, goals=goals,
+                                       deadline=deadline, goals=goals, optimum=optimum,
+                                       optimum_orders=optimum_orders,
                                        randoms=imp.refine_randoms, packed=imp.refine_patterns,
                                        sweeps=imp.refine_sweeps,
                                        yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,

@@ -3,6 +3,8 @@ on small cases it matches or beats an exhaustive search over a grid of poses."""
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from pliant_tsrrt.cost import TaskCost
@@ -135,3 +137,20 @@ def test_a_mirror_image_that_collides_with_an_obstacle_is_left_out():
     images = table_mirrors(space, s)
     assert len(images) == 3
     assert not any(np.allclose(image[0, :2], (x0 + x1 - 0.2, 0.05)) for image in images)
+
+
+def test_the_optimum_targets_are_the_reference_optimum_and_its_images_with_every_order_or_a_sample():
+    from pliant_tsrrt.refine import optimum_targets
+
+    fp = Footprints(np.array([BOX, CIRCLE, CIRCLE]), np.array([(0.06, 0.03), (0.04, 0.04), (0.03, 0.03)]))
+    space = _space(fp)
+    space.warm_up()
+    targets, orders = optimum_targets(space, np.random.default_rng(0), rounds=200, orders=120)
+    _, best = reference_optimum(space, np.random.default_rng(0), rounds=200)
+    assert 1 <= len(targets) <= 4 and space.cost.cost(targets[:1])[0] == pytest.approx(best)
+    assert not space.checker.in_collision(targets).any()
+    assert sorted(orders) == sorted(itertools.permutations(range(3)))      # 3! <= 120: all of them
+    _, sampled = optimum_targets(space, np.random.default_rng(0), rounds=200, orders=4)
+    assert len(sampled) == 4 and all(sorted(o) == [0, 1, 2] for o in sampled)           # 3! > 4: a sample
+    _, none = optimum_targets(space, np.random.default_rng(0), rounds=200, orders=0)
+    assert none == []
