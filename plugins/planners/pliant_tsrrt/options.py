@@ -121,14 +121,12 @@ class ImprovementOptions:
                                  minimum=0)
     refine_patterns: int = option(0, "packed table-aligned arrangements (rows, columns, shelves) whose free descent "
                                   "adds targets (0: none)", minimum=0)
-    refine_optimum: int = option(3000, "rounds of a multi-start free-placement optimisation (random starts with "
-                                 "uniform or axis-aligned yaws, packed patterns) whose optimum and its mirror images "
-                                 "across the table's centre lines are targets too (0: none; not in replanning)",
+    refine_optimum: int = option(3000, "rounds of the multi-start free-placement optimisation whose optimum and its "
+                                 "mirror images across the table are targets too (0: none; not in replanning)",
                                  minimum=0)
-    refine_optimum_orders: int = option(120, "orders of the objects in which the tree's best arrangement connects "
-                                        "to the refine_optimum targets: every permutation when there are at most "
-                                        "this many (five objects: 120), else this many at random (0: the "
-                                        "refine orders only)", minimum=0)
+    refine_optimum_orders: int = option(120, "orders of the objects tried when connecting to the refine_optimum "
+                                        "targets: all permutations up to this many, else this many at random",
+                                        minimum=0)
     refine_sweeps: int = option(2, "sweeps over the objects when pushing them toward a target (a later sweep moves "
                                 "objects that others blocked)", minimum=1)
     refine_yaw_quota: int = option(4, "most poses per yaw bin (0.25 degrees) in a box's beam, so that it keeps "
