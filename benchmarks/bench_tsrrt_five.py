@@ -54,9 +54,9 @@ def run_set(label: str, indices, base: int, seeds: int, settings: list[int], ite
     space, ref, plans = None, np.inf, []
     for seed in range(base, base + seeds):
         for setting in settings:
-            rounds, orders = (setting.split(":") + ["0"])[:2] if ":" in setting else (setting, "0")
+            rounds, _, orders = setting.partition(":")
             options = build_options(TSRRTOptions, {"objects": tuple(names), "improvement.refine_optimum": int(rounds),
-                                                   "improvement.refine_optimum_orders": int(orders)})
+                                                   "improvement.refine_optimum_orders": int(orders or 0)})
             if space is None:
                 space = build_space(scene, options, _Models(), names)
                 space.warm_up()

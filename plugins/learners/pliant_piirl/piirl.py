@@ -74,8 +74,8 @@ from pliant.api import ConfigError, option, stream
 from scipy.optimize import minimize
 
 OBJECTIVES = ("likelihood", "ratio", "ranking")
-#: each objective's temperature when ``temperature`` is None (ratio has none)
-TEMPERATURES = {"likelihood": 30.0, "ranking": 5.0}
+#: the likelihood's temperature when ``temperature`` is None (ratio has none; the ranking's is below)
+TEMPERATURES = {"likelihood": 30.0}
 #: the ranking's temperature by the scale of its margins, when ``temperature`` is None
 RANKING_TEMPERATURES = {"samples": 5.0, "demonstration": 10.0}
 MARGINS = ("samples", "demonstration")
@@ -131,6 +131,8 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
                           value=[o.lower, o.initial, o.upper])
     if o.objective not in OBJECTIVES:
         raise ConfigError(f"must be one of {', '.join(OBJECTIVES)}", field="objective", value=o.objective)
+    if o.margin not in MARGINS:
+        raise ConfigError(f"must be one of {', '.join(MARGINS)}", field="margin", value=o.margin)
     demos = np.asarray(demonstrations, dtype=np.float64)
     if demos.ndim != 2 or len(samples) != len(demos):
         raise ConfigError("one sample set per demonstration, features (K, n)", field="samples",
@@ -146,11 +148,8 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
         return {"sensitivities": np.full(n, o.initial), "objective": float("nan"), "used": [], "iterations": 0,
                 "message": "no informative demonstration"}
     scale = max(demos[used].max(), max(samples[k].max() for k in used))
-    if o.margin not in MARGINS:
-        raise ConfigError(f"must be one of {', '.join(MARGINS)}", field="margin", value=o.margin)
-    if o.temperature is not None:
-        h = o.temperature
-    else:
+    h = o.temperature
+    if h is None:
         h = RANKING_TEMPERATURES[o.margin] if o.objective == "ranking" else TEMPERATURES.get(o.objective)
     if o.objective == "ratio":
         objective, batch, log_space = _ratio(demos[used] / scale, sums[used] / scale)

@@ -94,32 +94,36 @@ def free_descent(space, starts: np.ndarray, rng: np.random.Generator, rounds: in
     return pop, cost
 
 
-def random_free(space, rng: np.random.Generator, count: int, margin: float, tries: int = 20) -> np.ndarray:
-    """Up to ``count`` random arrangements ``(c, k, 3)`` (RANDOM_CONFIG) free of collisions with clearance
-    ``margin`` (m); fewer when the table is too crowded to find them in ``tries`` batches."""
+def _collision_free(space, rng: np.random.Generator, count: int, margin: float, batch: int,
+                    tries: int) -> list[np.ndarray]:
+    """Up to ``count`` random arrangements (RANDOM_CONFIG) free of collisions with clearance ``margin`` (m), drawn
+    ``batch`` at a time for at most ``tries`` batches."""
     check = replace(space.checker, margin=margin)
     out: list[np.ndarray] = []
     for _ in range(tries):
         if len(out) >= count:
             break
-        batch = np.stack([space.random_config(rng) for _ in range(4 * count)])
-        out.extend(batch[~check.in_collision(batch)])
-    return np.array(out[:count]).reshape(-1, space.k, 3)
+        drawn = np.stack([space.random_config(rng) for _ in range(batch)])
+        out.extend(drawn[~check.in_collision(drawn)])
+    return out[:count]
+
+
+def random_free(space, rng: np.random.Generator, count: int, margin: float, tries: int = 20) -> np.ndarray:
+    """Up to ``count`` random arrangements ``(c, k, 3)`` (RANDOM_CONFIG) free of collisions with clearance
+    ``margin`` (m); fewer when the table is too crowded to find them in ``tries`` batches."""
+    return np.array(_collision_free(space, rng, count, margin, 4 * count, tries)).reshape(-1, space.k, 3)
 
 
 def random_arrangements(space, rng: np.random.Generator, count: int, tries: int = 2000,
                         clearance: float = 0.0) -> np.ndarray:
     """``count`` collision-free arrangements ``(count, k, 3)``, each object uniform on the table with any yaw, every
-    footprint at least ``clearance`` (m) from the others, the obstacles and the table's edge (besides the margin)."""
-    checker = replace(space.checker, margin=space.checker.margin + 0.5 * clearance)
-    out = []
-    for _ in range(tries):
-        batch = np.stack([space.random_config(rng) for _ in range(256)])
-        out.extend(batch[~checker.in_collision(batch)])
-        if len(out) >= count:
-            return np.array(out[:count])
-    raise PlanningError("could not place the objects without collision on the table", field="objects",
-                        value=space.k)
+    footprint at least ``clearance`` (m) from the others, the obstacles and the table's edge (besides the margin);
+    a :class:`PlanningError` when ``tries`` batches of 256 do not hold that many."""
+    out = _collision_free(space, rng, count, space.checker.margin + 0.5 * clearance, 256, tries)
+    if len(out) < count:
+        raise PlanningError("could not place the objects without collision on the table", field="objects",
+                            value=space.k)
+    return np.array(out)
 
 
 def reference_optimum(space, rng: np.random.Generator, rounds: int = 4000, population: int = 64,
@@ -439,9 +443,8 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     nearly equal cost the shorter wins, and a connection must gain more than ``push_cost`` per push it adds;
     ``enough``: a final cost below it counts as ``enough`` (replanning during execution: no cheaper than the first
     plan is needed, so the shortest connection that gets there wins).  ``optimum`` ``(g, k, 3)`` and
-    ``optimum_orders``: targets (:func:`optimum_targets`; pass them in ``goals`` too) connected to from each branch
-    point in each of those orders as well, in the first pass after the others (a connection already tried is a cache
-    hit).
+    ``optimum_orders``: more targets (:func:`optimum_targets`) for the first pass, connected to from each branch
+    point in the usual orders and each of those, after the others.
     Returns the cheapest cost reached, how many of the path's actions to keep, the actions to append, and statistics."""
     s = path[-1]
     base = best_cost = float(space.cost.cost(s[None])[0])
@@ -463,10 +466,18 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
         if p == 0 and goals is not None and len(goals):
             found_targets = np.concatenate([np.asarray(goals, dtype=np.float64).reshape(-1, k, 3),
                                             found_targets.reshape(-1, k, 3)])
-        goal_costs += [float(c) for c in space.cost.cost(found_targets)] if len(found_targets) else []
+        groups = [(orders, found_targets)]
+        if p == 0 and optimum is not None and len(optimum):
+            # the usual orders first, then the optimum's own (every permutation, or a random sample of them)
+            groups.append((list(dict.fromkeys([*orders, *(optimum_orders or [])])), optimum))
+        for _, group in groups:
+            goal_costs += [float(c) for c in space.cost.cost(group)] if len(group) else []
         found = None
-        # order-major, so that a deadline leaves every target and branch point tried with the first orders
-        for order, goal, b in itertools.product(orders, found_targets, branches if p == 0 else [None]):
+        # order-major within each group, so that a deadline leaves every target and branch point tried with the first
+        # orders
+        connections = itertools.chain.from_iterable(
+            itertools.product(group_orders, group, branches if p == 0 else [None]) for group_orders, group in groups)
+        for order, goal, b in connections:
             if _late(deadline):
                 break
             tried += 1
@@ -476,16 +487,6 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
                                enough)
             if score < best_score - 1e-12:
                 best_cost, best_score, found = cost, score, (b, actions)
-        if p == 0 and optimum is not None and len(optimum):
-            for order, goal, b in itertools.product(optimum_orders or orders, optimum, branches):
-                if _late(deadline):
-                    break
-                tried += 1
-                cost, actions = connect(space, path[b], goal, order, depth, w, deadline, sweeps, cache,
-                                        yaw_quota=yaw_quota, push_cost=push_cost, enough=enough)
-                score = plan_score(cost, b + len(actions), push_cost, enough)
-                if score < best_score - 1e-12:
-                    best_cost, best_score, found = cost, score, (b, actions)
         if found is None:
             if p == 0 or w >= 4 * width:
                 break

@@ -347,7 +347,6 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
             # its own child stream: the draws after it are those of a run without it
             optimum, optimum_orders = optimum_targets(space, rng.spawn(1)[0], imp.refine_optimum,
                                                       imp.refine_optimum_orders)
-            goals = optimum              # connected to from every branch point too, in the refine orders
         _, keep, extra, more = improve(space, path, rng, count=imp.refine_targets,
                                        rounds=imp.refine_rounds, slack=imp.refine_slack,
                                        depth=imp.refine_depth, width=imp.refine_width,
