@@ -193,6 +193,10 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
                 except Exception:               # the pool is ending: stop reporting
                     return
 
+    if board is not None and _board_cancelled(board):
+        # a queued task the cluster started while the run was being cancelled (a CPU freed by a task that had
+        # just stopped): it does no work, and the executor drops its result
+        return {}, {}, node, time.perf_counter() - t0, __version__
     with task_progress(cancel) as sink:
         if board is not None:
             threading.Thread(target=report, args=(sink,), name="pliant-progress", daemon=True).start()
@@ -203,6 +207,17 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
         finally:
             done.set()
     return record, snapshot(sink), node, time.perf_counter() - t0, __version__
+
+
+def _board_cancelled(board: str) -> bool:
+    """Whether the run whose progress board is named ``board`` was cancelled (a board that cannot be reached: no,
+    the task runs and the executor's cancel still reaches it by Ray)."""
+    import ray
+
+    try:
+        return bool(ray.get(ray.get_actor(board).is_cancelled.remote(), timeout=5.0))
+    except Exception:
+        return False
 
 
 class ProgressBoard:
@@ -225,6 +240,10 @@ class ProgressBoard:
     def cancel(self) -> None:
         """Cancel every task of the run (each stops at its next check)."""
         self.cancelled = True
+
+    def is_cancelled(self) -> bool:
+        """Whether the run was cancelled (a task asks before it starts its work)."""
+        return self.cancelled
 
 
 def _node() -> str:
@@ -546,6 +565,7 @@ class RayExecutor(Executor):
         # on this machine's node: the board must not die with a worker node
         here = NodeAffinitySchedulingStrategy(ray.get_runtime_context().get_node_id(), soft=True)
         self._board = ray.remote(num_cpus=0)(ProgressBoard).options(name=board, scheduling_strategy=here).remote()
+        ray.get(self._board.is_cancelled.remote())  # the board is up (and named) before any task asks it
         refs = {self._remote.remote(work_ref, tuple(task), board, k, self.interval): k
                 for k, task in enumerate(tasks)}
         pending = list(refs)
