@@ -559,7 +559,7 @@ def main(argv: list[str] | None = None) -> int:
             return int(args.handler(args) or 0)
     except PliantError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return 2
+        return int(getattr(exc, "exit_status", 2))      # 2: bad input; an experiment's failed tasks: 3 (failed)
     except KeyboardInterrupt:
         print("interrupted (SIGTERM)" if interrupted_by() == "SIGTERM" else "interrupted", file=sys.stderr)
         return 130

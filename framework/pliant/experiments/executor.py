@@ -32,7 +32,7 @@ import threading
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, ProcessPoolExecutor
 from concurrent.futures import wait as wait_futures
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -151,6 +151,29 @@ class TaskResult:
     progress: dict = field(default_factory=dict)
     node: str = ""
     seconds: float = 0.0
+    #: the task raised (only with ``errors="record"``): ``{"type", "message", "traceback"}``; ``record`` is empty
+    error: dict | None = None
+
+
+#: what :meth:`Executor.run` does with a task that raises: re-raise it here (the other tasks are cancelled), or
+#: yield it as a :class:`TaskResult` with its :attr:`~TaskResult.error` and go on with the others
+TASK_ERRORS = ("raise", "record")
+
+
+def task_error(exc: BaseException) -> dict:
+    """``{"type", "message", "traceback"}`` of a task's exception as it reaches this process (the worker's
+    traceback where the executor carried it: a process pool's ``__cause__``, Ray's error text)."""
+    import traceback
+
+    remote = getattr(exc.__cause__, "tb", None)             # concurrent.futures' _RemoteTraceback
+    text = remote if isinstance(remote, str) else "".join(traceback.format_exception(exc))
+    return {"type": type(exc).__name__, "message": str(exc), "traceback": text}
+
+
+def _check_errors(errors: str) -> str:
+    if errors not in TASK_ERRORS:
+        raise ConfigError(f"must be one of {', '.join(TASK_ERRORS)}", field="errors", value=errors)
+    return errors
 
 
 def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, index: int = -1,
@@ -288,8 +311,12 @@ class Executor(ABC):
 
     @abstractmethod
     def run(self, work: Callable[..., dict], tasks: Sequence[tuple],
-            stop: Condition | None = None) -> Iterator[TaskResult]:
-        """Run ``work(*task)`` for every task; yield the results as they finish (in any order)."""
+            stop: Condition | None = None, *, errors: str = "raise") -> Iterator[TaskResult]:
+        """Run ``work(*task)`` for every task; yield the results as they finish (in any order).
+
+        ``errors`` (:data:`TASK_ERRORS`): a task that raises an exception re-raises it here, cancelling the others
+        (``"raise"``), or is yielded with its :attr:`TaskResult.error` while the others go on (``"record"``).  A
+        worker or node that dies is the executor's failure (:class:`ExecutorError`) either way."""
 
     def close(self) -> None:
         """Release what the executor holds (pool processes, the cluster connection)."""
@@ -425,8 +452,9 @@ class LocalExecutor(Executor):
         return f"local pool of {self.jobs}"
 
     def run(self, work: Callable[..., dict], tasks: Sequence[tuple],
-            stop: Condition | None = None) -> Iterator[TaskResult]:
+            stop: Condition | None = None, *, errors: str = "raise") -> Iterator[TaskResult]:
         """Submit every task to a fresh pool; yield results as they finish; end the pool afterwards."""
+        _check_errors(errors)
         self.stopped = False
         if stop is not None:
             stop.start()
@@ -465,7 +493,16 @@ class LocalExecutor(Executor):
                     if self.on_progress is not None:
                         self.on_progress(self.running)
                 for future in done:
-                    record, progress, node, seconds, _ = future.result()
+                    try:
+                        record, progress, node, seconds, _ = future.result()
+                    except BrokenExecutor:
+                        raise
+                    except Exception as exc:
+                        if errors == "raise":
+                            raise
+                        finished += 1
+                        yield TaskResult(futures[future], {}, error=task_error(exc))
+                        continue
                     finished += 1
                     yield TaskResult(futures[future], record, progress, node, seconds)
         except BaseException:       # Ctrl-C, a task's error, or the consumer closing the generator early
@@ -550,10 +587,11 @@ class RayExecutor(Executor):
         return f"ray at {self.address or 'a local instance'} ({nodes} nodes, {self.cluster_cpus():g} CPUs)"
 
     def run(self, work: Callable[..., dict], tasks: Sequence[tuple],
-            stop: Condition | None = None) -> Iterator[TaskResult]:
+            stop: Condition | None = None, *, errors: str = "raise") -> Iterator[TaskResult]:
         """Submit every task to the cluster; yield results as they finish; cancel what is left when stopped."""
         from pliant.version import __version__
 
+        _check_errors(errors)
         ray = self._connect()
         from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
@@ -592,7 +630,13 @@ class RayExecutor(Executor):
                     try:
                         record, progress, node, seconds, version = ray.get(ref)
                     except ray.exceptions.RayTaskError as exc:
-                        raise exc.as_instanceof_cause() from None
+                        if errors == "raise":
+                            raise exc.as_instanceof_cause() from None
+                        finished += 1
+                        cause = exc.__dict__.get("cause", exc)     # the task's own exception
+                        yield TaskResult(refs[ref], {}, error={"type": type(cause).__name__, "message": str(cause),
+                                                             "traceback": str(exc)})
+                        continue
                     except (ray.exceptions.WorkerCrashedError, ray.exceptions.NodeDiedError,
                             ray.exceptions.ObjectLostError) as exc:
                         raise ExecutorError(f"task {refs[ref]} failed {self.retries + 1} times on the cluster: "

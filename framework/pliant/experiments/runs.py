@@ -11,16 +11,29 @@ differ from the run's ``settings.json`` is refused (:func:`check_settings`).
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from pliant.errors import ConfigError
-from pliant.experiments.executor import Executor, LocalExecutor, current, stop_pool, worker_init
+from pliant.experiments.executor import Executor, ExecutorError, LocalExecutor, current, stop_pool, worker_init
 from pliant.files import append_jsonl, read_json, read_jsonl, rewrite_jsonl, write_json
 from pliant.progress import ProgressLine
 from pliant.termination import Condition
 
-__all__ = ["check_settings", "open_log", "run_tasks", "stop_pool", "worker_init"]
+__all__ = ["TasksFailed", "check_settings", "open_log", "run_tasks", "stop_pool", "worker_init"]
+
+
+class TasksFailed(ExecutorError):
+    """Some tasks of an experiment raised: the others ran to the end and are on file, the failures are in
+    ``errors.jsonl`` beside the records (``failures``: their entries), and the same command runs them again.
+    ``pliant`` exits with status 3 (``failed``: the work raised), not 2 (bad input)."""
+
+    exit_status = 3
+
+    def __init__(self, message: str, failures: list[dict], **where) -> None:
+        super().__init__(message, **where)
+        self.failures = failures
 
 
 def check_settings(directory: Path, settings: dict, keys: Sequence[str], *, replace: bool) -> dict:
@@ -59,7 +72,8 @@ def open_log(directory: Path, output_flag: str, echo=print) -> tuple[Path, list[
 
 def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, log: Path, records: list[dict],
               describe: Callable[[dict], str], on_interrupt: Callable[[], object] = lambda: None,
-              echo=print, executor: Executor | None = None, stop: Condition | None = None) -> list[dict]:
+              echo=print, executor: Executor | None = None, stop: Condition | None = None,
+              label: Callable[[tuple], str] | None = None) -> list[dict]:
     """Run ``work(*task)`` for every task with ``executor`` -- by default the one installed by
     :func:`pliant.experiments.executor.using` (``pliant ... --executor ray``), else a local pool of ``jobs``
     processes.  Each record is appended to ``records`` and to ``log`` (fsynced) in this process as it finishes,
@@ -68,8 +82,15 @@ def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, l
     On Ctrl-C: the tasks left are cancelled, ``on_interrupt()`` runs (e.g. writes a summary of the finished tasks),
     and :class:`KeyboardInterrupt` is raised.  When ``stop`` holds (checked with the number of finished tasks) or
     the executor is cancelled from another thread, the tasks left are cancelled, ``on_interrupt()`` runs and the
-    records so far are returned; a second call resumes with the tasks not on file."""
+    records so far are returned; a second call resumes with the tasks not on file.
+
+    A task that raises does not stop the others: its error is appended to ``errors.jsonl`` beside ``log`` (the task
+    as ``label(task)`` says it, the exception's type, message and the worker's traceback) and echoed; once every
+    other task has finished, ``on_interrupt()`` runs and :class:`TasksFailed` is raised naming the failed tasks.  A
+    failed task has no record, so the same command runs it again."""
     tasks = list(tasks)
+    label = label or (lambda task: repr(task)[:200])
+    failures: list[dict] = []
     own = executor is None and current() is None
     executor = executor or current() or LocalExecutor(jobs)
     line = ProgressLine("tasks")
@@ -86,8 +107,13 @@ def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, l
     previous, executor.on_progress = executor.on_progress, show
     try:
         with log.open("a") as sink:
-            for k, result in enumerate(executor.run(work, tasks, stop), start=1):
+            for k, result in enumerate(executor.run(work, tasks, stop, errors="record"), start=1):
                 finished = k
+                if result.error is not None:
+                    failures.append(_record_failure(log, label(tasks[result.index]), result.error))
+                    echo(f"[{k}/{len(tasks)}] FAILED {failures[-1]['task']}: {result.error['type']}: "
+                         f"{result.error['message']}")
+                    continue
                 records.append(result.record)
                 append_jsonl(sink, result.record)
                 where = f" [{result.node}]" if executor.remote else ""
@@ -104,4 +130,20 @@ def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, l
     if executor.stopped:
         on_interrupt()
         echo(f"stopped: the {len(records)} finished tasks are in {log}; run the same command again to resume")
+    elif failures:
+        on_interrupt()
+        listed = "; ".join(f"{f['task']}: {f['type']}: {f['message'][:160]}" for f in failures[:3])
+        more = f" and {len(failures) - 3} more" if len(failures) > 3 else ""
+        raise TasksFailed(f"{len(failures)} of {len(tasks)} tasks failed ({listed}{more}); the others finished and "
+                          f"are in {log}, the errors with their tracebacks in {log.parent / 'errors.jsonl'}; run the "
+                          "same command again to run the failed tasks again", failures, field="task",
+                          value=failures[0]["task"])
     return records
+
+
+def _record_failure(log: Path, task: str, error: dict) -> dict:
+    """Append a failed task's entry to ``errors.jsonl`` beside ``log`` (fsynced); returns the entry."""
+    entry = {"task": task, **error, "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+    with (log.parent / "errors.jsonl").open("a") as sink:
+        append_jsonl(sink, entry)
+    return entry

@@ -288,6 +288,16 @@ def ac_distances(q: np.ndarray, context: ClusteringContext, pairs: tuple[np.ndar
     return d
 
 
+def _simulates_from(simulator, q: np.ndarray) -> bool:
+    """Whether ``simulator`` accepts every configuration of ``q`` ``(n, d)`` as a start (its start check,
+    :func:`pliant.contracts.check_starts`: no deeper inside an obstacle than it tolerates; ``None``: it cannot
+    tell, so yes)."""
+    depth = simulator.start_penetration(q)
+    if depth is None:
+        return True
+    return bool(np.all(np.asarray(depth, dtype=np.float64) <= float(simulator.start_tolerance)))
+
+
 def pc_distances(q: np.ndarray, context: ClusteringContext, rng: np.random.Generator,
                  pairs: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """``(n, n)`` PC distances: 0 when the local planner connects both ways, else 1 (thesis 5.3.3).
@@ -424,7 +434,8 @@ def matches(belief_particles: np.ndarray, q: np.ndarray, method: str, context: C
     pairwise distance is within the threshold, so this checks, for both passes, the largest distance
     over all pairs of ``b + {q}`` — without building the hierarchy.  For ``"pc"`` only the ``2k``
     simulations between ``q`` and the particles run: the belief's own particles were found mutually
-    connected when it was planned (re-simulating them would cost ``k^2 - k`` runs per query).
+    connected when it was planned (re-simulating them would cost ``k^2 - k`` runs per query); a ``q`` the
+    simulator refuses as a start (outside its world or inside an obstacle) matches no belief.
     Arguments and errors as in :func:`cluster_particles`.
     """
     _check_method(method, context)
@@ -442,6 +453,10 @@ def matches(belief_particles: np.ndarray, q: np.ndarray, method: str, context: C
     n = len(allq)
     pairs = None
     if method == "pc":
+        if not _simulates_from(context.simulator, x):
+            # the connectivity test cannot start from q (e.g. an observation outside the planning simulator's
+            # world, or inside one of its obstacles): in the planner's model q connects to nothing
+            return False
         pairs = (np.arange(n - 1), np.full(n - 1, n - 1))
     feature, threshold = _feature_distances(allq, method, context, rng, pairs)
     return bool(feature.max() <= (wcr_t if threshold is None else threshold))

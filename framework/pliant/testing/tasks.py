@@ -27,3 +27,13 @@ def anytime(seed: int, seconds: float, marker: str | None = None, step: float = 
     if marker:
         Path(marker).write_text("interrupted" if stop.interrupted else "done")
     return {"seed": seed, "best_cost": best, "iterations": iteration, "interrupted": stop.interrupted}
+
+
+def fails_for(seed: int, failing: tuple[int, ...] = ()) -> dict:
+    """A task that raises :class:`~pliant.errors.SimulationError` (naming the seed) when ``seed`` is in ``failing``,
+    else returns ``{"seed": seed}``: a task error for the executors' tests."""
+    from pliant.errors import SimulationError
+
+    if seed in failing:
+        raise SimulationError("the task's simulator refused its start", field="seed", value=seed)
+    return {"seed": seed}

@@ -369,6 +369,7 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     tasks = [(v, s, plan_time, executions, exec_time, directory / "policies" / f"{_slug(v.label)}-seed{s}.json",
               plan_iterations) for v, s in todo]
     run_tasks(run_task, tasks, jobs=jobs, log=log, records=records, describe=describe, echo=echo,
+              label=lambda task: f"{task[0].label} seed {task[1]}",
               on_interrupt=lambda: _summary(name, records, variants, settings, directory))
     return _summary(name, records, variants, settings, directory)
 

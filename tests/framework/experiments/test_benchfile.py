@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pliant.errors import ConfigError
 from pliant.experiments.benchfile import WALL_TIME_FIELDS, load_benchfile, parse_benchfile, run_benchfile, run_cell
-from pliant.experiments.executor import Executor, TaskResult
+from pliant.experiments.executor import Executor, TaskResult, task_error
 from test_ompl_benchmark import dump_database
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -34,12 +34,19 @@ class Serial(Executor):
         self.calls = 0
         self.interrupt_after = interrupt_after
 
-    def run(self, work, tasks, stop=None):
+    def run(self, work, tasks, stop=None, *, errors="raise"):
         for k, task in enumerate(tasks):
             if self.interrupt_after is not None and self.calls >= self.interrupt_after:
                 raise KeyboardInterrupt
             self.calls += 1
-            yield TaskResult(k, work(*task), {}, "here", 0.0)
+            try:
+                record = work(*task)
+            except Exception as exc:
+                if errors == "raise":
+                    raise
+                yield TaskResult(k, {}, error=task_error(exc))
+                continue
+            yield TaskResult(k, record, {}, "here", 0.0)
 
 
 def test_the_bundled_file_is_the_issue_35_grid():

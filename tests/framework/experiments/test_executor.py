@@ -6,7 +6,7 @@ import time
 from types import SimpleNamespace
 
 import pytest
-from pliant.errors import ConfigError
+from pliant.errors import ConfigError, SimulationError
 from pliant.experiments import executor as executor_module
 from pliant.experiments.executor import (
     LocalExecutor,
@@ -17,7 +17,7 @@ from pliant.experiments.executor import (
     from_args,
     using,
 )
-from pliant.experiments.runs import open_log, run_tasks
+from pliant.experiments.runs import TasksFailed, open_log, run_tasks
 from pliant.files import read_jsonl
 from pliant.termination import Termination, iteration_limit
 
@@ -101,6 +101,41 @@ def test_run_tasks_appends_each_record_once_and_a_stop_condition_ends_it_early(t
     assert sorted(r["x"] for r in read_jsonl(log)[0]) == list(range(8))
 
 
+def test_a_failing_task_is_recorded_with_its_error_and_the_others_finish(tmp_path):
+    from pliant.testing.tasks import fails_for
+
+    tasks = [(k, (1, 4)) for k in range(6)]
+    log, records = open_log(tmp_path / "run", "--output")
+    lines, summaries = [], []
+    with pytest.raises(TasksFailed, match=r"2 of 6 tasks failed \(seed 1: SimulationError: seed: the task's "
+                       r"simulator refused its start \(got 1\); seed 4: .*errors.jsonl") as caught:
+        run_tasks(fails_for, tasks, jobs=2, log=log, records=records, describe=str, echo=lines.append,
+                  label=lambda task: f"seed {task[0]}", on_interrupt=lambda: summaries.append(len(records)))
+    # every other task ran to its end and is on file; the summary was written once, after the last of them
+    assert sorted(r["seed"] for r in read_jsonl(log)[0]) == [0, 2, 3, 5] and summaries == [4]
+    errors = read_jsonl(tmp_path / "run" / "errors.jsonl")[0]
+    assert sorted(e["task"] for e in errors) == ["seed 1", "seed 4"] == sorted(f["task"] for f in caught.value.failures)
+    assert {e["type"] for e in errors} == {"SimulationError"} and all("fails_for" in e["traceback"] for e in errors)
+    assert sum("FAILED seed" in line for line in lines) == 2 and caught.value.exit_status == 3
+    # the failed tasks have no record: the same command runs them (here they succeed) and nothing else
+    done = {r["seed"] for r in records}
+    again = [(k, ()) for k in range(6) if k not in done]
+    run_tasks(fails_for, again, jobs=2, log=log, records=records, describe=str, echo=lambda _: None)
+    assert sorted(r["seed"] for r in read_jsonl(log)[0]) == list(range(6))
+
+
+def test_the_executor_re_raises_a_task_error_unless_asked_to_record_it():
+    from pliant.testing.tasks import fails_for
+
+    with LocalExecutor(1) as pool:
+        with pytest.raises(SimulationError, match="refused its start"):
+            list(pool.run(fails_for, [(0, (0,))]))
+        [result] = pool.run(fails_for, [(0, (0,))], errors="record")
+        assert result.record == {} and result.error["type"] == "SimulationError"
+        with pytest.raises(ConfigError, match="errors"):
+            list(pool.run(fails_for, [(0, ())], errors="ignore"))
+
+
 def test_cancel_from_another_thread_stops_the_pool_within_seconds():
     pool = LocalExecutor(2)
     threading.Timer(0.5, pool.cancel).start()
@@ -113,9 +148,9 @@ def test_run_tasks_uses_the_installed_executor():
     class Recording(LocalExecutor):
         used = 0
 
-        def run(self, work, tasks, stop=None):
+        def run(self, work, tasks, stop=None, *, errors="raise"):
             Recording.used += 1
-            yield from super().run(work, tasks, stop)
+            yield from super().run(work, tasks, stop, errors=errors)
 
     records = []
     import tempfile

@@ -85,6 +85,21 @@ def test_a_stop_condition_cancels_the_tasks_left_on_the_cluster(cluster, tmp_pat
         executor.close()
 
 
+def test_a_task_error_on_the_cluster_is_recorded_with_the_workers_traceback(cluster):
+    from pliant.testing.tasks import fails_for
+
+    executor = _connected(cluster.address, 2)
+    try:
+        results = sorted(executor.run(fails_for, [(k, (2,)) for k in range(4)], errors="record"),
+                         key=lambda r: r.index)
+    finally:
+        executor.close()
+    assert [r.record for r in results] == [{"seed": 0}, {"seed": 1}, {}, {"seed": 3}]
+    error = results[2].error
+    assert error["type"] == "SimulationError" and "refused its start" in error["message"]
+    assert "fails_for" in error["traceback"]
+
+
 def test_running_tasks_report_progress_live_and_a_cancel_stops_them_by_their_own_conditions(cluster, tmp_path):
     from pliant.testing.tasks import anytime
 

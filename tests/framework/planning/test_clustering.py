@@ -191,6 +191,18 @@ def test_matches_inside_the_cloud_and_not_across_the_wall(method):
     assert not matches(belief, np.array([4.2, 8.5, 0.0]), method, cc, rng=np.random.default_rng(0))
 
 
+def test_an_observation_the_simulator_cannot_start_from_matches_no_belief():
+    # an executed robot (pybullet has no walls at the scene's bounds, and lets contacts sink) can be observed where
+    # the planning simulator refuses a start: PC's connectivity test cannot run from there, so it matches nothing
+    cc = maze()
+    belief = cloud((4.6, 5.0, 0.0), 6, 1, spread=0.1, turn=0.02)
+    inside_wall = np.array([5.1, 5.0, 0.0])                 # the arm's tip 0.1 m into the wall at x = 6.5
+    assert cc.simulator.start_penetration(inside_wall[None])[0] > cc.simulator.start_tolerance
+    assert np.max(cc.space.distance(belief, inside_wall[None])) < default_distance_threshold(cc)  # distance passes
+    assert not matches(belief, inside_wall, "pc", cc, rng=np.random.default_rng(0))
+    assert matches(belief, np.array([4.7, 5.0, 0.0]), "pc", cc, rng=np.random.default_rng(0))
+
+
 def test_matches_is_the_single_cluster_test_of_algorithm_4():
     cc = maze()
     belief = cloud(MIDDLE, 12, 1)
