@@ -66,21 +66,43 @@ def heldout_scene(rng: np.random.Generator, k: int, directory: Path, index: int)
              "[[regions]]", 'name = "table"', f"lower = [{x0:.4f}, {y0:.4f}]", f"upper = [{x1:.4f}, {y1:.4f}]", "",
              "[robot]", 'kind = "rigid"', 'name = "paddle"', 'space = "se2"', "deformability = 0.0",
              "sensitivity = 1.0", 'parts = [ { shape = "box", size = [0.03, 0.08, 0.02] } ]', ""]
-    for j, cls in enumerate(rng.choice(list(CLASSES), size=k, replace=False)):
+    objects = []
+    for cls in rng.choice(list(CLASSES), size=k, replace=False):
         shape, a, b, mass, friction = CLASSES[cls]
-        lines += ["[[objects]]", f'name = "{cls}-1"', f'shape = "{shape}"']
+        entry = ["[[objects]]", f'name = "{cls}-1"', f'shape = "{shape}"']
         if shape == "box":
             sx = rng.uniform(*a)
             sy = rng.uniform(*b) if b else sx * rng.uniform(0.9, 1.0)
-            lines.append(f"size = [{sx:.4f}, {sy:.4f}, 0.04]")
+            entry.append(f"size = [{sx:.4f}, {sy:.4f}, 0.04]")
+            half = (0.5 * sx, 0.5 * sy)
         else:
-            lines += [f"radius = {rng.uniform(*a):.4f}", "length = 0.04"]
-        px = x0 + (j + 0.5) * w / k
-        lines += [f"position = [{px:.4f}, {y0 + h / 2:.4f}, 0.0]", f"mass = {rng.uniform(*mass):.3f}",
-                  f"friction = {rng.uniform(*friction):.3f}", "deformability = 0.0", "sensitivity = 1.0", ""]
+            radius = rng.uniform(*a)
+            entry += [f"radius = {radius:.4f}", "length = 0.04"]
+            half = (radius, radius)
+        objects.append((entry, half, f"mass = {rng.uniform(*mass):.3f}", f"friction = {rng.uniform(*friction):.3f}"))
+    for (entry, _, mass, friction), (px, py) in zip(objects, _provisional([o[1] for o in objects], x0, y0, w, h)):
+        lines += [*entry, f"position = [{px:.4f}, {py:.4f}, 0.0]", mass, friction, "deformability = 0.0",
+                  "sensitivity = 1.0", ""]
     path = directory / f"heldout-{index}.toml"
     path.write_text("\n".join(lines))
     return path
+
+
+def _provisional(halves: list, x0: float, y0: float, w: float, h: float) -> list[tuple[float, float]]:
+    """Provisional positions (yaw 0) of objects of half extents ``halves`` ``[(hx, hy), ...]`` (m): evenly spaced
+    along the table's middle line, or -- when neighbours would overlap there -- packed left to right 1 cm apart, in
+    rows from the bottom (pymunk refuses to place overlapping objects; the start is drawn later anyway)."""
+    k = len(halves)
+    spaced = [(x0 + (j + 0.5) * w / k, y0 + h / 2) for j in range(k)]
+    if all(halves[j][0] + halves[j + 1][0] <= w / k for j in range(k - 1)):
+        return spaced
+    poses, x, y, row = [], x0 + 0.01, y0 + 0.01, 0.0
+    for hx, hy in halves:
+        if x + 2 * hx > x0 + w - 0.01:
+            x, y, row = x0 + 0.01, y + row + 0.01, 0.0
+        poses.append((x + hx, y + hy))
+        x, row = x + 2 * hx + 0.01, max(row, 2 * hy)
+    return poses
 
 
 def run_task(label: str, scene_name: str, seed: int, options: TSRRTOptions, args) -> dict:
@@ -156,6 +178,9 @@ def main() -> None:
     parser.add_argument("--action-limit", type=int, default=300)
     parser.add_argument("--only", type=int, nargs="*", default=None, help="run only these held-out tasks (indices; "
                         "the generator still draws every task before them, so each is the same task as in a full run)")
+    parser.add_argument("--generator", type=int, default=33_000, help="the held-out generator's seed (33000: the "
+                        "tasks looked at while tuning, now development data; 34000: held-out B, drawn after "
+                        "execution.finish_steps was chosen)")
     parser.add_argument("--name", default=None, help="the JSON file's name (default tsrrt-heldout[-quick])")
     parser.add_argument("--set", action="append", default=[],
                         help="a TS-RRT option, NAME=VALUE (TOML value; a group's option as group.NAME)")
@@ -169,12 +194,14 @@ def main() -> None:
     extra = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (s.split("=", 1) for s in args.set)}
     options = build_options(TSRRTOptions, {"push.placement_noise": 0.004, **extra}, source="--set")
     options = replace(options, replan_time=600.0)          # only a cap: replanning runs to its work budget
-    out: dict = {"iterations": args.iterations, "executions": args.executions, "rounds": args.rounds,
+    out: dict = {"generator": args.generator, "iterations": args.iterations, "executions": args.executions,
+                 "rounds": args.rounds,
                  "action_limit": args.action_limit, "options": extra, "runs": []}
+    name = args.name or ("tsrrt-heldout" + ("-quick" if args.quick else ""))
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         tasks = [("development", "tsrrt-table", seed) for seed in range(args.dev)]
-        gen = np.random.default_rng(33_000)                  # the held-out generator's own stream
+        gen = np.random.default_rng(args.generator)          # the held-out generator's own stream
         for i in range(args.heldout):
             scene_file = heldout_scene(gen, counts[i % len(counts)], Path(tmp), i)
             if args.only is None or i in args.only:
@@ -186,6 +213,7 @@ def main() -> None:
                   f"{r['reference_cost']:.4f} ratio {r['ratio']:.3f} pushes {r['pushes']} cpu {r['cpu_time']:.1f}s "
                   "exec " + " ".join(f"{x['ratio_plan']:.3f}/{x['pushes']}/{x['outcome']}" for x in r["executions"]),
                   flush=True)
+            write_json(name, out)                            # as it goes: a crash keeps the tasks done
     dev = summary([r for r in out["runs"] if r["set"] == "development"])
     held = summary([r for r in out["runs"] if r["set"] == "held-out"])
     out["summary"] = {"development": dev, "held-out": held, "wall_time": time.perf_counter() - t0}
@@ -195,7 +223,7 @@ def main() -> None:
     print_table(f"TS-RRT, development (tsrrt-table) vs held-out (new classes and tables); {args.iterations} "
                 f"iterations, {args.executions} noisy executions per plan, {args.action_limit}-push limit",
                 ("figure", "development", "held-out"), rows)
-    write_json(args.name or ("tsrrt-heldout" + ("-quick" if args.quick else "")), out)
+    write_json(name, out)
 
 
 def _fmt(v) -> str:

@@ -48,7 +48,7 @@ from pliant_tsrrt.models import footprints_from_scene, object_class, relative
 from pliant_tsrrt.planner import PushPlan, build_space, options_from_dict, replan_settings
 from pliant_tsrrt.pushing import PRIMITIVES
 from pliant_tsrrt.pushing import push_steps as push_action
-from pliant_tsrrt.refine import final_beam
+from pliant_tsrrt.refine import finishing_push
 from pliant_tsrrt.repair import pose_errors
 from pliant_tsrrt.repair import restore as repair_restore
 from pliant_tsrrt.repair import retarget as repair_retarget
@@ -186,6 +186,7 @@ class PushPlanStrategy(ScriptedStrategy):
         steps_left = e.finish_steps   # closed-loop finishing pushes left (each planned from the observed arrangement)
         step_best, step_stale = np.inf, 0
         stepping = False          # the current action is a closed-loop finishing push: not monitored against a plan
+        stroke = 1.0              # the finishing push's stroke, a fraction of its primitive's depth
         fruitless = 0             # finishing repairs and replannings that did not lower the cost
         j = 0
         while True:
@@ -196,29 +197,26 @@ class PushPlanStrategy(ScriptedStrategy):
                 if cost_now <= ceiling + 1e-12 or stalled:
                     break
                 if steps_left > 0 and step_stale < FINISH_STALE and len(records) < self.action_limit:
-                    # closed-loop finishing: the first push of a beam search from the observed arrangement, then
-                    # observe and plan the next one (a fixed plan toward the first plan's end executes open loop and
-                    # ends off it by the noise of its own pushes)
+                    # closed-loop finishing: the single push (of a whole or a fraction of a stroke) predicted to lower
+                    # the cost most, then observe and choose the next one (a fixed plan toward the first plan's end
+                    # executes open loop and ends off it by the noise of its own pushes)
                     if cost_now < step_best * (1 - 1e-3):
                         step_best, step_stale = cost_now, 0
                     elif np.isfinite(step_best):
                         step_stale += 1
-                    room = _room_for(space, observed)
-                    predicted_cost, extra = final_beam(room, observed, depth=max(1, imp.beam_depth),
-                                                       width=imp.beam_width, push_cost=imp.push_cost,
-                                                       enough=goal_cost)
-                    states, _ = room.rollout(observed, extra[:1])
-                    # only a push predicted to lower the cost by itself: the beam's first push may be one that
-                    # first raises it, and executed alone, then re-planned, such pushes raised it push after push
-                    if extra and step_stale < FINISH_STALE and \
-                            float(space.cost.cost(states[-1][None])[0]) < cost_now * (1 - 1e-3):
+                    best = finishing_push(_room_for(space, observed), observed, e.finish_scales) \
+                        if step_stale < FINISH_STALE else None
+                    if best is not None:
+                        predicted_cost, action, stroke, after = best
                         steps_left -= 1
                         replans.append({"after_action": len(records), "reason": "finish step", "repair": True,
-                                        "cost_before": cost_now, "planned_cost": float(predicted_cost),
-                                        "actions": 1, "repair_pushes": 1, "objects": [plan.names[extra[0] // 6]]})
-                        actions, expected, j, stepping = extra[:1], states, 0, True
+                                        "cost_before": cost_now, "planned_cost": predicted_cost, "actions": 1,
+                                        "repair_pushes": 1, "objects": [plan.names[action // 6]],
+                                        "stroke": stroke})
+                        actions, expected, j, stepping = [action], [observed, after], 0, True
                         continue
-                    steps_left = 0                 # no push is predicted to help: the finishing below decides
+                    # no push is predicted to help, or they stopped helping: the finishing below decides (after
+                    # it, the closed-loop finishing may start again from its result)
                 if finishing_from is not None and cost_now > finishing_from * (1 - 1e-3):
                     fruitless += 1           # the last finishing repair or replanning did not lower the cost
                 if fruitless >= FINISH_TRIES:
@@ -227,6 +225,7 @@ class PushPlanStrategy(ScriptedStrategy):
                     outcome = ExecutionOutcome.ACTION_LIMIT
                     break
                 finishing_from = cost_now
+                step_best, step_stale = np.inf, 0
                 reason = "finish"
                 # a finishing repair must be predicted to end within the tolerance: pushes that promise a fraction of a
                 # per cent are lost in the noise of their own execution (repeated, they spent the push budget)
@@ -248,9 +247,11 @@ class PushPlanStrategy(ScriptedStrategy):
                     break
                 a = actions[j]
                 obj, prim = divmod(a, 6)
-                predicted = space.step(observed, a)
+                predicted = expected[j + 1] if stepping else space.step(observed, a)
+                made = push if not stepping or stroke == 1.0 else \
+                    replace(push, push_depth=stroke * push.push_depth, turn_depth=stroke * push.turn_depth)
                 try:
-                    poses = yield from push_action(all_names, fp_all, all_names.index(plan.names[obj]), prim, push, rng,
+                    poses = yield from push_action(all_names, fp_all, all_names.index(plan.names[obj]), prim, made, rng,
                                                    self.last)
                 except SimulationError as exc:     # e.g. the noisy paddle placement lands in a wall: skip it, replan
                     blocked += 1
@@ -308,7 +309,7 @@ class PushPlanStrategy(ScriptedStrategy):
                     room = _room_for(space, observed)
                     fixes = [repair_restore(room, observed, expected[j], actions[j:], threshold=e.replan_threshold,
                                             angle=e.replan_angle, depth=e.repair_depth, width=imp.refine_width,
-                                            yaw_quota=imp.refine_yaw_quota)]
+                                            yaw_quota=imp.refine_yaw_quota, at_most=ceiling)]
                     if e.repair_retarget:
                         fixes.append(repair_retarget(room, observed, expected[j], actions[j:],
                                                      threshold=e.replan_threshold, angle=e.replan_angle,

@@ -152,13 +152,16 @@ class ExecutionOptions:
     outcome_tolerance: float = option(0.1, "an execution that completes collision-free with its final cost above "
                                       "(1 + this) x the first plan's cost ends 'above tolerance', not 'success'",
                                       minimum=0.0)
-    finish_steps: int = option(0, "when a plan is done above finish_tolerance: most closed-loop finishing pushes, "
-                               "each the first of a beam search from the observed arrangement (0: off)", minimum=0)
+    finish_steps: int = option(30, "when a plan is done above finish_tolerance: most closed-loop finishing pushes, "
+                               "each the single push predicted to lower the cost most (0: off)", minimum=0)
+    finish_scales: tuple[float, ...] = option((0.25, 0.5, 1.0), "finish_steps: the strokes a finishing push may "
+                                              "use, as fractions of the primitive's depth (finer ones correct "
+                                              "smaller errors)")
     adapt_models: bool = option(False, "update the push models with every push observed in execution (the pushed "
                                 "object's displacement, when no other object moved) before repairs and replans")
     max_replans: int = option(20, "most replannings in one execution", minimum=0)
-    replan_refine: bool = option(False, "run the improvement phase in every replanning; else only in the "
-                                 "replanning after the plan is done (deviations are replanned by the tree)")
+    replan_refine: bool = option(True, "run the improvement phase in every replanning (it connects back to the "
+                                 "first plan's end); else only in the replanning after the plan is done")
     repair: bool = option(True, "before replanning, try to repair the plan by pushing displaced objects back (or "
                           "toward the first plan's final arrangement); replan only when that fails")
     repair_depth: int = option(12, "most pushes per object of a repair", minimum=1)
@@ -173,6 +176,12 @@ class ExecutionOptions:
                                 "symmetry)", minimum=0.0)
     replan_shortest: bool = option(True, "a replanning counts every final cost at or below the first plan's as "
                                    "equally good, so the plan with the fewest pushes wins (else the cheapest)")
+
+    def validate(self) -> None:
+        if not self.finish_scales or not all(isinstance(f, (int, float)) and not isinstance(f, bool) and 0 < f <= 1
+                                             for f in self.finish_scales):
+            raise ConfigError("must be one or more fractions in (0, 1]", field="finish_scales",
+                              value=list(self.finish_scales))
 
 
 @dataclass(frozen=True)

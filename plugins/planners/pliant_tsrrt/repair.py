@@ -70,13 +70,16 @@ def loosened(space, slack: float = 0.5):
 
 
 def restore(space, observed: np.ndarray, expected: np.ndarray, rest: list[int], *, threshold: float,
-            angle: float, depth: int = 12, width: int = 64, yaw_quota: int = 4, slack: float = 0.5) -> Repair | None:
+            angle: float, depth: int = 12, width: int = 64, yaw_quota: int = 4, slack: float = 0.5,
+            at_most: float | None = None) -> Repair | None:
     """Repair after a deviation: the objects of ``observed`` ``(k, 3)`` farther than half the replanning thresholds
     (``threshold`` m, ``angle`` rad) from ``expected`` (the plan's predicted arrangement at this step) are pushed back
     toward it, most displaced first, at most ``depth`` pushes each; then the plan's remaining actions ``rest``.
     ``None`` unless every object ends (as predicted by the models) within half the thresholds of ``expected`` and
     the whole sequence is valid with the clearance margin times ``slack`` (the objects are back only to within
-    millimetres, and the plan's margin is there for exactly that)."""
+    millimetres, and the plan's margin is there for exactly that) and, with ``at_most``, the predicted final cost is
+    at most that (the rest of the plan from poses a few millimetres and degrees off can end far from the plan's
+    end: the pushes act in each object's frame)."""
     space = _exact_yaw(space)
     objects = _displaced(space, observed, expected, threshold / 2, angle / 2)
     s, actions = observed, []
@@ -88,7 +91,7 @@ def restore(space, observed: np.ndarray, expected: np.ndarray, rest: list[int], 
         return None
     plan = actions + list(rest)
     states, ok = loosened(space, slack).rollout(observed, plan)
-    if not ok:
+    if not ok or (at_most is not None and float(space.cost.cost(states[-1][None])[0]) > at_most):
         return None
     return Repair(plan, states, len(actions), objects)
 

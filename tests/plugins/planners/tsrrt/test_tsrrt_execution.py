@@ -12,11 +12,12 @@ import numpy as np
 import pliant_tsrrt.execution as execution_module
 import pytest
 from pliant import load_scene, registry
+from pliant.errors import ConfigError
 from pliant.execution.strategy import Place
 from pliant.interfaces import Context
 from pliant_tsrrt.execution import execute_plan
 from pliant_tsrrt.models import Displacement, PushModels, footprints_from_scene, object_class, scene_pose
-from pliant_tsrrt.options import ExecutionOptions, TSRRTOptions
+from pliant_tsrrt.options import CostOptions, ExecutionOptions, TSRRTOptions
 from pliant_tsrrt.planner import PushPlan, build_space
 from pliant_tsrrt.search import SearchResult
 
@@ -67,7 +68,10 @@ def _script(monkeypatch, space, kick, replans, stuck_from=None):
         now = {n: np.asarray(p, float) for n, p in seen.objects.items()}
         s = np.array([now[n] for n in NAMES])
         if stuck_from is None or calls["pushes"] < stuck_from:
-            s = space.step(s, 6 * NAMES.index(names[index]) + primitive)
+            moved = space.step(s, 6 * NAMES.index(names[index]) + primitive)
+            # a shorter stroke (a closed-loop finishing push) moves the object that fraction of the model's push
+            stroke = settings.push_depth / space.push.push_depth
+            s = s + stroke * (moved - s)
         if calls["pushes"] == kick[0]:
             if np.ndim(kick[2]):
                 s[kick[1]] += kick[2]
@@ -102,11 +106,15 @@ def test_a_done_plan_is_judged_against_the_first_plans_cost_and_replanned_toward
     # the first push leaves the can 6 cm back toward the edge (a deviation); the replanning after it (the tree
     # alone) finds nothing to do, which ends more than 5 % above the first plan's cost; the replanning when that
     # plan is done (with the improvement phase) pushes the can -y three times again
-    first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [lambda s: [], lambda s: [15, 15, 15]])
+    first, calls, record = _execute_can_plan(monkeypatch, (0, 2, 0.06), [lambda s: [], lambda s: [15, 15, 15]],
+                                             replan_refine=False)
     reasons = [r["reason"] for r in record.details.adaptations]
     assert reasons == ["deviation", "finish"]
     assert record.details.adaptations[0]["planned_cost"] > 1.05 * first.cost   # the replanned plan ended higher ...
     assert calls["grow"][0]["refine"] is False and calls["grow"][1]["refine"] is True
+    # with replan_refine (the default) the replanning after the deviation runs the improvement phase too
+    _, calls, _ = _execute_can_plan(monkeypatch, (0, 2, 0.06), [lambda s: [], lambda s: [15, 15, 15]])
+    assert [call["refine"] for call in calls["grow"]] == [True, True]
     for call in calls["grow"]:                                         # ... and every replanning knows the goal
         assert np.allclose(call["goal"], first.states[-1])
     assert record.details.final_cost <= 1.05 * first.cost + 1e-9
@@ -235,6 +243,37 @@ def test_a_done_plan_above_tolerance_is_finished_closed_loop_one_push_at_a_time(
     assert not calls["grow"]
     assert len(record.details.actions) == 3 + len(steps) <= 3 + 10
     assert record.details.final_cost <= 1.05 * first.cost + 1e-9 and record.outcome == "success"
+
+
+def test_closed_loop_finishing_takes_a_fraction_of_a_stroke_where_a_whole_push_would_overshoot(monkeypatch):
+    # orthogonality alone; the plan turns the book from 30 degrees to -0.0764 rad and the block from -20 degrees to
+    # 0.0509 rad (sin^2(2 theta): 0.0232 + 0.0103); its last push leaves the book at -0.1464 rad (0.0829 + 0.0103,
+    # 2.8 times the plan's cost).  Turning the book back by a whole turn (0.2 rad) leaves 0.0536 rad (0.0114 +
+    # 0.0103), by a quarter -0.0964 (0.0364 + 0.0103), by a half -0.0464 (0.0085 + 0.0103 = 0.0188, below the plan's
+    # own cost): the finishing takes one half-stroke turn and is done
+    scene, world, models, _, _ = _setup()
+    options = TSRRTOptions(cost=CostOptions(w_orth=1.0, w_area=0.0, w_edge=0.0),
+                           execution=ExecutionOptions(repair=False, replan_threshold=1.0, finish_steps=10,
+                                                      finish_scales=(0.25, 0.5, 1.0), adapt_models=False))
+    space = build_space(scene, options, models, NAMES)
+    s0 = np.array([scene_pose(scene, n) for n in NAMES])
+    first = _result(space, s0, [5, 5, 5, 10, 10])
+    np.testing.assert_allclose(first.states[-1][:2, 2], [-0.0764, 0.0509], atol=1e-4)
+    calls = _script(monkeypatch, space, (4, 0, (0.0, 0.0, -0.07)), [lambda s: []] * 5)
+    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, asdict(options), models)
+    record = execute_plan(plan, world, scene, np.random.default_rng(0))
+    steps = [a for a in record.details.adaptations if a["reason"] == "finish step"]
+    assert [(a["objects"], a["stroke"]) for a in steps] == [(["book-1"], 0.5)] and not calls["grow"]
+    assert [a["primitive"] for a in record.details.actions][-1] == "turn+"
+    assert record.details.final_state[0, 2] == pytest.approx(first.states[-1][0, 2] - 0.07 + 0.1, abs=1e-9)
+    assert record.details.final_cost == pytest.approx(np.sin(2 * (-0.0464))**2 + np.sin(2 * 0.0509)**2, abs=1e-3)
+    assert record.details.final_cost < first.cost and record.outcome == "success"
+
+
+def test_finish_scales_must_be_fractions_of_a_stroke():
+    for bad in ((), (0.0,), (1.5,), (0.5, -0.1)):
+        with pytest.raises(ConfigError, match="finish_scales"):
+            ExecutionOptions(finish_scales=bad).validate()
 
 
 def test_adapt_models_adds_an_observed_push_to_its_class_unless_it_moved_another_object():

@@ -11,7 +11,17 @@ from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import BOX, CIRCLE, CollisionChecker, Footprints
 from pliant_tsrrt.options import ImprovementOptions, TSRRTOptions
 from pliant_tsrrt.pushing import PushSettings
-from pliant_tsrrt.refine import connect, final_beam, free_descent, improve, push_toward, random_free, targets, variants
+from pliant_tsrrt.refine import (
+    connect,
+    final_beam,
+    finishing_push,
+    free_descent,
+    improve,
+    push_toward,
+    random_free,
+    targets,
+    variants,
+)
 from pliant_tsrrt.search import ObjectSpace, grow, redundant_actions
 
 TABLE = (0.0, 0.0, 1.0, 0.8)
@@ -194,3 +204,19 @@ def test_a_connection_with_enough_stops_where_it_first_reaches_it():
     cost, actions = connect(space, s, np.array([[0.5, 0.4, 0.0]]), (0,), depth=6, width=16, enough=0.2)
     assert actions == [5] and np.isclose(cost, np.sin(0.4) ** 2)           # 0.1516: the first state below 0.2
     assert final_beam(space, s, depth=4, width=32, enough=0.2)[1] == [5]
+
+
+def test_the_finishing_push_takes_the_stroke_that_lowers_the_cost_most():
+    # the book at yaw 0.07 rad, orthogonality alone, turns of exactly -0.2 rad: a whole turn overshoots to -0.13 rad
+    # (sin^2(2 theta) 0.0663 against 0.0193 now); a third of one lands at 0.0033 rad, the best of the strokes offered
+    fp = Footprints([BOX], [[0.12, 0.08]])
+    turns = [[0.047, 0, 0], [-0.047, 0, 0], [0, 0.047, 0], [0, -0.046, 0], [0, 0, 0.2], [0, 0, -0.2]]
+    space = _space(fp, [turns], (1.0, 0.0, 0.0, 0.0))
+    s = np.array([[0.5, 0.4, 0.07]])
+    assert finishing_push(space, s, (1.0,)) is None                        # no whole push lowers the cost
+    cost, action, stroke, after = finishing_push(space, s, (1 / 3, 0.5, 1.0))
+    assert action == 5 and stroke == 1 / 3
+    np.testing.assert_allclose(after, [[0.5, 0.4, 0.07 - 0.2 / 3]], atol=1e-12)
+    assert np.isclose(cost, np.sin(2 * (0.07 - 0.2 / 3)) ** 2)
+    # at the optimum nothing is offered
+    assert finishing_push(space, np.array([[0.5, 0.4, 0.0]]), (0.25, 0.5, 1.0)) is None

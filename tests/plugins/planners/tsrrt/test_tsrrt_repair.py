@@ -27,6 +27,18 @@ def test_a_turned_box_is_turned_back_and_the_rest_of_the_plan_follows():
     assert abs(back[0, 2] - first.states[1][0, 2]) < 0.075 and np.hypot(*(back[0, :2] - first.states[1][0, :2])) < 0.01
 
 
+def test_a_push_back_is_refused_when_the_rest_of_the_plan_would_end_above_the_bound():
+    space, first = _plan()
+    observed = first.states[1].copy()
+    observed[0, 2] += 0.4
+    fix = restore(space, observed, first.states[1], first.actions[1:], threshold=0.02, angle=0.15)
+    end_cost = float(space.cost.cost(fix.states[-1][None])[0])
+    assert restore(space, observed, first.states[1], first.actions[1:], threshold=0.02, angle=0.15,
+                   at_most=end_cost) is not None
+    assert restore(space, observed, first.states[1], first.actions[1:], threshold=0.02, angle=0.15,
+                   at_most=end_cost - 1e-9) is None
+
+
 def test_a_box_turned_by_its_symmetry_counts_as_displaced_for_a_repair():
     space, first = _plan()
     observed = first.states[1].copy()
