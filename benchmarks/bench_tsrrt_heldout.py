@@ -15,8 +15,13 @@ so the figures are the same on any machine under a seed; the times are only repo
 
     python benchmarks/bench_tsrrt_heldout.py --quick      (1 development task, 2 held-out; about a minute)
     nice -n 10 python benchmarks/bench_tsrrt_heldout.py   (6 development tasks, 16 held-out, 3 executions each)
+    ... --dev 0 --heldout 8 --executions 3 --iterations 300 --rounds 2000 --generator 36000   (docs' held-out figure)
 
-Writes benchmarks/results/tsrrt-heldout[-quick].json (every task, plan and execution).
+``--generator`` seeds the held-out generator.  Sets once held out become development data when a default is chosen
+by looking at them: 33000 (the first set), 34000 and 35000 are development data now; 36000 and 37000 were drawn
+after the execution defaults of 2026-11-29 were fixed (docs/plugins/tsrrt.md, *Held-out tasks*).
+
+Writes out/bench/tsrrt-heldout[-quick].json (or ``--name``; every task, plan and execution), after every task.
 """
 
 from __future__ import annotations
