@@ -128,14 +128,15 @@ def random_arrangements(space, rng: np.random.Generator, count: int, tries: int 
 
 def reference_optimum(space, rng: np.random.Generator, rounds: int = 4000, population: int = 64,
                       starts: np.ndarray | None = None, pattern_count: int = 512,
-                      restarts: int = 2) -> tuple[np.ndarray, float]:
+                      restarts: int = 2, deadline: float | None = None) -> tuple[np.ndarray, float]:
     """The reference optimum of the task cost over collision-free free placements (the figure of merit's
     denominator): the cheapest of several multi-start descents.  Starts: random collision-free arrangements (each
     box's yaw either uniform or snapped to a multiple of 90 degrees: multi-start over orientations), the
     ``population`` cheapest of ``pattern_count`` packed :func:`patterns` (rows, columns, shelves), and ``starts``
     (e.g. the planner's result).  Each of ``restarts`` rounds descends (:func:`free_descent`, ``rounds`` rounds) from
     a wide step and then polishes the best members with a narrow one.  A work budget (rounds, members), so the same
-    answer under a seed on any machine."""
+    answer under a seed on any machine -- unless ``deadline`` (a ``time.perf_counter()`` value) cuts the descents
+    short."""
     k = space.k
     rand = random_arrangements(space, rng, population)
     snapped = rand.copy()
@@ -153,10 +154,11 @@ def reference_optimum(space, rng: np.random.Generator, rounds: int = 4000, popul
     pop = np.concatenate([p for p in pools if len(p)])
     best, best_cost = None, np.inf
     for _ in range(restarts):
-        desc, cost = free_descent(space, pop, rng, rounds=rounds, slack=0.0, sigma_start=0.05, sigma_end=5e-4)
+        desc, cost = free_descent(space, pop, rng, rounds=rounds, slack=0.0, sigma_start=0.05, sigma_end=5e-4,
+                                  deadline=deadline)
         top = desc[np.argsort(cost)[: max(8, population // 4)]]
         fine, fcost = free_descent(space, np.repeat(top, 2, axis=0), rng, rounds=rounds, slack=0.0,
-                                   sigma_start=0.005, sigma_end=1e-5)
+                                   sigma_start=0.005, sigma_end=1e-5, deadline=deadline)
         i = int(np.argmin(fcost))
         if fcost[i] < best_cost:
             best, best_cost = fine[i].copy(), float(fcost[i])
@@ -186,17 +188,18 @@ def table_mirrors(space, s: np.ndarray) -> np.ndarray:
     return out[~space.checker.in_collision(out)]
 
 
-def optimum_targets(space, rng: np.random.Generator, rounds: int, orders: int = 0) -> tuple[np.ndarray, list]:
+def optimum_targets(space, rng: np.random.Generator, rounds: int, orders: int = 0,
+                    deadline: float | None = None) -> tuple[np.ndarray, list]:
     """Targets from the multi-start free-placement optimum (:func:`reference_optimum` with ``rounds`` rounds): the
     optimum and its mirror images (:func:`table_mirrors`), ``(m, k, 3)``, none when the table is too crowded to place
     random starts; and the orders of the objects to connect to them in: every permutation when there are at most
     ``orders`` of them (120 for five objects), else ``orders`` drawn at random.  In a compact arrangement an object
     pushed into place early can block the paddle's way to the next, so which order works depends on the start: of
     five objects' 120 orders, the rotations of the identity alone reached the optimum within 6 % from two of four
-    starts, all 120 from three (docs/plugins/tsrrt.md)."""
+    starts, all 120 from three (docs/plugins/tsrrt.md).  ``deadline``: the descents stop there (a time budget)."""
     k = space.k
     try:
-        best, _ = reference_optimum(space, rng, rounds=rounds)
+        best, _ = reference_optimum(space, rng, rounds=rounds, deadline=deadline)
     except PlanningError:
         return np.zeros((0, k, 3)), []
     if best is None:

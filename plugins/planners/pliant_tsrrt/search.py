@@ -344,9 +344,13 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
         goals = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(-1, k, 3)
         optimum, optimum_orders = None, None
         if imp.refine_optimum and goal is None:      # a replanning's goal (the first plan's end) is target enough
-            # its own child stream: the draws after it are those of a run without it
+            # its own child stream: the draws after it are those of a run without it.  Under a time budget it takes
+            # at most half of the improvement phase's time left, so that connecting to its targets gets the rest
+            # (with a work budget the deadline is only the cap's)
+            cut = deadline if deadline is None or work else \
+                time.perf_counter() + 0.5 * max(0.0, deadline - time.perf_counter())
             optimum, optimum_orders = optimum_targets(space, rng.spawn(1)[0], imp.refine_optimum,
-                                                      imp.refine_optimum_orders)
+                                                      imp.refine_optimum_orders, deadline=cut)
         _, keep, extra, more = improve(space, path, rng, count=imp.refine_targets,
                                        rounds=imp.refine_rounds, slack=imp.refine_slack,
                                        depth=imp.refine_depth, width=imp.refine_width,

@@ -154,3 +154,19 @@ def test_the_optimum_targets_are_the_reference_optimum_and_its_images_with_every
     assert len(sampled) == 4 and all(sorted(o) == [0, 1, 2] for o in sampled)           # 3! > 4: a sample
     _, none = optimum_targets(space, np.random.default_rng(0), rounds=200, orders=0)
     assert none == []
+
+
+def test_a_deadline_cuts_the_optimums_descents_short_without_losing_the_starts():
+    # a time budget gives the optimum's descents a deadline (TS-RRT's improvement phase: half of its time left); one
+    # already past stops them before their first round, so the answer is the cheapest collision-free start
+    import time
+
+    fp = Footprints(np.array([BOX, CIRCLE, CIRCLE]), np.array([(0.06, 0.03), (0.04, 0.04), (0.03, 0.03)]))
+    space = _space(fp)
+    space.warm_up()
+    past = time.perf_counter() - 1.0
+    pose, cut = reference_optimum(space, np.random.default_rng(0), rounds=200, deadline=past)
+    _, full = reference_optimum(space, np.random.default_rng(0), rounds=200)
+    assert not space.checker.in_collision(pose[None])[0] and full < cut < np.inf
+    pose_again, again = reference_optimum(space, np.random.default_rng(0), rounds=200, deadline=past)
+    assert again == cut and np.array_equal(pose, pose_again)
