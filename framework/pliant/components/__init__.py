@@ -37,6 +37,7 @@ from pliant.components.simulator import (
     checked_reset,
     checked_simulate,
     checked_step,
+    refused_starts,
 )
 from pliant.components.validity import ValidityChecker, Verdict
 
@@ -50,5 +51,6 @@ __all__ = [
     "PathMetric", "Planner", "PlannerSpecs", "PlanningProblem", "RobotModel", "SelfContacts", "SimulationBatch",
     "Simulator", "UrdfDescription", "ValidityChecker", "Verdict", "check_batch", "check_duration",
     "check_planner", "check_rng", "check_starts", "check_vector", "checked_command", "checked_evaluate",
-    "checked_plan", "checked_reset", "checked_simulate", "checked_step", "space_label", "validated_result",
+    "checked_plan", "checked_reset", "checked_simulate", "checked_step", "refused_starts", "space_label",
+    "validated_result",
 ]

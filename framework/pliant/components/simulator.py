@@ -31,6 +31,18 @@ START_CHECKED = "_pliant_start_checked"
 LISTED_STARTS = 8
 
 
+def refused_starts(simulator, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The configurations ``starts`` ``(n, d)`` that put the robot deeper inside a rigid obstacle than the simulator
+    tolerates -- the starts :func:`check_starts` refuses: their indices, and every start's depth (m, from
+    :meth:`~pliant.interfaces.Simulator.start_penetration`; NaN counts as inside; compared with
+    :attr:`~pliant.interfaces.Simulator.start_tolerance`).  None refused when the simulator cannot tell."""
+    depth = simulator.start_penetration(starts) if len(starts) else None
+    if depth is None:
+        return np.zeros(0, dtype=np.intp), np.zeros(len(starts))
+    depth = np.asarray(depth, dtype=np.float64).reshape(-1)
+    return np.nonzero(~(depth <= float(simulator.start_tolerance)))[0], depth
+
+
 def check_starts(simulator, starts: np.ndarray, *, field: str, single: bool = False) -> None:
     """Refuse configurations ``starts`` ``(n, d)`` that put the robot inside a rigid obstacle.
 
@@ -40,16 +52,10 @@ def check_starts(simulator, starts: np.ndarray, *, field: str, single: bool = Fa
     (``field`` for one configuration, ``field[k]`` for the first offending one of a batch, with the others' indices
     listed), the configuration and, where the simulator can say, the obstacle.  Nothing is simulated then.
     """
-    if len(starts) == 0:
-        return
-    depth = simulator.start_penetration(starts)
-    if depth is None:
-        return
-    depth = np.asarray(depth, dtype=np.float64).reshape(-1)
-    tolerance = float(simulator.start_tolerance)
-    bad = np.nonzero(~(depth <= tolerance))[0]
+    bad, depth = refused_starts(simulator, starts)
     if len(bad) == 0:
         return
+    tolerance = float(simulator.start_tolerance)
     k = int(bad[0])
     name = field if single else f"{field}[{k}]"
     what = simulator.describe_obstacle(starts[k]) or "an obstacle"

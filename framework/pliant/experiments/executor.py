@@ -160,13 +160,13 @@ class TaskResult:
 TASK_ERRORS = ("raise", "record")
 
 
-def task_error(exc: BaseException) -> dict:
-    """``{"type", "message", "traceback"}`` of a task's exception as it reaches this process (the worker's
-    traceback where the executor carried it: a process pool's ``__cause__``, Ray's error text)."""
+def task_error(exc: BaseException, traceback_text: str | None = None) -> dict:
+    """``{"type", "message", "traceback"}`` of a task's exception as it reaches this process, with the worker's
+    traceback: ``traceback_text`` (Ray's error text), else a process pool's ``__cause__``, else this process's."""
     import traceback
 
     remote = getattr(exc.__cause__, "tb", None)             # concurrent.futures' _RemoteTraceback
-    text = remote if isinstance(remote, str) else "".join(traceback.format_exception(exc))
+    text = traceback_text or (remote if isinstance(remote, str) else "".join(traceback.format_exception(exc)))
     return {"type": type(exc).__name__, "message": str(exc), "traceback": text}
 
 
@@ -633,9 +633,8 @@ class RayExecutor(Executor):
                         if errors == "raise":
                             raise exc.as_instanceof_cause() from None
                         finished += 1
-                        cause = exc.__dict__.get("cause", exc)     # the task's own exception
-                        yield TaskResult(refs[ref], {}, error={"type": type(cause).__name__, "message": str(cause),
-                                                             "traceback": str(exc)})
+                        # the task's own exception (the error Ray raises here wraps it), with the worker's traceback
+                        yield TaskResult(refs[ref], {}, error=task_error(exc.__dict__.get("cause", exc), str(exc)))
                         continue
                     except (ray.exceptions.WorkerCrashedError, ray.exceptions.NodeDiedError,
                             ray.exceptions.ObjectLostError) as exc:

@@ -40,7 +40,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 from scipy.cluster.hierarchy import linkage
 
-from pliant.components import RobotModel, Simulator
+from pliant.components import RobotModel, Simulator, refused_starts
 from pliant.errors import ConfigError, DimensionError
 from pliant.geometry.voxelgrid import VoxelGrid
 from pliant.spaces import Space
@@ -288,16 +288,6 @@ def ac_distances(q: np.ndarray, context: ClusteringContext, pairs: tuple[np.ndar
     return d
 
 
-def _simulates_from(simulator, q: np.ndarray) -> bool:
-    """Whether ``simulator`` accepts every configuration of ``q`` ``(n, d)`` as a start (its start check,
-    :func:`pliant.contracts.check_starts`: no deeper inside an obstacle than it tolerates; ``None``: it cannot
-    tell, so yes)."""
-    depth = simulator.start_penetration(q)
-    if depth is None:
-        return True
-    return bool(np.all(np.asarray(depth, dtype=np.float64) <= float(simulator.start_tolerance)))
-
-
 def pc_distances(q: np.ndarray, context: ClusteringContext, rng: np.random.Generator,
                  pairs: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """``(n, n)`` PC distances: 0 when the local planner connects both ways, else 1 (thesis 5.3.3).
@@ -453,7 +443,7 @@ def matches(belief_particles: np.ndarray, q: np.ndarray, method: str, context: C
     n = len(allq)
     pairs = None
     if method == "pc":
-        if not _simulates_from(context.simulator, x):
+        if len(refused_starts(context.simulator, x)[0]):
             # the connectivity test cannot start from q (e.g. an observation outside the planning simulator's
             # world, or inside one of its obstacles): in the planner's model q connects to nothing
             return False

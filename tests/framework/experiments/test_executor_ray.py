@@ -122,8 +122,11 @@ def test_running_tasks_report_progress_live_and_a_cancel_stops_them_by_their_own
     live = seen[-1]
     assert {node.split()[1] for node, _ in live.values()} and len({node.split()[1] for node, _ in live.values()}) == 2
     assert all(values["best_cost"] < 100 and values["nodes"] > 5 for _, values in live.values())
-    # the two running tasks ended through their Termination (interrupted), the two queued ones never started
-    assert sorted(m.read_text() for m in markers if m.exists()) == ["interrupted", "interrupted"]
+    # the two running tasks ended through their Termination (interrupted).  A queued task may have started too: a
+    # task blocked in ray.get (its progress report) lends its CPU to the queue, so Ray can start one before the
+    # cancel reaches it; whatever started was interrupted in the same way, and nothing returned a result
+    assert all(markers[index].read_text() == "interrupted" for index in live)
+    assert {m.read_text() for m in markers if m.exists()} == {"interrupted"}
 
 
 def test_a_killed_worker_node_loses_no_task_and_the_records_equal_the_local_pools(cluster, tmp_path):
