@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from pliant.cache import cached_arrays
+from pliant.components import validity_kernels as kernels
 from pliant.errors import PlanningError
 from pliant.geometry.voxelgrid import VoxelGrid
 
@@ -261,79 +262,30 @@ class ValidityChecker:
             free[idx] &= ~np.asarray(self.robot.collisions(q[idx]), dtype=bool).reshape(-1)
         return free, clear, pts_out
 
-    def _lookup(self, table: np.ndarray, idx: np.ndarray, classes: np.ndarray) -> np.ndarray:
-        """``table`` (a padded per-class flat grid: forbidden or near) at voxel indices ``(..., 3)`` for points of
-        ``classes`` ``(...)``; indices outside the grid read its border (outside: forbidden, near)."""
-        return table[classes, self._flat(idx + 1)]
-
-    def _flat(self, padded_idx: np.ndarray) -> np.ndarray:
-        """Flat indices into the padded grids of padded voxel indices ``(..., 3)`` (clamped to the border)."""
-        padded = self._padded_shape
-        i = np.clip(padded_idx, 0, padded - 1)
-        return (i[..., 0] * padded[1] + i[..., 1]) * padded[2] + i[..., 2]
-
     def _points_free(self, points: np.ndarray, tolerance: float = 0.0) -> np.ndarray:
-        """Bool ``(..., m)``: each point is outside every cube its material may not enter (a point on the face
-        between such a cube and an allowed one touches it and is free; so is one within ``tolerance`` m of it)."""
-        u = points - self._lower
-        u *= 1.0 / self.resolution
-        u += 1.0                                     # padded voxel coordinates: truncation is floor where it matters
-        padded_idx = u.astype(np.int64)
-        classes = np.broadcast_to(self.classes, points.shape[:-1])
-        bad = self._forbidden_padded[classes, self._flat(padded_idx)]
-        if not bad.any():
-            return ~bad
-        # a point in a forbidden cube but on (or within the slack of) one of its faces: free if a cube across is allowed
+        """Bool ``(..., m)``: each point ``(..., m, 3)`` is outside every cube its material may not enter (a point on
+        the face between such a cube and an allowed one touches it and is free; so is one within ``tolerance`` m of
+        it).  One compiled pass (:func:`pliant.components.validity_kernels.points_free`)."""
+        flat = _as_points(points)
+        out = np.empty(flat.shape[:2], dtype=bool)
         slack = min(max(FACE_SLACK, tolerance / self.resolution), 0.5)
-        frac = u - np.floor(u)
-        onface = bad & np.any((frac < slack) | (frac > 1.0 - slack), axis=-1)
-        if onface.any():
-            sel = np.nonzero(onface)
-            us, cs = u[sel], classes[sel]
-            lo = np.floor(us - slack).astype(np.int64)
-            hi = np.floor(us + slack).astype(np.int64)
-            still = np.ones(len(us), dtype=bool)
-            for pick in itertools.product((0, 1), repeat=3):
-                cand = np.stack([hi[:, k] if pick[k] else lo[:, k] for k in range(3)], axis=-1)
-                still &= self._forbidden_padded[cs, self._flat(cand)]
-            bad[sel] = still
-        return ~bad
+        kernels.points_free(flat, self.classes, self._lower, 1.0 / self.resolution, self._padded_shape,
+                            self._forbidden_padded, slack, out)
+        return out.reshape(np.shape(points)[:-1])
 
     def _clearance(self, points: np.ndarray) -> np.ndarray:
         """Lower bound ``(..., m)`` (m) of each point's distance to the nearest cube its material may not enter:
         exact for the cubes next to the point's voxel, and at least the distance to the edge of that 3 x 3 x 3
-        block beyond (the moving axes only)."""
-        h = self.resolution
-        u = (points - self._lower) / h
-        idx = np.floor(u).astype(np.int64)
-        frac = (u - idx) * h                                   # distance to the voxel's lower faces (m)
-        classes = np.broadcast_to(self.classes, points.shape[:-1])
-        best = h + np.min(np.where(self._moving_axes, np.minimum(frac, h - frac), np.inf), axis=-1)
-        # beyond the 3 x 3 x 3 block: the far bound of the voxel's centre, less the point's offset from it
-        offset = np.linalg.norm(np.where(self._moving_axes, frac - 0.5 * h, 0.0), axis=-1)
+        block beyond (the moving axes only).  One compiled pass (:func:`pliant.components.validity_kernels.
+        clearances`)."""
         if self._far_table is None:
             self._far_table = self._far_clearance(self._grids)
-        best = np.maximum(best, self._lookup(self._far_table, idx, classes) - offset)
-        near = self._lookup(self._near_padded, idx, classes)
-        if not near.any():
-            return best
-        sel = np.nonzero(near)
-        below, above = frac[sel], h - frac[sel]
-        nidx, ncls = idx[sel], classes[sel]
-        local = best[sel]
-        for off in self._offsets:
-            hit = self._lookup(self._forbidden_padded, nidx + off, ncls)
-            if not hit.any():
-                continue
-            gap2 = np.zeros(len(local))
-            for k in range(3):
-                if off[k] < 0:
-                    gap2 = gap2 + below[:, k] ** 2
-                elif off[k] > 0:
-                    gap2 = gap2 + above[:, k] ** 2
-            local = np.where(hit, np.minimum(local, np.sqrt(gap2)), local)
-        best[sel] = local
-        return best
+        flat = _as_points(points)
+        out = np.empty(flat.shape[:2])
+        kernels.clearances(flat, self.classes, self._lower, self.resolution, self._padded_shape,
+                           self._forbidden_padded, self._near_padded, self._far_table, self._moving_axes,
+                           self._offsets, out)
+        return out.reshape(np.shape(points)[:-1])
 
     def _far_clearance(self, grids: np.ndarray) -> np.ndarray:
         """Per class and padded voxel, a lower bound (m) on the distance from the voxel's centre to the nearest cube
@@ -421,6 +373,12 @@ class _Intervals:
     def take(self, mask: np.ndarray) -> _Intervals:
         return _Intervals(self.owner[mask], self.t0[mask], self.t1[mask], self.c0[mask], self.c1[mask],
                           self.p0[mask], self.p1[mask])
+
+
+def _as_points(points) -> np.ndarray:
+    """Body points ``(..., m, 3)`` as a C-contiguous float64 ``(n, m, 3)`` array for the kernels."""
+    points = np.asarray(points, dtype=np.float64)
+    return np.ascontiguousarray(points.reshape(-1, *points.shape[-2:]))
 
 
 def _forbidden_grids(materials: np.ndarray, grid: VoxelGrid) -> tuple[np.ndarray, np.ndarray]:

@@ -45,6 +45,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from pliant.errors import ConfigError, DimensionError
+from pliant.geometry import topology_kernels as kernels
 from pliant.geometry.voxelgrid import VoxelGrid
 
 __all__ = ["Topology", "SurfaceTopology", "euler_number", "topology", "surface_topology", "PunctureState",
@@ -457,57 +458,18 @@ class PunctureChecker:
             out[slot] = ((i - lo[0]) * cy + (j - lo[1])) * cz + (k - lo[2])
         return out
 
-    def _padded_index(self, c: np.ndarray, axis: int) -> np.ndarray:
-        """Voxel coordinates ``c`` (in voxels from the grid's lower corner, any shape) as indices of the padded
-        grid along ``axis``, clipped so that points outside land in the empty border."""
-        ci = np.floor(c + 1.0)
-        np.maximum(ci, 0.0, out=ci)
-        np.minimum(ci, self._shape[axis] + 1.0, out=ci)
-        return ci.astype(np.int64)
-
-    def _flat(self, index: list[np.ndarray]) -> np.ndarray:
-        _, py, pz = self._shape + 2
-        return ((index[0] * py + index[1]) * pz + index[2]).ravel()
-
     def _swept_cells(self, pts: np.ndarray) -> np.ndarray:
         """Flat padded-grid indices of the voxels the body points ``(n, m, 3)`` occupy (n = 1) or sweep between
-        consecutive configurations (see :meth:`occupied`).
+        consecutive configurations (see :meth:`occupied`), with repetitions; one compiled pass
+        (:func:`pliant.geometry.topology_kernels.swept_cells`).
 
         Each segment (one body point between two consecutive configurations) is cut into its own number of
         pieces, ``ceil`` of its largest per-axis displacement in voxels, so the cells of a path are the union of
         the cells of its segments: checking a path edge by edge (:meth:`extend` with ``start``) and checking it
         whole (:meth:`check`) sweep exactly the same voxels."""
         coords = (pts - self.grid.lower) / self.grid.resolution            # in voxels, (n, m, 3)
-        if len(coords) == 1:
-            return self._flat([self._padded_index(coords[..., a], a) for a in range(3)])
-        start, end = coords[:-1].reshape(-1, 3), coords[1:].reshape(-1, 3)
-        delta = end - start
-        counts = np.maximum(1, np.ceil(np.max(np.abs(delta), axis=1)).astype(np.int64))
-        owner = np.repeat(np.arange(len(start)), counts)
-        k = np.arange(len(owner)) - np.repeat(np.cumsum(counts) - counts, counts)
-        n = counts[owner].astype(np.float64)
-        p0 = start[owner] + (k / n)[:, None] * delta[owner]                # the pieces' ends, (pieces, 3)
-        p1 = start[owner] + ((k + 1) / n)[:, None] * delta[owner]
-        lo = np.minimum(p0, p1) - self.arc_margin
-        hi = np.maximum(p0, p1) + self.arc_margin
-        first = [self._padded_index(lo[..., a], a).ravel() for a in range(3)]
-        last = [self._padded_index(hi[..., a], a).ravel() for a in range(3)]
-        span = [last[a] - first[a] for a in range(3)]           # 0, 1 or 2: a piece spans < 2 voxels
-        cells = [self._flat(first)]
-        wide = (span[0] > 0) | (span[1] > 0) | (span[2] > 0)     # most pieces stay inside one voxel
-        if wide.any():
-            first = [f[wide] for f in first]
-            span = [e[wide] for e in span]
-            for dx in range(int(span[0].max()) + 1):
-                for dy in range(int(span[1].max()) + 1):
-                    for dz in range(int(span[2].max()) + 1):
-                        if dx == dy == dz == 0:
-                            continue
-                        keep = (dx <= span[0]) & (dy <= span[1]) & (dz <= span[2])
-                        if keep.any():
-                            cells.append(self._flat([first[0][keep] + dx, first[1][keep] + dy,
-                                                     first[2][keep] + dz]))
-        return np.concatenate(cells)
+        return kernels.swept_cells(np.ascontiguousarray(coords, dtype=np.float64), self._shape,
+                                   float(self.arc_margin))
 
     def extend(self, state: PunctureState, configurations: np.ndarray,
                start: np.ndarray | None = None) -> tuple[PunctureState, bool, str]:
