@@ -188,6 +188,50 @@ def table_mirrors(space, s: np.ndarray) -> np.ndarray:
     return out[~space.checker.in_collision(out)]
 
 
+def interchangeable(space) -> list[list[int]]:
+    """Groups (two or more objects each) of objects the task cost cannot tell apart: the same footprint (kind and
+    half extents) and named in no relation of a table setting.  Swapping the poses of two objects of a group leaves
+    the cost and the collisions of an arrangement unchanged."""
+    fp, relations = space.fp, np.asarray(space.cost.relations).reshape(-1, 4)
+    related = set(relations[:, 0].astype(int).tolist()) | set(relations[:, 1].astype(int).tolist())
+    groups: list[list[int]] = []
+    for o in range(space.k):
+        if o in related:
+            continue
+        for g in groups:
+            if fp.kind[g[0]] == fp.kind[o] and np.array_equal(fp.half[g[0]], fp.half[o]):
+                g.append(o)
+                break
+        else:
+            groups.append([o])
+    return [g for g in groups if len(g) > 1]
+
+
+def nearest_assignments(space, targets: np.ndarray, states: np.ndarray) -> np.ndarray:
+    """``targets`` ``(g, k, 3)`` and, for each target and each state of ``states`` ``(s, k, 3)``, the target with the
+    poses of interchangeable objects (:func:`interchangeable`) reassigned to minimise the summed pose error from that
+    state (an assignment problem per group); the same cost, a shorter way there.  Duplicates removed, the given
+    targets first."""
+    from scipy.optimize import linear_sum_assignment
+
+    targets = np.asarray(targets, dtype=np.float64).reshape(-1, space.k, 3)
+    groups = interchangeable(space)
+    if not groups or not len(targets):
+        return targets
+    out = list(targets)
+    for target in targets:
+        for s in np.asarray(states, dtype=np.float64).reshape(-1, space.k, 3):
+            moved = target.copy()
+            for g in groups:
+                errors = np.array([[float(_pose_error(space, o, s[o], target[p])) for p in g] for o in g])
+                rows, cols = linear_sum_assignment(errors)
+                moved[np.asarray(g)[rows]] = target[np.asarray(g)[cols]]
+            out.append(moved)
+    out = np.array(out)
+    _, first = np.unique(out.reshape(len(out), -1), axis=0, return_index=True)
+    return out[np.sort(first)]
+
+
 def optimum_targets(space, rng: np.random.Generator, rounds: int, orders: int = 0,
                     deadline: float | None = None) -> tuple[np.ndarray, list]:
     """Targets from the multi-start free-placement optimum (:func:`reference_optimum` with ``rounds`` rounds): the
@@ -447,11 +491,16 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     ``enough``: a final cost below it counts as ``enough`` (replanning during execution: no cheaper than the first
     plan is needed, so the shortest connection that gets there wins).  ``optimum`` ``(g, k, 3)`` and
     ``optimum_orders``: more targets (:func:`optimum_targets`) for the first pass, connected to from each branch
-    point in the usual orders and each of those, after the others.
+    point in the usual orders and each of those, after the others; with them the same targets with identical
+    objects' places reassigned nearest to the start and to the best node (:func:`nearest_assignments`).
     Returns the cheapest cost reached, how many of the path's actions to keep, the actions to append, and statistics."""
     s = path[-1]
     base = best_cost = float(space.cost.cost(s[None])[0])
     keep = len(path) - 1
+    if optimum is not None and len(optimum):
+        # identical objects may take each other's places in the optimum: from the start and from the tree's best
+        # node, the assignment nearest to where the objects are
+        optimum = nearest_assignments(space, optimum, path[[0, -1]])
     best_score = plan_score(best_cost, keep, push_cost, enough)
     k = space.k
     orders = list(itertools.permutations(range(k))) if k <= 3 else [tuple(np.roll(np.arange(k), -i)) for i in range(k)]

@@ -17,6 +17,8 @@ from pliant_tsrrt.refine import (
     finishing_push,
     free_descent,
     improve,
+    interchangeable,
+    nearest_assignments,
     push_toward,
     random_free,
     targets,
@@ -220,3 +222,31 @@ def test_the_finishing_push_takes_the_stroke_that_lowers_the_cost_most():
     assert np.isclose(cost, np.sin(2 * (0.07 - 0.2 / 3)) ** 2)
     # at the optimum nothing is offered
     assert finishing_push(space, np.array([[0.5, 0.4, 0.0]]), (0.25, 0.5, 1.0)) is None
+
+
+def _books_and_can(relations=None):
+    fp = Footprints([BOX, CIRCLE, BOX, CIRCLE], [[0.12, 0.08], [0.05, 0.05], [0.12, 0.08], [0.04, 0.04]])
+    cost = TaskCost(fp, TABLE, (1.0, 1.0, 1.0, 1.0 if relations is not None else 0.0),
+                    relations if relations is not None else np.zeros((0, 4)))
+    checker = CollisionChecker(fp, NO_OBSTACLES[0], NO_OBSTACLES[1], TABLE, 0.01)
+    return ObjectSpace(fp, np.asarray([BOOK_MODEL, CAN_MODEL, BOOK_MODEL, CAN_MODEL], dtype=float), checker, cost,
+                       PushSettings(), BOUNDS)
+
+
+def test_identical_objects_are_interchangeable_unless_a_setting_names_them():
+    assert interchangeable(_books_and_can()) == [[0, 2]]            # the two books; the cans differ in size
+    assert interchangeable(_books_and_can(np.array([[2, -1, 0.3, 0.3]]))) == []
+
+
+def test_the_nearest_assignment_swaps_identical_objects_into_the_nearer_places_at_the_same_cost():
+    space = _books_and_can()
+    target = np.array([[0.2, 0.2, 0.0], [0.5, 0.4, 0.0], [0.8, 0.6, 0.0], [0.5, 0.65, 0.0]])
+    start = np.array([[0.75, 0.55, 0.3], [0.1, 0.7, 0.0], [0.25, 0.15, 1.0], [0.9, 0.2, 0.0]])   # books crossed
+    out = nearest_assignments(space, target[None], start[None])
+    assert len(out) == 2 and np.array_equal(out[0], target)           # the given target first, then the swap
+    swapped = target.copy()
+    swapped[[0, 2]] = target[[2, 0]]
+    assert np.array_equal(out[1], swapped)
+    assert space.cost.cost(out)[0] == space.cost.cost(out)[1]
+    # already nearest: nothing new
+    assert len(nearest_assignments(space, target[None], target[None])) == 1
