@@ -5,7 +5,8 @@ registries); a first import of scipy's spatial or cluster packages takes a secon
 the budget benchmark (benchmarks/bench_budgets.py) such loading took 1-5 s of a planner's first ``plan`` call, none
 of it interruptible -- more than a short ``max_time`` itself.  A planner's ``bind`` (run when the pipeline is built)
 calls :func:`warm_up`, which makes the calls planning makes first, once, on the scene's start: validity of a state
-and of a short motion (the collision checker), the cost model's cost and gradient, and, when asked, one control
+and of a short motion (the collision checker's kernels), the puncture check's sweep kernel, the cost model's cost
+and gradient, and, when asked, one control
 period of the simulator.  Nothing is planned and no generator of the run is used, so results do not change.
 """
 
@@ -23,6 +24,7 @@ def warm_up(context, *, simulate: bool = False) -> float:
     ``simulate`` one control period of the simulator from there; returns the seconds spent.  Errors are left to
     planning, which reports them (a pipeline without a scene or robot warms nothing)."""
     from pliant.components import PlanningProblem
+    from pliant.geometry import topology_kernels
 
     t0 = time.perf_counter()
     if getattr(context, "scene", None) is None or getattr(context, "robot", None) is None:
@@ -37,6 +39,8 @@ def warm_up(context, *, simulate: bool = False) -> float:
         near = space.interpolate(start, goal, min(1.0, step / length)) if length > 0 else start
         problem.is_valid(start[None])
         problem.motions_valid(start[None], np.asarray(near)[None])
+        # the puncture check's sweep (T-RRT, RRT*): its compiled kernel, on two points of a one-voxel grid
+        topology_kernels.swept_cells(np.zeros((2, 1, 3)), np.ones(3, dtype=np.int64), 0.0)
         cost = problem.cost
         if cost is not None:
             cost.cost(start[None])
