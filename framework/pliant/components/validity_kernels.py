@@ -66,7 +66,7 @@ def points_free(points, classes, lower, inv_res, padded, forbidden, slack, out):
                 j0 = h0 if pick & 4 else l0
                 j1 = h1 if pick & 2 else l1
                 j2 = h2 if pick & 1 else l2
-                if not forbidden[c, _flat(int(j0), int(j1), int(j2), p0, p1, p2)]:
+                if not forbidden[c, _flat(j0, j1, j2, p0, p1, p2)]:
                     still = False
                     break
             out[a, i] = not still
@@ -96,8 +96,6 @@ def clearances(points, classes, lower, res, padded, forbidden, near, far, moving
                     inner = min(inner, min(frac[k], res - frac[k]))
                     d = frac[k] - 0.5 * res
                     off2 += d * d
-                else:
-                    off2 += 0.0
             v = _flat(idx[0] + 1, idx[1] + 1, idx[2] + 1, p0, p1, p2)
             if forbidden[c, v]:
                 # on a face of its own forbidden cube (free only by touching it): no clearance

@@ -223,7 +223,7 @@ def nearest_assignments(space, targets: np.ndarray, states: np.ndarray) -> np.nd
         for s in np.asarray(states, dtype=np.float64).reshape(-1, space.k, 3):
             moved = target.copy()
             for g in groups:
-                errors = np.array([[float(_pose_error(space, o, s[o], target[p])) for p in g] for o in g])
+                errors = np.array([_pose_error(space, o, s[o], target[g]) for o in g])     # object x place
                 rows, cols = linear_sum_assignment(errors)
                 moved[np.asarray(g)[rows]] = target[np.asarray(g)[cols]]
             out.append(moved)
