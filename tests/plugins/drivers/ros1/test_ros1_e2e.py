@@ -235,7 +235,7 @@ def test_the_pr2_run_stop_stops_the_arm_and_reset_motors_brings_it_back(make_pee
         target = reachable_target(q0, driver.limits, rng, 0.4, 0.6)
         start_motion(driver, target)
         peer.fault("estop")
-        with pytest.raises((EmergencyStop, RobotDisabled), match="run-stop pressed|motors halted"):
+        with pytest.raises((EmergencyStop, RobotDisabled), match=r"run-stop pressed|motors halted"):
             driver.move_to(target)
         assert wait_until(lambda: driver.robot_status().estop, 5.0), driver.robot_status()
         assert "run-stop pressed" in driver.robot_status().detail
