@@ -41,6 +41,10 @@ SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 30
         "held-out C": ((0, 3, 4, 5, 7), 5000)}
 
 
+#: other TS-RRT options for every plan (--set)
+OVERRIDES: dict = {}
+
+
 class _Models:
     def means(self, classes):
         return np.repeat(MEANS[None], len(classes), 0)
@@ -61,7 +65,8 @@ def run_set(label: str, indices, base: int, seeds: int, settings: list[int], ite
         for setting in settings:
             rounds, _, orders = setting.partition(":")
             options = build_options(TSRRTOptions, {"objects": tuple(names), "improvement.refine_optimum": int(rounds),
-                                                   "improvement.refine_optimum_orders": int(orders or 0)})
+                                                   "improvement.refine_optimum_orders": int(orders or 0),
+                                                   **OVERRIDES})
             if space is None:
                 space = build_space(scene, options, _Models(), names)
                 space.warm_up()
@@ -90,7 +95,14 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=8, help="starts per set")
     parser.add_argument("--iterations", type=int, default=600, help="tree extensions per plan")
     parser.add_argument("--sets", default="development,held-out,held-out B")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="another TS-RRT option for every plan (e.g. improvement.refine_width=128)")
     args = parser.parse_args()
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep:
+            parser.error(f"--set {item!r}: expected KEY=VALUE")
+        OVERRIDES[key] = float(value) if "." in value else int(value)
     settings = args.settings.split(",")
     plans = []
     for label in args.sets.split(","):
