@@ -8,7 +8,10 @@ eq. 4.1 as printed, and the likelihood of Kalakrishnan et al. it modifies.
     m_kl = (c_kl - c_k0) / cbar_k,    cbar_k = (1 / L_k) sum_l c_kl          (margin = "samples", the default)
     m_kl = (c_kl - c_k0) / c_k0                                             (margin = "demonstration")
 
-``h`` is ``temperature`` (5 with the samples' scale, 10 with the demonstration's).  A sample ``1 / h`` of the scale
+``h`` is ``temperature`` (10 with the demonstration's scale; with the samples' scale, by default, the ranking is
+solved at h = 5 and at h = 10 and the two sensitivity vectors are combined by their geometric mean: chosen on
+development trials, because one h overshoots the ratios of near-optimal demonstrations and the other undershoots
+the simulated expert's).  A sample ``1 / h`` of the scale
 costlier than its demonstration adds ``log(1 + 1/e)``, one as costly adds ``log 2``, and a cheaper one about
 ``h |m|``.  Either scale makes the objective invariant to the scale of ``S`` without the likelihood's normalisation
 by the costliest sample, which compresses the recovered ratios.  The scale decides what happens along a direction
@@ -76,8 +79,10 @@ from scipy.optimize import minimize
 OBJECTIVES = ("likelihood", "ratio", "ranking")
 #: the likelihood's temperature when ``temperature`` is None (ratio has none; the ranking's is below)
 TEMPERATURES = {"likelihood": 30.0}
-#: the ranking's temperature by the scale of its margins, when ``temperature`` is None
-RANKING_TEMPERATURES = {"samples": 5.0, "demonstration": 10.0}
+#: the ranking's temperatures by the scale of its margins, when ``temperature`` is None: with the samples' scale one
+#: recovery at h = 5 and one at h = 10, combined by the geometric mean (chosen on development trials, session 25:
+#: h = 5 overshoots the large ratios of near-optimal demonstrations, h = 10 undershoots the simulated expert's)
+RANKING_TEMPERATURES = {"samples": (5.0, 10.0), "demonstration": (10.0,)}
 MARGINS = ("samples", "demonstration")
 #: each objective's extra L-BFGS-B runs when ``restarts`` is None.  The likelihood and the ranking are solved in
 #: log S inside the box, where the ray of solutions can stop at a bound: with 2 restarts a property test found the
@@ -93,9 +98,9 @@ class RecoveryOptions:
                             "loss of the relative margin); likelihood: PIIRL's likelihood with PI^2's "
                             "normalisation; ratio: eq. 4.1",
                             choices=OBJECTIVES)
-    temperature: float | None = option(None, "h of the likelihood or the ranking (None: 30 for likelihood; 5 for "
-                                       "ranking, 10 with margin 'demonstration'; PI^2 uses 10 with its "
-                                       "normalisation; unused by ratio)", minimum=1e-9)
+    temperature: float | None = option(None, "h of the likelihood or the ranking (None: likelihood 30; ranking the "
+                                       "geometric mean of h = 5 and 10, or 10 with margin 'demonstration'; unused "
+                                       "by ratio)", minimum=1e-9)
     margin: str = option("samples", "the ranking's margins are relative to: samples (each demonstration's samples' "
                          "mean cost) or demonstration (its own cost, the default before 2026-11-29); unused by "
                          "likelihood and ratio", choices=MARGINS)
@@ -148,9 +153,35 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
         return {"sensitivities": np.full(n, o.initial), "objective": float("nan"), "used": [], "iterations": 0,
                 "message": "no informative demonstration"}
     scale = max(demos[used].max(), max(samples[k].max() for k in used))
-    h = o.temperature
-    if h is None:
-        h = RANKING_TEMPERATURES[o.margin] if o.objective == "ranking" else TEMPERATURES.get(o.objective)
+    if o.temperature is not None:
+        temperatures = (o.temperature,)
+    elif o.objective == "ranking":
+        temperatures = RANKING_TEMPERATURES[o.margin]
+    else:
+        temperatures = (TEMPERATURES.get(o.objective),)
+    restarts = RESTARTS[o.objective] if o.restarts is None else o.restarts
+    points = None
+    if o.screen and restarts:
+        rng = rng if rng is not None else stream(0, "task", "piirl-screen")
+        points = np.exp(rng.uniform(np.log(o.lower), np.log(o.upper), (o.screen, n)))
+    runs = [_solve(demos, samples, sums, used, scale, o, h, points, restarts) for h in temperatures]
+    if len(runs) == 1:
+        return runs[0]
+    # several temperatures: the geometric mean of their sensitivities, scaled again as one recovery is (the least
+    # sensitive object some used path deforms at ``lower``)
+    s = np.exp(np.mean([np.log(r["sensitivities"]) for r in runs], axis=0))
+    touched = (demos[used].sum(axis=0) + sums[used].sum(axis=0)) > 0
+    s = np.where(touched, np.clip(s * (o.lower / s[touched].min()), o.lower, o.upper), s)
+    return {"sensitivities": s, "objective": float(np.mean([r["objective"] for r in runs])), "used": runs[0]["used"],
+            "iterations": sum(r["iterations"] for r in runs), "message": "; ".join(r["message"] for r in runs),
+            "temperatures": list(temperatures)}
+
+
+def _solve(demos: np.ndarray, samples: list[np.ndarray], sums: np.ndarray, used: np.ndarray, scale: float,
+           o: RecoveryOptions, h: float | None, points: np.ndarray | None, restarts: int) -> dict:
+    """One recovery at temperature ``h``: L-BFGS-B from ``initial`` and from the ``restarts`` best screened
+    ``points``; the result as :func:`recover` returns it."""
+    n = demos.shape[1]
     if o.objective == "ratio":
         objective, batch, log_space = _ratio(demos[used] / scale, sums[used] / scale)
     elif o.objective == "ranking":
@@ -160,10 +191,7 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
         objective, batch, log_space = _likelihood([demos[k] / scale for k in used], [samples[k] / scale for k in used],
                                                   h)
     starts = [np.full(n, o.initial)]
-    restarts = RESTARTS[o.objective] if o.restarts is None else o.restarts
-    if o.screen and restarts:
-        rng = rng if rng is not None else stream(0, "task", "piirl-screen")
-        points = np.exp(rng.uniform(np.log(o.lower), np.log(o.upper), (o.screen, n)))
+    if points is not None:
         starts += [points[k] for k in np.argsort(batch(points))[:restarts]]
     if log_space:
         def fun(x):

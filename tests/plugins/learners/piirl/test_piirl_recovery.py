@@ -97,7 +97,7 @@ def test_along_a_class_the_demonstration_avoids_only_the_samples_scale_keeps_the
 def test_each_objective_has_its_own_default_temperature_and_restarts():
     rng = np.random.default_rng(3)
     demos, samples = rng.uniform(0, 1, (3, 3)), [rng.uniform(0, 2, (6, 3)) for _ in range(3)]
-    for objective, h, restarts in (("likelihood", 30.0, 4), ("ranking", 5.0, 4), ("ratio", None, 2)):
+    for objective, h, restarts in (("likelihood", 30.0, 4), ("ratio", None, 2)):
         a = recover(demos, samples, RecoveryOptions(objective=objective))
         b = recover(demos, samples, RecoveryOptions(objective=objective, temperature=h, restarts=restarts))
         assert a["sensitivities"] == pytest.approx(b["sensitivities"]) and a["objective"] == b["objective"]
@@ -105,6 +105,24 @@ def test_each_objective_has_its_own_default_temperature_and_restarts():
     a = recover(demos, samples, RecoveryOptions(margin="demonstration"))
     b = recover(demos, samples, RecoveryOptions(margin="demonstration", temperature=10.0))
     assert a["sensitivities"] == pytest.approx(b["sensitivities"]) and a["objective"] == b["objective"]
+
+
+def test_the_default_ranking_is_the_geometric_mean_of_its_recoveries_at_h_5_and_10():
+    """With the samples' scale and no temperature, the ranking is solved at h = 5 and at h = 10 (the same screened
+    starts) and the sensitivities combined by their geometric mean, scaled so that the least sensitive is ``lower``."""
+    rng = np.random.default_rng(3)
+    demos, samples = rng.uniform(0, 1, (3, 3)), [rng.uniform(0, 2, (6, 3)) for _ in range(3)]
+    both = recover(demos, samples, RecoveryOptions())
+    five = recover(demos, samples, RecoveryOptions(temperature=5.0, restarts=4))
+    ten = recover(demos, samples, RecoveryOptions(temperature=10.0, restarts=4))
+    mean = np.sqrt(five["sensitivities"] * ten["sensitivities"])
+    np.testing.assert_allclose(both["sensitivities"], mean * (0.1 / mean.min()), rtol=1e-12)
+    assert both["temperatures"] == [5.0, 10.0]
+    assert both["iterations"] == five["iterations"] + ten["iterations"]
+    assert both["sensitivities"].min() == pytest.approx(0.1)
+    # between the two: every ratio to the least sensitive lies between the two recoveries' ratios
+    r5, r10, rb = (x["sensitivities"] / x["sensitivities"].min() for x in (five, ten, both))
+    assert np.all(rb >= np.minimum(r5, r10) - 1e-12) and np.all(rb <= np.maximum(r5, r10) + 1e-12)
 
 
 def ranking(s, demos, samples, h=5.0, margin="samples"):
@@ -143,7 +161,7 @@ def _ranking_own(demos, samples, h):
     return _ranking(demos, samples, h, margin="demonstration")
 
 
-OBJECTIVES = {"ranking": (RecoveryOptions(), ranking, _ranking, 5.0),
+OBJECTIVES = {"ranking": (RecoveryOptions(temperature=5.0), ranking, _ranking, 5.0),
               "ranking-demonstration": (RecoveryOptions(margin="demonstration"), ranking_own, _ranking_own, 10.0),
               "likelihood": (LIKELIHOOD, likelihood, _likelihood, 30.0)}
 
