@@ -127,9 +127,10 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
             rng: np.random.Generator | None = None) -> dict:
     """Recover the sensitivities.  ``demonstrations`` ``(K, n)``; ``samples[k]`` ``(L_k, n)``.  Returns
     ``sensitivities`` ``(n,)``, ``objective``, ``used`` (indices of the informative demonstrations), ``iterations``,
-    ``message``.  ``rng``: draws the screen's candidate starting points (the learner passes its learning stream);
-    without one they are a fixed design (the stream of seed 0's "piirl-screen" task), so that the recovery is a
-    function of its data and options."""
+    ``message``; with several temperatures (the ranking's default) also ``temperatures``, and ``objective`` is then the
+    mean of the minima, ``iterations`` their sum.  ``rng``: draws the screen's candidate starting points (the learner
+    passes its learning stream; every temperature uses the same points); without one they are a fixed design (the
+    stream of seed 0's "piirl-screen" task), so that the recovery is a function of its data and options."""
     o = options or RecoveryOptions()
     if not o.lower <= o.initial <= o.upper:
         raise ConfigError("lower <= initial <= upper is required", field="recovery",
