@@ -41,16 +41,13 @@ SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 30
         "held-out C": ((0, 3, 4, 5, 7), 5000)}
 
 
-#: other TS-RRT options for every plan (--set)
-OVERRIDES: dict = {}
-
-
 class _Models:
     def means(self, classes):
         return np.repeat(MEANS[None], len(classes), 0)
 
 
-def run_set(label: str, indices, base: int, seeds: int, settings: list[int], iterations: int) -> list[dict]:
+def run_set(label: str, indices, base: int, seeds: int, settings: list[str], iterations: int,
+            overrides: dict | None = None) -> list[dict]:
     from pliant import api
     from pliant.api import Termination, build_options
     from pliant_tsrrt.planner import TSRRTOptions, build_space
@@ -66,7 +63,7 @@ def run_set(label: str, indices, base: int, seeds: int, settings: list[int], ite
             rounds, _, orders = setting.partition(":")
             options = build_options(TSRRTOptions, {"objects": tuple(names), "improvement.refine_optimum": int(rounds),
                                                    "improvement.refine_optimum_orders": int(orders or 0),
-                                                   **OVERRIDES})
+                                                   **(overrides or {})})
             if space is None:
                 space = build_space(scene, options, _Models(), names)
                 space.warm_up()
@@ -98,16 +95,20 @@ def main() -> None:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="another TS-RRT option for every plan (e.g. improvement.refine_width=128)")
     args = parser.parse_args()
+    overrides = {}
     for item in args.set:
         key, sep, value = item.partition("=")
         if not sep:
             parser.error(f"--set {item!r}: expected KEY=VALUE")
-        OVERRIDES[key] = float(value) if "." in value else int(value)
+        try:
+            overrides[key] = float(value) if "." in value else int(value)
+        except ValueError:
+            parser.error(f"--set {item!r}: the value must be a number")
     settings = args.settings.split(",")
     plans = []
     for label in args.sets.split(","):
         indices, base = SETS[label]
-        plans += run_set(label, indices, base, args.seeds, settings, args.iterations)
+        plans += run_set(label, indices, base, args.seeds, settings, args.iterations, overrides)
     rows = []
     for label in args.sets.split(","):
         for setting in settings:
