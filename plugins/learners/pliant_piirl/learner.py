@@ -126,7 +126,7 @@ class PiirlLearner(Learner):
                        "recovery_seconds": time.perf_counter() - fitted_at}
         return {"sensitivities": dict(zip(names, map(float, result["sensitivities"]))),
                 "objective": result["objective"], "used": result["used"], "iterations": result["iterations"],
-                "message": result["message"], "replaced": replaced,
+                "message": result["message"], "temperatures": result["temperatures"], "replaced": replaced,
                 "demonstrations": [d.to_dict() for d in improved],
                 "features": {"names": names, "demonstrations": np.array(demo_features).tolist()}}
 

@@ -127,10 +127,11 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
             rng: np.random.Generator | None = None) -> dict:
     """Recover the sensitivities.  ``demonstrations`` ``(K, n)``; ``samples[k]`` ``(L_k, n)``.  Returns
     ``sensitivities`` ``(n,)``, ``objective``, ``used`` (indices of the informative demonstrations), ``iterations``,
-    ``message``; with several temperatures (the ranking's default) also ``temperatures``, and ``objective`` is then the
-    mean of the minima, ``iterations`` their sum.  ``rng``: draws the screen's candidate starting points (the learner
-    passes its learning stream; every temperature uses the same points); without one they are a fixed design (the
-    stream of seed 0's "piirl-screen" task), so that the recovery is a function of its data and options."""
+    ``message`` and ``temperatures`` (the h used: none for ratio, two for the ranking's default, whose ``objective``
+    is then the mean of the two minima and ``iterations`` their sum).  ``rng``: draws the screen's candidate starting
+    points (the learner passes its learning stream; every temperature uses the same points); without one they are a
+    fixed design (the stream of seed 0's "piirl-screen" task), so that the recovery is a function of its data and
+    options."""
     o = options or RecoveryOptions()
     if not o.lower <= o.initial <= o.upper:
         raise ConfigError("lower <= initial <= upper is required", field="recovery",
@@ -152,7 +153,7 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
     used = np.flatnonzero((demos.sum(axis=1) > 0) & (sums.sum(axis=1) > 0))
     if len(used) == 0:
         return {"sensitivities": np.full(n, o.initial), "objective": float("nan"), "used": [], "iterations": 0,
-                "message": "no informative demonstration"}
+                "message": "no informative demonstration", "temperatures": []}
     scale = max(demos[used].max(), max(samples[k].max() for k in used))
     if o.temperature is not None:
         temperatures = (o.temperature,)
@@ -167,7 +168,7 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
         points = np.exp(rng.uniform(np.log(o.lower), np.log(o.upper), (o.screen, n)))
     runs = [_solve(demos, samples, sums, used, scale, o, h, points, restarts) for h in temperatures]
     if len(runs) == 1:
-        return runs[0]
+        return {**runs[0], "temperatures": [] if temperatures[0] is None else [float(temperatures[0])]}
     # several temperatures: the geometric mean of their sensitivities, scaled again as one recovery is (the least
     # sensitive object some used path deforms at ``lower``)
     s = np.exp(np.mean([np.log(r["sensitivities"]) for r in runs], axis=0))
@@ -175,7 +176,7 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
     s = np.where(touched, np.clip(s * (o.lower / s[touched].min()), o.lower, o.upper), s)
     return {"sensitivities": s, "objective": float(np.mean([r["objective"] for r in runs])), "used": runs[0]["used"],
             "iterations": sum(r["iterations"] for r in runs), "message": "; ".join(r["message"] for r in runs),
-            "temperatures": list(temperatures)}
+            "temperatures": [float(h) for h in temperatures]}
 
 
 def _solve(demos: np.ndarray, samples: list[np.ndarray], sums: np.ndarray, used: np.ndarray, scale: float,

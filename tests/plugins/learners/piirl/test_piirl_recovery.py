@@ -102,6 +102,7 @@ def test_each_objective_has_its_own_default_temperature_and_restarts():
         b = recover(demos, samples, RecoveryOptions(objective=objective, temperature=h, restarts=restarts))
         assert a["sensitivities"] == pytest.approx(b["sensitivities"]) and a["objective"] == b["objective"]
         assert a["iterations"] == b["iterations"]
+        assert a["temperatures"] == ([] if h is None else [h])
     a = recover(demos, samples, RecoveryOptions(margin="demonstration"))
     b = recover(demos, samples, RecoveryOptions(margin="demonstration", temperature=10.0))
     assert a["sensitivities"] == pytest.approx(b["sensitivities"]) and a["objective"] == b["objective"]
