@@ -172,8 +172,7 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
     # several temperatures: the geometric mean of their sensitivities, scaled again as one recovery is (the least
     # sensitive object some used path deforms at ``lower``)
     s = np.exp(np.mean([np.log(r["sensitivities"]) for r in runs], axis=0))
-    touched = (demos[used].sum(axis=0) + sums[used].sum(axis=0)) > 0
-    s = np.where(touched, np.clip(s * (o.lower / s[touched].min()), o.lower, o.upper), s)
+    s = _scaled_to_lower(s, demos, sums, used, o)
     return {"sensitivities": s, "objective": float(np.mean([r["objective"] for r in runs])), "used": runs[0]["used"],
             "iterations": sum(r["iterations"] for r in runs), "message": "; ".join(r["message"] for r in runs),
             "temperatures": [float(h) for h in temperatures]}
@@ -212,10 +211,17 @@ def _solve(demos: np.ndarray, samples: list[np.ndarray], sums: np.ndarray, used:
             best = result
     s = np.exp(best.x) if log_space else np.asarray(best.x)
     if log_space:
-        touched = (demos[used].sum(axis=0) + sums[used].sum(axis=0)) > 0
-        s = np.where(touched, np.clip(s * (o.lower / s[touched].min()), o.lower, o.upper), s)
+        s = _scaled_to_lower(s, demos, sums, used, o)
     return {"sensitivities": s, "objective": float(best.fun), "used": used.tolist(), "iterations": iterations,
             "message": str(best.message)}
+
+
+def _scaled_to_lower(s: np.ndarray, demos: np.ndarray, sums: np.ndarray, used: np.ndarray,
+                     o: RecoveryOptions) -> np.ndarray:
+    """A ray of solutions ``s`` scaled so that the least sensitive object some used demonstration or sample deforms
+    is at ``lower`` (clipped to the box); objects no used path deforms keep their value."""
+    touched = (demos[used].sum(axis=0) + sums[used].sum(axis=0)) > 0
+    return np.where(touched, np.clip(s * (o.lower / s[touched].min()), o.lower, o.upper), s)
 
 
 def _ratio(v: np.ndarray, w: np.ndarray):
