@@ -47,3 +47,19 @@ def test_tables_are_written_from_the_records(tmp_path):
     assert "## The thesis's ordering: **holds**" in text
     assert json.loads((tmp_path / "ordering.json").read_text())["pairs"][0]["thesis"] == [
         THESIS_51["WCR 0.75"][1], THESIS_51["WCR 0.125"][1]]
+
+
+def test_a_table_run_with_only_some_rows_keeps_the_headlines_of_those_rows_and_names_the_others():
+    """``pliant experiment table-5.2 --ci --only "24 particles, gamma 0.125"`` once raised KeyError on a headline's
+    row that --only had left out."""
+    from pliant_belief.reproduce import HEADLINES, _headlines
+
+    ours = {"24 particles, gamma 0.125": {"p_plan": 1.0, "p_exec": 0.75}}
+    kept, left_out = _headlines("table-5.2", ours)
+    assert [(h.name, h.ours) for h in kept] == [("24 particles, gamma 1/8: P_plan", 1.0),
+                                                ("24 particles, gamma 1/8: P_exec", 0.75)]
+    assert left_out == ["contact, gamma 0.125", "simple, gamma 0.125"]
+    kept, left_out = _headlines("table-5.1", {})
+    assert kept == [] and left_out == ["AC", "WCR 0.75"]
+    every = {row: {"p_plan": 1.0, "p_exec": 1.0} for _, row, *_ in HEADLINES["table-5.1"]}
+    assert len(_headlines("table-5.1", every)[0]) == 3 and _headlines("table-5.1", every)[1] == []
