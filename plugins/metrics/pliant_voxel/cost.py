@@ -59,6 +59,7 @@ class VoxelDeformationCost(CostModel):
         self._materials, self._lut = compress_table(self.table)     # the rigid kernel's cache-friendly form
         self._layout_of = (None,)
         self._object_of_voxel = np.append(self.grid.object_id.reshape(-1), FREE).astype(np.int64)
+        self._breakdown_tables = None
 
     # --- evaluation ---------------------------------------------------------------------------
 
@@ -105,10 +106,10 @@ class VoxelDeformationCost(CostModel):
         placement = self.robot.rigid_placement(q)
         if placement is not None:                   # the fused kernel: no (n, m, 3) temporaries
             rot, pos, local = placement
-            columns = self._local_layout(local)[0]
+            columns, centre, half = self._local_layout(local)
             out = np.zeros((len(q), k))
-            rigid_state_breakdown(np.ascontiguousarray(rot), np.ascontiguousarray(pos), columns, self._lower,
-                                  self._inv_res, self._shape, self.classes, self.table, self._object_of_voxel, out)
+            rigid_state_breakdown(np.ascontiguousarray(rot), np.ascontiguousarray(pos), columns, centre, half,
+                                  self._lower, self._inv_res, self._shape, self.classes, *self._breakdown_form(), out)
             return out
         pts, costs = self._points_and_costs(q)
         flat = self.grid.flat_index(pts)
@@ -120,6 +121,21 @@ class VoxelDeformationCost(CostModel):
         bad = ~np.isfinite(costs).all(axis=1)
         out[bad] = np.nan
         return out
+
+    def _breakdown_form(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The breakdown kernel's tables: one code per flat voxel for each (material, object) pair present, the cost
+        of each class on each code ``(c, k)`` and each code's object ``(k,)``; built on the first breakdown (O(N))."""
+        if self._breakdown_tables is None:
+            objects = len(self.grid.object_names) + 1                           # FREE (-1) -> 0
+            pair = self._materials.astype(np.int64) * objects + (self._object_of_voxel + 1)
+            present = np.zeros(int(pair.max()) + 1, dtype=bool)
+            present[pair] = True
+            ids = np.flatnonzero(present)
+            remap = np.cumsum(present) - 1
+            dtype = np.uint8 if len(ids) <= 2**8 else np.uint16 if len(ids) <= 2**16 else np.uint32
+            self._breakdown_tables = (remap[pair].astype(dtype), np.ascontiguousarray(self._lut[:, ids // objects]),
+                                      ids % objects - 1)
+        return self._breakdown_tables
 
     def feature_names(self):
         return list(self.grid.object_names)

@@ -162,34 +162,58 @@ def trilinear_with_gradient(field_, lower, resolution, points, value, gradient):
 
 
 @numba.njit(cache=True, nogil=True)
-def rigid_state_breakdown(rotations, positions, local, lower, inv_res, shape, classes, table, object_of_voxel, out):
+def rigid_state_breakdown(rotations, positions, local, centre, half, lower, inv_res, shape, classes, codes, lut,
+                          object_of_code, out):
     """Per-object cost of rigid-body configurations: ``out[a, o]`` += the cost of every point of configuration
     ``a`` inside object ``o`` (``out`` ``(n, k)``, zeroed by the caller); a row is NaN when any point's cost is
     not finite (outside the grid, a rigid collision, a forbidden object), as :meth:`VoxelDeformationCost.breakdown`
-    defines it.  ``table`` ``(c, N + 1)``: cost of class ``c`` in flat voxel ``v`` (column ``N``: outside);
-    ``object_of_voxel`` ``(N + 1,)``: the object of each flat voxel, -1 for free space and outside.  The body
-    points are placed on the fly, world = ``R @ p + t``, as in :func:`rigid_state_costs`."""
+    defines it.  The cost table comes compressed together with the voxels' objects: ``codes`` ``(N + 1,)`` one
+    small integer per flat voxel (the last: outside), ``lut[c, k]`` the cost of class ``c`` on code ``k`` and
+    ``object_of_code[k]`` its object (-1: free space and outside), so that the per-point lookups read a byte a
+    voxel instead of sixteen (:func:`pliant_voxel.formula.compress_table`).  The body points are placed on the
+    fly, world = ``R @ p + t``, as in :func:`rigid_state_costs`; ``centre`` and ``half`` (m): the local points'
+    bounding box.  Each configuration takes two passes: every point's voxel first (a loop the compiler
+    vectorises), then the lookups, without bounds checks when the rotated box lies inside the grid.  Every point
+    lands in the voxel the per-point formula gives and the costs are summed in the points' order, so the result is
+    the uncompressed, one-pass kernel's bit for bit (tested)."""
     n, m = positions.shape[0], local.shape[1]
     nx, ny, nz = shape[0], shape[1], shape[2]
-    outside = table.shape[1] - 1
+    grid = (nx, ny, nz)
+    outside = codes.shape[0] - 1
+    ix, iy, iz = np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64)
+    lx, ly, lz = local[0], local[1], local[2]
     for a in range(n):
         r = rotations[a]
         mx, my, mz = positions[a, 0] - lower[0], positions[a, 1] - lower[1], positions[a, 2] - lower[2]
+        inside = True
+        for k in range(3):
+            mid = (r[k, 0] * centre[0] + r[k, 1] * centre[1] + r[k, 2] * centre[2] + positions[a, k] - lower[k]) \
+                * inv_res
+            extent = (abs(r[k, 0]) * half[0] + abs(r[k, 1]) * half[1] + abs(r[k, 2]) * half[2]) * inv_res
+            inside = inside and mid - extent >= 1e-6 and mid + extent <= grid[k] - 1e-6
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = (r[0, 0], r[0, 1], r[0, 2], r[1, 0], r[1, 1], r[1, 2],
+                                                       r[2, 0], r[2, 1], r[2, 2])
+        if inside:              # every coordinate is positive: truncation toward zero is the floor
+            for i in range(m):
+                ix[i] = np.int64((r00 * lx[i] + r01 * ly[i] + r02 * lz[i] + mx) * inv_res)
+                iy[i] = np.int64((r10 * lx[i] + r11 * ly[i] + r12 * lz[i] + my) * inv_res)
+                iz[i] = np.int64((r20 * lx[i] + r21 * ly[i] + r22 * lz[i] + mz) * inv_res)
+        else:
+            for i in range(m):
+                ix[i] = int(np.floor((r00 * lx[i] + r01 * ly[i] + r02 * lz[i] + mx) * inv_res))
+                iy[i] = int(np.floor((r10 * lx[i] + r11 * ly[i] + r12 * lz[i] + my) * inv_res))
+                iz[i] = int(np.floor((r20 * lx[i] + r21 * ly[i] + r22 * lz[i] + mz) * inv_res))
         bad = False
         for i in range(m):
-            px, py, pz = local[0, i], local[1, i], local[2, i]
-            ix = int(np.floor((r[0, 0] * px + r[0, 1] * py + r[0, 2] * pz + mx) * inv_res))
-            iy = int(np.floor((r[1, 0] * px + r[1, 1] * py + r[1, 2] * pz + my) * inv_res))
-            iz = int(np.floor((r[2, 0] * px + r[2, 1] * py + r[2, 2] * pz + mz) * inv_res))
-            if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
-                v = (ix * ny + iy) * nz + iz
+            if inside or (0 <= ix[i] < nx and 0 <= iy[i] < ny and 0 <= iz[i] < nz):
+                k = codes[(ix[i] * ny + iy[i]) * nz + iz[i]]
             else:
-                v = outside
-            cost = table[classes[i], v]
+                k = codes[outside]
+            cost = lut[classes[i], k]
             if not np.isfinite(cost):
                 bad = True
                 break
-            o = object_of_voxel[v]
+            o = object_of_code[k]
             if o >= 0:
                 out[a, o] += cost
         if bad:

@@ -179,6 +179,45 @@ def test_the_rigid_breakdown_kernel_matches_a_per_point_reference(scene_context,
     assert np.allclose(fast[finite].sum(axis=1), ctx.cost.cost(q[finite]))
 
 
+@pytest.mark.parametrize("name", ["multi-cost", "hollow-cube"])
+def test_the_breakdowns_compressed_tables_give_every_voxels_cost_and_object_bit_for_bit(scene_context, name):
+    cost = scene_context(name, "voxel").cost
+    codes, lut, object_of_code = cost._breakdown_form()
+    assert codes.dtype == np.uint8 and len(codes) == cost.table.shape[1]
+    np.testing.assert_array_equal(lut[:, codes], cost.table)                    # NaN where the table has NaN
+    np.testing.assert_array_equal(object_of_code[codes], cost._object_of_voxel)
+
+
+@pytest.mark.parametrize("name", ["multi-cost", "hollow-cube"])
+def test_the_rigid_breakdown_kernel_equals_the_per_point_formula_bit_for_bit(scene_context, name):
+    """Each point in voxel floor(((R p) + t - lower) / res), summed into its object in the points' order: the same
+    arithmetic in numpy, so the two-pass kernel (truncation inside the grid, floor outside) must agree exactly."""
+    ctx = scene_context(name, "voxel")
+    cost = ctx.cost
+    q = ctx.space.sample(np.random.default_rng(11), 300)
+    rot, pos, local = ctx.robot.rigid_placement(q)
+    lx, ly, lz = local.T
+    m = pos - cost._lower
+    idx = [np.floor((rot[:, k, 0, None] * lx + rot[:, k, 1, None] * ly + rot[:, k, 2, None] * lz + m[:, k, None])
+                    * cost._inv_res).astype(np.int64) for k in range(3)]
+    shape = cost._shape
+    inside = np.all([(0 <= i) & (i < n) for i, n in zip(idx, shape)], axis=0)
+    flat = np.where(inside, (idx[0] * shape[1] + idx[1]) * shape[2] + idx[2], cost.table.shape[1] - 1)
+    point_cost = cost.table[cost.classes[None, :], flat]
+    objects = cost._object_of_voxel[flat]
+    reference = np.zeros((len(q), len(cost.feature_names())))
+    for a in range(len(q)):
+        if not np.isfinite(point_cost[a]).all():
+            reference[a] = np.nan
+            continue
+        hit = objects[a] >= 0
+        np.add.at(reference[a], objects[a][hit], point_cost[a][hit])
+    breakdown = cost.breakdown(q)
+    np.testing.assert_array_equal(breakdown, reference)
+    finite = np.isfinite(breakdown).all(axis=1)
+    assert finite.any() and (~finite).any() and (breakdown[finite] > 0).any()    # both of the kernel's paths, objects
+
+
 def _soft_maze() -> Context:
     import tomllib
 
