@@ -141,3 +141,35 @@ def pytest_collection_modifyitems(config, items):
             if group is not None:
                 item.add_marker(pytest.mark.xdist_group(group))
     items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
+#: pytest-xdist groups a test by appending ``@<group>`` to its node id; pytest 9.2's node ids no longer take it, and
+#: pytest-xdist 3.8 (the latest) then spreads every group over the workers without a word (pytest-xdist#1386)
+_BROKEN_GROUPS = ("9.2", "3.9")
+
+
+def pytest_configure(config):
+    """Refuse ``--dist loadgroup`` with a pytest and pytest-xdist that ignore ``xdist_group`` (above): shared fixtures
+    and reproduction records would be built on every worker and the serial groups (the Ray cluster) run side by
+    side.  pyproject.toml's test extra pins pytest below 9.2."""
+    if os.environ.get("PYTEST_XDIST_WORKER") or config.getoption("dist", "no") != "loadgroup":
+        return
+    import xdist
+    from packaging.version import Version
+
+    if Version(pytest.__version__) >= Version(_BROKEN_GROUPS[0] + ".dev0") and \
+            Version(xdist.__version__) < Version(_BROKEN_GROUPS[1]):
+        raise pytest.UsageError(
+            f"pytest {pytest.__version__} with pytest-xdist {xdist.__version__} ignores xdist_group under --dist "
+            "loadgroup (pytest-xdist#1386): install the test extra's versions (make install: pytest < 9.2)")
+
+
+def pytest_collection_finish(session):
+    """The same, found in a worker whatever the versions: a grouped test whose node id lacks its ``@<group>``."""
+    if not (os.environ.get("PYTEST_XDIST_WORKER") and session.config.getvalue("loadgroup")):
+        return
+    lost = [item.nodeid for item in session.items
+            if item.get_closest_marker("xdist_group") is not None and "@" not in item.nodeid.rpartition("]")[2]
+            .rpartition("::")[2]]
+    if lost:
+        raise pytest.UsageError(f"pytest-xdist's groups are not in effect: {lost[0]} lacks its '@group' suffix")
