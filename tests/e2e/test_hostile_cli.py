@@ -113,6 +113,7 @@ CASES = [
     ["robot", "check", "baxter-ros", "--set", "no_such_option=1"],
     ["robot", "list", "baxter-ros", "--set", "speed_scale=2"],
     ["bench", "no-such-benchmark"],
+    ["experiment", "table-5.2", "--ci", "--only", "no-such-row"],
 ]
 
 

@@ -60,7 +60,7 @@ def run_arguments(parser, *, plans=None, executions=None, plan_time=None, exec_t
                              "the results then depend on the seeds only, not on the machine's speed")
     parser.add_argument("--exec-time", type=float, default=exec_time,
                         help=f"execution time limit (s, default {default(exec_time)})")
-    parser.add_argument("--only", nargs="*", help="variant labels to run (default all)")
+    parser.add_argument("--only", nargs="+", metavar="LABEL", help="variant labels to run (default all)")
     parser.add_argument("--replay", action="store_true", default=None,
                         help="plan nothing: execute the saved policies on file again and replace their executions")
     add_common_arguments(parser, jobs="tasks")
