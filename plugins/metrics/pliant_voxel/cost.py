@@ -14,7 +14,7 @@ import numpy as np
 from pliant.api import FREE_VOXEL as FREE
 from pliant.api import CostModel, DimensionError, VoxelGrid, check_batch, option
 
-from pliant_voxel.formula import compress_table, cost_tables
+from pliant_voxel.formula import code_dtype, compress_table, cost_tables
 from pliant_voxel.kernels import (
     point_costs,
     rigid_state_breakdown,
@@ -132,9 +132,8 @@ class VoxelDeformationCost(CostModel):
             present[pair] = True
             ids = np.flatnonzero(present)
             remap = np.cumsum(present) - 1
-            dtype = np.uint8 if len(ids) <= 2**8 else np.uint16 if len(ids) <= 2**16 else np.uint32
-            self._breakdown_tables = (remap[pair].astype(dtype), np.ascontiguousarray(self._lut[:, ids // objects]),
-                                      ids % objects - 1)
+            self._breakdown_tables = (remap[pair].astype(code_dtype(len(ids))),
+                                      np.ascontiguousarray(self._lut[:, ids // objects]), ids % objects - 1)
         return self._breakdown_tables
 
     def feature_names(self):

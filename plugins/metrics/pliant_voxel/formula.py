@@ -53,5 +53,9 @@ def compress_table(table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     columns = np.ascontiguousarray(np.asarray(table, dtype=np.float64).T)
     keys = columns.view(np.dtype((np.void, columns.dtype.itemsize * columns.shape[1]))).reshape(-1)
     _, first, ids = np.unique(keys, return_index=True, return_inverse=True)
-    dtype = np.uint8 if len(first) <= 2**8 else np.uint16 if len(first) <= 2**16 else np.uint32
-    return ids.reshape(-1).astype(dtype), np.ascontiguousarray(columns[first].T)
+    return ids.reshape(-1).astype(code_dtype(len(first))), np.ascontiguousarray(columns[first].T)
+
+
+def code_dtype(count: int) -> type:
+    """The smallest unsigned integer type that holds ``count`` distinct codes (0 .. count - 1)."""
+    return np.uint8 if count <= 2**8 else np.uint16 if count <= 2**16 else np.uint32
