@@ -78,17 +78,17 @@ lint: $(STAMP) $(ROS_STAMP) $(ROS2_STAMP) $(CHROMIUM_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
 
-# The suite in two phases.  First everything but the real-time tests on TEST_WORKERS processes (pytest-xdist):
-# tests that share a ROS master or a module's fixtures stay on one worker.  Then the real-time tests (drivers and
-# their peers, watchdogs, the browser) one at a time, with nothing else running, so that no other
-# test's load starves their threads (tests/conftest.py; docs/testing.md has the markers and the measured times).
+# The suite in two phases, side by side (tests/run_phases.py).  The real-time tests (drivers and their peers,
+# watchdogs, the browser) run one at a time at normal priority; everything else at the same time on TEST_WORKERS
+# processes (pytest-xdist) at nice 19, so that they only take the CPU the real-time tests leave: no other test's
+# load starves a peer's loop or a watchdog (tests/conftest.py; docs/testing.md has the markers and the measured
+# times).  Tests that share a ROS master or a module's fixtures stay on one worker.
 TEST_WORKERS ?= 2
 # Python caches compiled modules (and pytest its rewritten test modules) in __pycache__ even where the environment
 # says not to: the suite starts hundreds of Python processes (workers, CLI runs, peers), each compiling otherwise.
 test: export PYTHONDONTWRITEBYTECODE :=
 test: lint
-	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadgroup --no-loadscope-reorder -m "not realtime"
-	$(BIN)/pytest -q -m realtime
+	$(BIN)/python tests/run_phases.py --workers $(TEST_WORKERS)
 
 bench: $(STAMP) $(ROS_STAMP) $(CHROMIUM_STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[bench]"   # the peers (OMPL) the benchmarks compare against

@@ -86,11 +86,11 @@ def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, l
 
     A task that raises does not stop the others: its error is appended to ``errors.jsonl`` beside ``log`` (the task
     as ``label(task)`` says it, the exception's type, message and the worker's traceback) and echoed; once every
-    other task has finished, ``on_interrupt()`` runs and :class:`TasksFailed` is raised naming the failed tasks.  A
-    failed task has no record, so the same command runs it again."""
+    other task has finished, ``on_interrupt()`` runs and :class:`TasksFailed` is raised naming the failed tasks in the
+    tasks' order.  A failed task has no record, so the same command runs it again."""
     tasks = list(tasks)
     label = label or (lambda task: repr(task)[:200])
-    failures: list[dict] = []
+    failures: list[tuple[int, dict]] = []           # (task index, errors.jsonl entry), in the order they failed
     own = executor is None and current() is None
     executor = executor or current() or LocalExecutor(jobs)
     line = ProgressLine("tasks")
@@ -110,8 +110,8 @@ def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, l
             for k, result in enumerate(executor.run(work, tasks, stop, errors="record"), start=1):
                 finished = k
                 if result.error is not None:
-                    failures.append(_record_failure(log, label(tasks[result.index]), result.error))
-                    echo(f"[{k}/{len(tasks)}] FAILED {failures[-1]['task']}: {result.error['type']}: "
+                    failures.append((result.index, _record_failure(log, label(tasks[result.index]), result.error)))
+                    echo(f"[{k}/{len(tasks)}] FAILED {failures[-1][1]['task']}: {result.error['type']}: "
                          f"{result.error['message']}")
                     continue
                 records.append(result.record)
@@ -132,6 +132,8 @@ def run_tasks(work: Callable[..., dict], tasks: Iterable[tuple], *, jobs: int, l
         echo(f"stopped: the {len(records)} finished tasks are in {log}; run the same command again to resume")
     elif failures:
         on_interrupt()
+        # in the tasks' order, not the order the workers happened to finish them: the message is the same every run
+        failures = [entry for _, entry in sorted(failures, key=lambda pair: pair[0])]
         listed = "; ".join(f"{f['task']}: {f['type']}: {f['message'][:160]}" for f in failures[:3])
         more = f" and {len(failures) - 3} more" if len(failures) > 3 else ""
         raise TasksFailed(f"{len(failures)} of {len(tasks)} tasks failed ({listed}{more}); the others finished and "
