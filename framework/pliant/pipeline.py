@@ -1102,6 +1102,8 @@ def bundled_pipelines_dir() -> Path:
 
 
 def available_pipelines() -> list[str]:
+    """The names of the bundled pipelines (the ``*.toml`` files of :func:`bundled_pipelines_dir`, without the suffix),
+    sorted."""
     return sorted(p.stem for p in bundled_pipelines_dir().glob("*.toml"))
 
 

@@ -59,6 +59,8 @@ def _table(rows: list[tuple], header: tuple) -> str:
 
 
 def cmd_plugins(args) -> int:
+    """``pliant plugins [--kind KIND] [--options KIND NAME]``: the plugins with their status and the components they
+    register (only those of ``--kind``), or one component's description and table of options."""
     from pliant import registry
     from pliant.options import describe_options
 
@@ -99,6 +101,8 @@ def cmd_plugins(args) -> int:
 
 
 def cmd_scenes(args) -> int:
+    """``pliant scenes [NAME]``: the bundled scenes and pipelines, or one scene's details (checked as ``run`` checks
+    it); exit status 2 when a bundled scene is invalid."""
     from pliant.pipeline import available_pipelines, check_scene
     from pliant.scene import available_scenes, load_scene
 
@@ -135,6 +139,8 @@ def cmd_scenes(args) -> int:
 
 
 def cmd_run(args) -> int:
+    """``pliant run PIPELINE``: run a pipeline file or bundled pipeline (with the ``--set`` overrides, ``--output`` and
+    ``--view``) and print its summary; returns the run's exit status (docs/outcomes.md)."""
     from pliant.pipeline import Pipeline, RunInterrupted
 
     overrides = list(args.set or [])
@@ -258,6 +264,8 @@ def _benchmarks_dir() -> Path:
 
 
 def cmd_bench(args) -> int:
+    """``pliant bench [NAME] [-- ARGS]``: list the benchmark scripts, or run ``benchmarks/bench_NAME.py`` as its own
+    program; ``pliant bench FILE.toml ...``: run a benchmark file.  Returns the exit status."""
     if args.name and args.name.endswith(".toml"):     # a benchmark file: planners x problems x seeds x budgets
         from pliant.experiments.benchfile import main as bench_file
 
@@ -532,6 +540,9 @@ def rewrite(argv: list[str], aliases: list[Alias]) -> tuple[list[str], str | Non
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The ``pliant`` command: run ``argv`` (default ``sys.argv[1:]``; an old spelling is rewritten, with a deprecation
+    line on stderr) and return its exit status (an input error: one line on stderr, status 2 unless the error gives
+    another; Ctrl-C or SIGTERM: 130)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     declarations = _declarations()
     argv, note = rewrite(argv, declarations[1])

@@ -33,7 +33,6 @@ from typing import Any
 import numpy as np
 
 from pliant.cache import cached_arrays
-from pliant.components import validity_kernels as kernels
 from pliant.errors import PlanningError
 from pliant.geometry.voxelgrid import VoxelGrid
 
@@ -266,6 +265,8 @@ class ValidityChecker:
         """Bool ``(..., m)``: each point ``(..., m, 3)`` is outside every cube its material may not enter (a point on
         the face between such a cube and an allowed one touches it and is free; so is one within ``tolerance`` m of
         it).  One compiled pass (:func:`pliant.components.validity_kernels.points_free`)."""
+        from pliant.components import validity_kernels as kernels  # numba: loaded on the first check, not at import
+
         flat = _as_points(points)
         out = np.empty(flat.shape[:2], dtype=bool)
         slack = min(max(FACE_SLACK, tolerance / self.resolution), 0.5)
@@ -278,6 +279,8 @@ class ValidityChecker:
         exact for the cubes next to the point's voxel, and at least the distance to the edge of that 3 x 3 x 3
         block beyond (the moving axes only).  One compiled pass (:func:`pliant.components.validity_kernels.
         clearances`)."""
+        from pliant.components import validity_kernels as kernels
+
         if self._far_table is None:
             self._far_table = self._far_clearance(self._grids)
         flat = _as_points(points)

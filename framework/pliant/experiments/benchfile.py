@@ -43,6 +43,9 @@ WALL_TIME_FIELDS = ("time", "time_to_first", "progress", "seconds")
 
 @dataclass(frozen=True)
 class Problem:
+    """A problem of a benchmark file (``[[problems]]``): its ``name`` in tables, its pipeline table ``data`` (scene and
+    components, the ``set`` overrides applied), the ``source`` file and the ``base_dir`` its paths are relative to,
+    and ``length_weight``, the judged cost's weight per unit of path length."""
     name: str
     data: dict                    # the pipeline table (scene, components), overrides applied
     source: str
@@ -52,6 +55,8 @@ class Problem:
 
 @dataclass(frozen=True)
 class PlannerSpec:
+    """A planner of a benchmark file (``[[planners]]``): its ``label`` in tables, the planner's registered ``name`` and
+    its ``options`` (checked by creating the planner)."""
     label: str
     name: str
     options: dict
@@ -61,6 +66,8 @@ class PlannerSpec:
 
 @dataclass(frozen=True)
 class BudgetSpec:
+    """A budget of a benchmark file (``[[budgets]]``): its ``label`` in tables (default e.g. ``"1000 it, 120 s"``) and
+    ``table``, a cell's ``[planning]`` table (``max_iterations``, ``max_time`` in s, ``stop_on_first``)."""
     label: str
     table: dict
 
@@ -99,10 +106,14 @@ class BenchFile:
 
 
 def cell_key(cell: dict) -> str:
+    """The cell's key in the records: ``"problem | planner | budget | seed S"``."""
     return f"{cell['problem']} | {cell['planner']} | {cell['budget']} | seed {cell['seed']}"
 
 
 def cell_pipeline(problem: Problem, planner: PlannerSpec, budget: BudgetSpec, seed: int) -> dict:
+    """The pipeline table of one cell: the problem's without the parts a benchmark never runs (:data:`NOT_PLANNING`),
+    with the cell's planner (given the problem's ``length_weight`` when it weighs length), its budget as the
+    ``[planning]`` table and its seed."""
     data = copy.deepcopy(problem.data)
     for key in NOT_PLANNING:
         data.pop(key, None)
@@ -387,6 +398,7 @@ def _finite(value) -> float | None:
 
 
 def describe(record: dict) -> str:
+    """One line on a cell's record: its key, status, planning time (s) and judged cost (when solved)."""
     cost = f", cost {record['cost']:.4g}" if record.get("cost") is not None else ""
     return f"{record['key']}: {record['status']}, {record['time']:.2f} s{cost}"
 
@@ -492,6 +504,8 @@ def _fmt(value, spec: str = ".3g") -> str:
 
 
 def report_markdown(bench: BenchFile, rows: list[dict], figures: list[Path]) -> str:
+    """The text of ``report.md``: the summary ``rows`` (:func:`summarize`) as a Markdown table, then the ``figures``
+    (in ``plots/``)."""
     lines = [f"# Benchmark {bench.name}", ""]
     if bench.description:
         lines += [bench.description, ""]

@@ -399,6 +399,8 @@ def write_docs(results: list[CellResult], path: Path) -> None:
 
 
 def write_expectations(results: list[CellResult], path: Path) -> None:
+    """Write the tests' expectations (:func:`expectations`, with the command that regenerates them) to ``path`` as
+    JSON."""
     path.write_text(json.dumps({"command": COMMAND, "cells": expectations(results)}, indent=1, sort_keys=True) + "\n")
 
 
@@ -407,6 +409,8 @@ def _names(text: str | None) -> list[str] | None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python -m pliant.experiments.swap``: try every cell of the matrix (or of the ``--pipelines`` / ``--simulators``
+    given) and print each; ``--write`` also regenerates :data:`DOCS_FILE` and :data:`EXPECTATIONS_FILE`."""
     parser = argparse.ArgumentParser(prog="python -m pliant.experiments.swap", description=__doc__.split("\n")[0])
     parser.add_argument("--pipelines", help="comma-separated bundled pipelines (default every one)")
     parser.add_argument("--simulators", help="comma-separated simulators (default every registered one)")

@@ -15,6 +15,7 @@ import pytest
 
 @pytest.fixture
 def pliant_conformance():
+    """The :mod:`pliant.testing` module (the conformance kit)."""
     import pliant.testing
 
     return pliant.testing
@@ -22,6 +23,7 @@ def pliant_conformance():
 
 @pytest.fixture
 def pliant_rng():
+    """A ``numpy.random.Generator`` seeded with 0."""
     import numpy as np
 
     return np.random.default_rng(0)

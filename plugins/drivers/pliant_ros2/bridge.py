@@ -38,6 +38,7 @@ def qos(kind: str, depth: int = 10):
 
 
 def stamp_seconds(stamp) -> float:
+    """A ROS 2 time stamp (``builtin_interfaces/Time``) in seconds."""
     return stamp.sec + 1e-9 * stamp.nanosec
 
 
@@ -162,6 +163,8 @@ class Bridge:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python -m pliant_ros2.bridge CONFIG``: start the node with the JSON ``CONFIG`` and serve the driver over stdin
+    and stdout until it leaves; returns 1, after an error line, when ROS 2 fails to start."""
     argv = sys.argv[1:] if argv is None else argv
     config = json.loads(argv[0])
     try:

@@ -16,6 +16,7 @@ def active_arguments(parser) -> None:
 
 
 def active_command(args) -> int:
+    """Run ``pliant experiment active-learning``: the trials not yet on file, then print the report."""
     from pathlib import Path
 
     from pliant.api import parse_override
@@ -85,6 +86,8 @@ def import_arguments(parser) -> None:
 
 
 def import_command(args) -> int:
+    """Run ``pliant learn import``: read the bag's ``--topic`` as a demonstration of the task given by ``--target`` (and
+    ``--plane``), check it against the scene and add it to the ``--output`` file."""
     from pathlib import Path
 
     import numpy as np
@@ -137,6 +140,9 @@ def capture_arguments(parser) -> None:
 
 
 def capture_command(args) -> int:
+    """Run ``pliant learn capture``: for the task of ``--pair``, ``--task`` or the scene's own start and goal, serve the
+    capture page until Ctrl-C (Enter at the target adds the demonstration to ``--output``), or play ``--keys`` and
+    save."""
     import numpy as np
     from pliant import api
     from pliant.api import ConfigError

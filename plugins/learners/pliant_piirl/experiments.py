@@ -153,6 +153,8 @@ def render(summary: dict) -> str:
 
 
 def write_summary(directory: Path, records: list[dict], mode: str) -> dict:
+    """Summarise the trials' ``records`` (:func:`summarise`) and write ``summary.json`` and ``report.md`` into
+    ``directory``; returns the summary."""
     summary = summarise(sorted(records, key=lambda r: r["trial"]), mode)
     write_json(directory / "summary.json", summary)
     write_text(directory / "report.md", render(summary))
@@ -325,6 +327,8 @@ def _main_class(costs: dict[str, float]) -> str | None:
 
 
 def write_table41(directory: Path, learned: dict, records: list[dict]) -> dict:
+    """Compare the plans on file (``records``) with their demonstrations in true cost per class and write Table 4.1's
+    ``summary.json`` and ``table-4.1.md`` into ``directory``; returns the summary."""
     from pliant import api
 
     from pliant_piirl.features import true_sensitivities
@@ -512,6 +516,8 @@ def run_table42(*, max_time: float | None = None, max_iterations: int | None = N
 
 
 def render_table42(summary: dict) -> str:
+    """Table 4.2 as Markdown: each path's deformation per object and its true cost, the thesis's values in
+    parentheses."""
     names = list(summary["truth"])
     lines = [f"# Table 4.2 on {PLANAR}: deformation per object (robot points along the path)", "",
              "True sensitivities (hidden from the learner): " +
@@ -560,6 +566,8 @@ def run_table81(*, repetitions: int, force: float | None, seed: int, output: Pat
 
 
 def render_table81(summary: dict) -> str:
+    """Table 8.1 as Markdown: the ground-truth and recovered deformability per object (the thesis's recovered values in
+    parentheses), the mean absolute error and whether the ranking is right."""
     names = list(summary["truth"])
     lines = ["# Table 8.1: ground-truth and recovered deformability (thesis's recovered in parentheses)", "",
              "| | " + " | ".join(n.replace("object ", "") for n in names) + " |", "|---" * (len(names) + 1) + "|",

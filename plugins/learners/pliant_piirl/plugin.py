@@ -8,6 +8,7 @@ _COMMANDS = "pliant_piirl.commands"
 
 @hookimpl
 def pliant_register(registrar):
+    """Register the ``piirl``, ``active-piirl`` and ``press-deformability`` learners."""
     registrar.add("learner", "piirl", f"{_MODULE}:PiirlLearner",
                   description="object sensitivities from demonstrations by PIIRL (thesis 4.3.3; a ranking, or eq. 4.1)")
     registrar.add("learner", "active-piirl", f"{_MODULE}:ActivePiirlLearner",
@@ -51,6 +52,7 @@ def pliant_commands():
 
 @hookimpl
 def pliant_reproductions():
+    """The thesis's Tables 4.1, 4.2 and 8.1 (``pliant experiment table-4.1`` / ``table-4.2`` / ``table-8.1``)."""
     from pliant_piirl.reproduce import declarations
 
     return declarations()

@@ -7,6 +7,8 @@ _MODULE = "pliant_reachability.metrics"
 
 @hookimpl
 def pliant_register(registrar):
+    """Register the four path-quality metrics: ``reachable-volume``, ``sampling-driven``, ``simulation`` and
+    ``simulation-scaled``."""
     registrar.add("metric", "reachable-volume", f"{_MODULE}:ReachableVolumeMetric",
                   description="P_exec of a path from reachable-volume sampling and sample images (thesis 6.4)")
     registrar.add("metric", "sampling-driven", f"{_MODULE}:SamplingDrivenMetric",
@@ -90,6 +92,7 @@ def _select_command(args) -> int:
 
 @hookimpl
 def pliant_reproductions():
+    """The thesis's Tables 6.1-6.4 (``pliant experiment table-6.1`` ... ``table-6.4``)."""
     from pliant_reachability.reproduce import declarations
 
     return declarations()

@@ -123,6 +123,8 @@ def _starts(metric, path, rng: np.random.Generator, n: int) -> np.ndarray:
 
 
 def render(report: dict) -> str:
+    """The report of :func:`select` as Markdown: the candidates by the metric's P_exec with their executions, the best
+    and the worst with their success rates, the verdict and the Spearman rank correlation."""
     lines = [f"# {report['pipeline']}: candidates scored by the metric, executed in {report['world']}", "",
              "| seed | waypoints | length | metric P_exec | executions | success | outcomes |",
              "|---|---|---|---|---|---|---|"]

@@ -200,6 +200,8 @@ def render(summary: dict) -> str:
 
 
 def write_summary(directory: Path, records: list[dict], tasks: list[str], methods: list[str], settings: dict) -> dict:
+    """Summarise ``records`` (:func:`summarise`) and write ``summary.json`` (with ``settings``), ``tables.md`` and a
+    figure per task (``TASK.png``) into ``directory``; returns the summary."""
     summary = summarise(records, tasks, methods)
     write_json(directory / "summary.json", {"settings": settings, "evaluations": len(records), "tables": summary})
     write_text(directory / "tables.md", render(summary))

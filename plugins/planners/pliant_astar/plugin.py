@@ -7,6 +7,7 @@ from pliant.api import Alias, Command, hookimpl
 
 @hookimpl
 def pliant_register(registrar):
+    """Register the ``astar`` planner and ``astar-pareto``, its sweep over p."""
     registrar.add("planner", "astar", "pliant_astar.planner:AStarPlanner",
                   description="exact A* over 3-D translations, f = (1-p)(g+h) + p*DEFORM (thesis Alg. 1)")
     registrar.add("planner", "astar-pareto", "pliant_astar.planner:ParetoPlanner",
@@ -15,6 +16,8 @@ def pliant_register(registrar):
 
 @hookimpl
 def pliant_report(run, directory):
+    """``pareto_front.png`` and ``pareto_paths.png`` for an ``astar-pareto`` run with a Pareto front; None for any other
+    run."""
     if run.result is None or run.result.planner != "astar-pareto" or not run.result.statistics.get("pareto"):
         return None
     from pliant_astar.figures import draw_pareto
@@ -24,6 +27,8 @@ def pliant_report(run, directory):
 
 @hookimpl
 def pliant_commands():
+    """``pliant experiment pareto`` (old spelling: ``pliant pareto``): sweep A* over p on a scene and print the
+    Pareto-optimal paths."""
     return [Command("experiment", "pareto", "sweep A* over p on a scene: Pareto table and figures",
                     run=_pareto_command, arguments=_pareto_arguments,
                     description="Run A* for evenly spaced values of p on a translation scene (cost model: voxel), "
@@ -60,6 +65,7 @@ def _pareto_command(args) -> int:
 
 @hookimpl
 def pliant_reproductions():
+    """The thesis's Figure 3.5 (``pliant experiment figure-3.5``): A* path classes on the triple-wall over p."""
     from pliant.api import Reproduction
 
     return [Reproduction("figure-3.5", "Figure 3.5: A* path classes on the triple-wall over p",

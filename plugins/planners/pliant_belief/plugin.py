@@ -5,6 +5,7 @@ from pliant.api import Alias, Command, add_common_arguments, hookimpl
 
 @hookimpl
 def pliant_register(registrar):
+    """Register the ``belief`` planner (its ``mode`` option also gives the Contact RRT and Simple RRT baselines)."""
     registrar.add("planner", "belief", "pliant_belief.planner:BeliefPlanner",
                   description="belief-space RRT over particles with partial policies (thesis 5.3); "
                               "mode=contact / simple: the Contact RRT and Simple RRT baselines")
@@ -12,6 +13,8 @@ def pliant_register(registrar):
 
 @hookimpl
 def pliant_report(run, directory):
+    """``policy.png``: the partial policy over the scene's obstacles, for a run whose result is a partial policy; None
+    for any other run."""
     if run.result is None or run.result.policy is None or getattr(run.result.policy, "kind", "") != "partial-policy":
         return None
     from pliant_belief.figures import draw_policy
@@ -94,6 +97,7 @@ def table_arguments(group):
 
 @hookimpl
 def pliant_reproductions():
+    """The thesis's Tables 5.1 and 5.2 (``pliant experiment table-5.1`` / ``table-5.2``)."""
     from pliant_belief.reproduce import declarations
 
     return declarations()

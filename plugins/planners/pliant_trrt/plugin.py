@@ -5,6 +5,7 @@ from pliant.api import hookimpl
 
 @hookimpl
 def pliant_register(registrar):
+    """Register the ``trrt`` and ``gradient-trrt`` planners."""
     registrar.add("planner", "trrt", "pliant_trrt.planner:TRRTPlanner",
                   description="T-RRT (Jaillet, Cortes, Simeon 2010): transition test with adaptive temperature")
     registrar.add("planner", "gradient-trrt", "pliant_trrt.planner:GradientTRRTPlanner",
@@ -14,6 +15,7 @@ def pliant_register(registrar):
 
 @hookimpl
 def pliant_reproductions():
+    """The thesis's Table 3.1 (``pliant experiment table-3.1``): T-RRT and GradienT-RRT on the cube-wall."""
     from pliant.api import Reproduction
 
     return [Reproduction("table-3.1", "Table 3.1: T-RRT and GradienT-RRT on the cube-wall",

@@ -60,6 +60,7 @@ def table_rect(scene, region: str) -> tuple[float, float, float, float]:
 
 
 def bounds_rect(scene) -> tuple[float, float, float, float]:
+    """The scene's bounds in the plane, ``(x0, y0, x1, y1)`` (m)."""
     return (float(scene.lower[0]), float(scene.lower[1]), float(scene.upper[0]), float(scene.upper[1]))
 
 
@@ -216,8 +217,12 @@ def parse_relations(relations: tuple[str, ...], names: list[str]) -> np.ndarray:
 
 
 def task_cost(fp: Footprints, table, weights, relations: np.ndarray, setting_scale: float) -> TaskCost:
+    """The :class:`TaskCost` of arrangements of the objects ``fp`` on ``table`` (``weights``: ``(w_orth, w_area,
+    w_edge, w_setting)``; ``relations``: rows of :func:`parse_relations`; ``setting_scale`` in m)."""
     return TaskCost(fp, table, tuple(weights), relations, setting_scale)
 
 
 def checker(fp: Footprints, obs: Footprints, obs_poses: np.ndarray, table, margin: float) -> CollisionChecker:
+    """The :class:`CollisionChecker` of the objects ``fp`` among the fixed obstacles ``obs`` at ``obs_poses`` on
+    ``table``, with ``margin`` (m) of clearance."""
     return CollisionChecker(fp, obs, obs_poses, table, margin)

@@ -6,6 +6,7 @@ from pliant.api import hookimpl
 
 @hookimpl
 def pliant_register(registrar):
+    """Register the ``tsrrt`` planner and the ``push-models`` learner."""
     registrar.add("planner", "tsrrt", "pliant_tsrrt.planner:TSRRTPlanner",
                   description="TS-RRT (Scholz & Stilman, ICHR 2010): object-space RRT over learned push models with "
                               "DIRECTGD toward the cheapest arrangement; execution with monitoring and replanning")
@@ -16,6 +17,8 @@ def pliant_register(registrar):
 
 @hookimpl
 def pliant_report(run, directory):
+    """``tsrrt.png`` (the plan) and ``push-models.png`` (the learned models) for runs of the ``tsrrt`` planner or the
+    ``push-models`` learner; None when the run has neither."""
     from pliant_tsrrt.figures import draw_run
 
     return draw_run(run, directory)
@@ -23,6 +26,7 @@ def pliant_report(run, directory):
 
 @hookimpl
 def pliant_reproductions():
+    """The TS-RRT poster (ICHR 2010): ``pliant experiment poster``."""
     from pliant_tsrrt.reproduce import declarations
 
     return declarations()

@@ -11,6 +11,8 @@ def pliant_register(registrar):
 
 @hookimpl
 def pliant_report(run, directory):
+    """``path.png`` (the scene and the planned path) and ``trajectory.png`` (when the run has a trajectory); None when
+    neither is drawn."""
     from pliant_plots.scene_figure import draw_run
     from pliant_plots.trajectory_figure import draw_trajectory
 

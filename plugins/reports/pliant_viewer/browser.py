@@ -177,14 +177,17 @@ def first_draws(driver) -> dict[str, float]:
 
 
 def mesh_signature(triangles: int) -> str:
+    """The draw-call signature (:data:`DRAW_PROBE`) of a mesh of ``triangles`` triangles."""
     return f"4:{3 * int(triangles)}:1"
 
 
 def points_signature(n: int) -> str:
+    """The draw-call signature (:data:`DRAW_PROBE`) of a cloud of ``n`` points."""
     return f"0:{int(n)}:1"
 
 
 def segments_signature(n: int) -> str:
+    """The draw-call signature (:data:`DRAW_PROBE`) of ``n`` line segments (viser's instanced quads)."""
     return f"4:18:{int(n)}"
 
 

@@ -31,6 +31,8 @@ NAME = "view-cache.npz"
 
 
 def key(folder: Path, scene, max_particles: int) -> str:
+    """The cache key of the run ``folder`` (a JSON string): the format, the scene's name, variant and file, the size and
+    modification time of the run's JSON files, and ``max_particles``."""
     files = {}
     for name in ("run.json", "result.json", "execution.json"):
         path = Path(folder) / name

@@ -148,6 +148,8 @@ def open_viewer(host: str, port: int, prefix: str = "", **options):
 
 
 def cmd_view(args) -> int:
+    """Run ``pliant view TARGET``: serve the 3-D page of a scene, run folder or policy file until ``--hold`` runs out or
+    Ctrl-C, or write it as a self-contained HTML page (``--export``)."""
     t0 = time.perf_counter()
     check_address(args.host, args.port)
     check_hold(args.hold)

@@ -14,6 +14,7 @@ def pliant_register(registrar):
 
 @hookimpl
 def pliant_commands():
+    """``pliant view TARGET``: a 3-D view of a scene, a run folder or a policy in the browser."""
     return [Command("view", "view", "open a 3-D view of a scene, a run folder or a policy in the browser",
                     run="pliant_viewer.commands:cmd_view", arguments="pliant_viewer.commands:add_arguments",
                     description="Serve a local web page (viser) showing TARGET in 3-D: a scene name or file, a "

@@ -81,6 +81,7 @@ def _joint_motion(kind: str, axis: np.ndarray, value: float) -> np.ndarray:
 
 
 def cache_dir() -> Path:
+    """Where converted robots are kept: ``$XDG_CACHE_HOME/pliant/viewer``, else ``~/.cache/pliant/viewer``."""
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(base) / "pliant" / "viewer"
 

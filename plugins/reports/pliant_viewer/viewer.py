@@ -110,6 +110,9 @@ def make_robot(scene, robot_name: str | None = None, robot_options: dict | None 
 
 
 def make_tracer(scene, robot) -> content.Tracer:
+    """The :class:`~pliant_viewer.content.Tracer` that places ``robot``'s configurations in 3-D: a free-flying body at
+    its translation (a 3-D vector space without a URDF counts as R^3; SE(2) at the middle of the scene's height), any
+    other robot at its tip."""
     space = robot.space
     kind = space.kind
     articulated = robot.urdf_description() is not None

@@ -5,5 +5,6 @@ from pliant.api import hookimpl
 
 @hookimpl
 def pliant_register(registrar):
+    """Register the ``pybullet`` simulator (3-D rigid-body dynamics, headless)."""
     registrar.add("simulator", "pybullet", "pliant_pybullet.simulator:PybulletSimulator",
                   description="3-D rigid-body dynamics (pybullet, headless): compliant force-limited control")

@@ -5,5 +5,6 @@ from pliant.api import hookimpl
 
 @hookimpl
 def pliant_register(registrar):
+    """Register the ``pymunk`` simulator (2-D rigid-body dynamics)."""
     registrar.add("simulator", "pymunk", "pliant_pymunk.simulator:PymunkSimulator",
                   description="2-D rigid-body dynamics (pymunk) for planar scenes: compliant control, friction")

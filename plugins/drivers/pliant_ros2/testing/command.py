@@ -16,6 +16,8 @@ PRESETS = {"iiwa": {"namespace": "/lbr", "joints": [f"lbr_A{i}" for i in range(1
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``pliant robot ros2-peer`` and ``python -m pliant_ros2.testing``: the preset arm, its namespace,
+    joints and start, the controllers, the update rate, the servo time constant, the ROS domain and the record."""
     parser.add_argument("preset", nargs="?", default="iiwa", choices=sorted(PRESETS),
                         help="the arm (iiwa: the lbr_fri_ros2_stack's /lbr, lbr_A1..lbr_A7)")
     parser.add_argument("--namespace", help="the robot's namespace (default the preset's)")
