@@ -320,7 +320,7 @@ def run_reproduction(name: str, *, mode: str = "quick", output: Path = Path("out
     if not os.access(directory, os.W_OK | os.X_OK):
         raise ConfigError("is not writable", field="--output", value=str(output))
     runner = _load(reproduction.runner)
-    echo(f"{name} ({mode}): {reproduction.modes[mode]}")
+    echo(f"{name} ({mode}): {reproduction.modes[mode]}{_given(options)}")
     t0 = time.perf_counter()
     outcome = runner(ReproductionRun(reproduction, mode, directory, echo, fresh, dict(options or {})))
     seconds = time.perf_counter() - t0
@@ -349,6 +349,22 @@ def list_command(args) -> int:
     for name, text in others.items():
         print(f"{name:<{width}}  experiment {text}")
     return 0
+
+
+def _given(options: dict | None) -> str:
+    """The reproduction's own options that have a value (set by the user or by a default of the command line), as
+    they would be typed (``"; with --plans 2 --jobs 2"``), or ``""``: the mode's description says what the mode does
+    without them."""
+    import shlex
+
+    given = []
+    for key, value in (options or {}).items():
+        if value is None or value is False or value == [] or value == ():
+            continue
+        flag = "--" + key.replace("_", "-")
+        values = value if isinstance(value, (list, tuple)) else [] if value is True else [value]
+        given.append(" ".join([flag, *(shlex.quote(str(v)) for v in values)]))
+    return f"; with {' '.join(given)}" if given else ""
 
 
 def command(args) -> int:

@@ -98,3 +98,11 @@ def test_an_output_that_is_no_directory_is_refused_before_anything_is_written(tm
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"] and (tmp_path / "file").read_text() == "kept"
     with pytest.raises(ConfigError, match="--output"):
         run_reproduction("figure-3.5", mode="ci", output=tmp_path / "file")
+
+
+def test_the_first_line_shows_the_own_options_that_have_a_value_as_typed():
+    from pliant.experiments.reproduce import _given
+
+    assert _given(None) == "" and _given({"plans": None, "straight": False, "only": []}) == ""
+    assert _given({"plans": 2, "straight": True, "only": ["24 particles, gamma 0", "contact"], "max_time": 1.5}) == \
+        "; with --plans 2 --straight --only '24 particles, gamma 0' contact --max-time 1.5"
