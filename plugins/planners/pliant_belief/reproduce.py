@@ -115,7 +115,9 @@ def ordering(records: list[dict], thesis: dict, gap: float = 0.05) -> dict:
     """Whether the thesis's ordering of the rows by P_exec holds in ``records``: for every pair of rows whose
     thesis P_exec differ by at least ``gap``, the 95% bootstrap interval of our difference (higher-in-the-thesis
     minus lower, over the planned policies' success rates): ``holds`` when it lies above 0, ``reversed`` below,
-    ``not separated`` when it contains 0.  The statement: ``holds`` if every pair holds, ``refuted`` if one is
+    ``not separated`` when it contains 0; ``no policy`` when one of the two rows planned none (its P_exec, a mean
+    over planned policies, does not exist: Simple RRT in Table 5.2, which the thesis lists with P_exec 0; the P_plan
+    column compares those rows).  The statement: ``holds`` if every compared pair holds, ``refuted`` if one is
     reversed, else ``not resolved``."""
     from pliant_belief.experiments import bootstrap_mean
 
@@ -130,13 +132,17 @@ def ordering(records: list[dict], thesis: dict, gap: float = 0.05) -> dict:
             continue
         high, low = (a, b) if thesis[a][1] > thesis[b][1] else (b, a)
         ra, rb = rates(high), rates(low)
+        if not ra or not rb:
+            pairs.append({"higher": high, "lower": low, "thesis": [thesis[high][1], thesis[low][1]],
+                          "ours": [float(np.mean(ra)) if ra else None, float(np.mean(rb)) if rb else None],
+                          "difference_ci95": None, "verdict": "no policy"})
+            continue
         interval = bootstrap_mean(ra, rb)
-        verdict = ("not separated" if not ra or not rb or interval[0] <= 0 <= interval[1]
-                   else "holds" if interval[0] > 0 else "reversed")
+        verdict = "not separated" if interval[0] <= 0 <= interval[1] else "holds" if interval[0] > 0 else "reversed"
         pairs.append({"higher": high, "lower": low, "thesis": [thesis[high][1], thesis[low][1]],
-                      "ours": [float(np.mean(ra)) if ra else float("nan"), float(np.mean(rb)) if rb else float("nan")],
-                      "difference_ci95": interval, "verdict": verdict})
-    verdicts = [p["verdict"] for p in pairs]
+                      "ours": [float(np.mean(ra)), float(np.mean(rb))], "difference_ci95": interval,
+                      "verdict": verdict})
+    verdicts = [p["verdict"] for p in pairs if p["verdict"] != "no policy"]
     statement = ("refuted" if "reversed" in verdicts else "holds" if verdicts and all(v == "holds" for v in verdicts)
                  else "not resolved")
     return {"statement": statement, "pairs": pairs, "gap": gap}
@@ -172,7 +178,8 @@ def write_tables(directory, name: str) -> Path:
         pooled = "-" if not runs else f"{won}/{len(runs)} [{', '.join(f'{x:.2f}' for x in wilson(won, len(runs)))}]"
         lines.append(f"| {r['variant']} | {r['plans']} | {fmt(r['p_plan'], r['p_plan_ci95'])} | "
                      f"{'-' if t is None else t[0]} | {fmt(r['p_exec'], r['p_exec_ci95'])} | {pooled} | "
-                     f"{'-' if t is None else f'{t[1]} ({t[2]})'} | {r['actions']:.1f} |")
+                     f"{'-' if t is None else f'{t[1]} ({t[2]})'} | "
+                     f"{'-' if r['actions'] != r['actions'] else format(r['actions'], '.1f')} |")
     lines += ["", "P_plan's interval: Wilson, over the plans. P_exec: the mean over planned policies of each one's "
               "success rate; its interval a percentile bootstrap over those policies (4,000 resamples, seed 0), which "
               "has no width when every policy scored the same; executions: every execution of the planned policies "
@@ -180,17 +187,24 @@ def write_tables(directory, name: str) -> Path:
               f"## The thesis's ordering: **{order['statement']}**", "",
               f"Every pair of rows whose thesis P_exec differ by at least {order['gap']}: our difference (the row "
               "higher in the thesis minus the lower), its 95% bootstrap interval, and the verdict (holds: above 0; "
-              "reversed: below 0; not separated: contains 0).", "",
+              "reversed: below 0; not separated: contains 0; no policy: one of the rows planned none, so it has no "
+              "P_exec to compare -- its P_plan says how it differs).", "",
               "| higher in the thesis | lower | thesis | ours | difference [95%] | verdict |",
               "|---|---|---|---|---|---|"]
     for p in order["pairs"]:
-        d = p["ours"][0] - p["ours"][1]
-        lines.append(f"| {p['higher']} | {p['lower']} | {p['thesis'][0]} / {p['thesis'][1]} | "
-                     f"{p['ours'][0]:.2f} / {p['ours'][1]:.2f} | {d:+.2f} [{p['difference_ci95'][0]:+.2f}, "
-                     f"{p['difference_ci95'][1]:+.2f}] | {p['verdict']} |")
-    counts = {v: sum(p["verdict"] == v for p in order["pairs"]) for v in ("holds", "reversed", "not separated")}
+        ours = " / ".join("-" if v is None else f"{v:.2f}" for v in p["ours"])
+        if p["difference_ci95"] is None:
+            difference = "-"
+        else:
+            low, high = p["difference_ci95"]
+            difference = f"{p['ours'][0] - p['ours'][1]:+.2f} [{low:+.2f}, {high:+.2f}]"
+        lines.append(f"| {p['higher']} | {p['lower']} | {p['thesis'][0]} / {p['thesis'][1]} | {ours} | "
+                     f"{difference} | {p['verdict']} |")
+    counts = {v: sum(p["verdict"] == v for p in order["pairs"])
+              for v in ("holds", "reversed", "not separated", "no policy")}
     lines += ["", f"{counts['holds']} pairs hold, {counts['reversed']} reversed, {counts['not separated']} not "
-              f"separated, of {len(order['pairs'])}."]
+              f"separated, of {len(order['pairs']) - counts['no policy']} compared; {counts['no policy']} not "
+              "compared (a row planned no policy)."]
     write_json(directory / "ordering.json", {"experiment": name, "policies": len(records), **order})
     return write_text(directory / "tables.md", "\n".join(lines) + "\n")
 

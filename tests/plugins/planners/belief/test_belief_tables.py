@@ -37,6 +37,31 @@ def test_the_thesiss_ordering_holds_is_refuted_or_is_not_resolved():
     assert ordering(records("A", [1.0]) + records("B", [1.0]), thesis)["statement"] == "not resolved"
 
 
+def unplanned(label, plans=10):
+    return [{"variant": label, "seed": seed, "planned": False, "statistics": {}, "executions": {}}
+            for seed in range(plans)]
+
+
+def test_a_row_that_planned_no_policy_is_not_compared_and_leaves_the_statement_to_the_others(tmp_path):
+    """Simple RRT in Table 5.2 plans nothing: it has no P_exec (a mean over planned policies), so its pairs are
+    ``no policy``, not ``not separated``, and the tables show dashes, not nan."""
+    import json
+
+    thesis = {"A": (1.0, 0.99, 0.02), "B": (1.0, 0.73, 0.4), "Simple": (0.0, 0.0, 0.0)}
+    result = ordering(records("A", [1.0]) + records("B", [0.5, 0.6]) + unplanned("Simple"), thesis)
+    assert result["statement"] == "holds"
+    verdicts = {(p["higher"], p["lower"]): (p["verdict"], p["ours"], p["difference_ci95"]) for p in result["pairs"]}
+    assert verdicts[("A", "Simple")] == ("no policy", [1.0, None], None)
+    assert verdicts[("B", "Simple")][0] == "no policy" and verdicts[("A", "B")][0] == "holds"
+    lines = records("contact, gamma 0", [1.0]) + records("24 particles, gamma 0", [0.6]) + unplanned("simple, gamma 0")
+    (tmp_path / "runs.jsonl").write_text("".join(json.dumps(r) + "\n" for r in lines))
+    text = write_tables(tmp_path, "table-5.2").read_text()
+    assert "nan" not in text
+    assert "| simple, gamma 0 | 10 | 0.00 [0.00, 0.28] | 0 | - | - | 0 (0) | - |" in text
+    assert "| contact, gamma 0 | simple, gamma 0 | 0.78 / 0 | 1.00 / - | - | no policy |" in text
+    assert "1 pairs hold, 0 reversed, 0 not separated, of 1 compared; 2 not compared" in text
+
+
 def test_tables_are_written_from_the_records(tmp_path):
     import json
 
