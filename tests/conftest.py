@@ -85,9 +85,10 @@ XDIST_GROUPS = {
 }
 #: tests that run threads or processes against wall-clock deadlines (heartbeats, state watchdogs, command streams,
 #: a browser's frames), by path prefix: marked ``realtime``, and ``make test`` runs them in a
-#: second phase of their own, one at a time, so that the CPU-bound tests of the first phase cannot starve them (on
-#: two cores under two busy workers, threads stalled 0.3 s: a drive's heartbeat consumer and a 0.25 s state
-#: watchdog fired at connection).  A test elsewhere that needs this says ``@pytest.mark.realtime``.
+#: phase of their own, one at a time at normal priority, beside the CPU-bound tests at nice 19
+#: (``tests/run_phases.py``), so that those cannot starve them (on two cores under two busy workers of the same
+#: priority, threads stalled 0.3 s: a drive's heartbeat consumer and a 0.25 s state watchdog fired at connection).
+#: A test elsewhere that needs this says ``@pytest.mark.realtime``.
 REALTIME = (
     "tests/plugins/drivers/ros1/test_ros1_e2e.py",
     "tests/plugins/drivers/ros1/test_ros1_drivers.py",
