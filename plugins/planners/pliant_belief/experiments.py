@@ -325,15 +325,16 @@ def run_experiment(name: str, *, plans: int, executions: int, plan_time: float, 
     table = experiments()
     if name not in table:
         raise ConfigError(f"unknown experiment (experiments: {', '.join(table)})", field="NAME", value=name)
-    for key, value in (("plans", plans), ("executions", executions), ("jobs", jobs)):
+    # fields named as the command line spells them (``pliant experiment ... --plans``)
+    for key, value in (("--plans", plans), ("--executions", executions), ("--jobs", jobs)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
             raise ConfigError("must be a positive integer", field=key, value=value)
-    for key, value in (("plan_time", plan_time), ("exec_time", exec_time)):
+    for key, value in (("--plan-time", plan_time), ("--exec-time", exec_time)):
         if not (isinstance(value, (int, float)) and value > 0):
             raise ConfigError("must be a positive number of seconds", field=key, value=value)
     if plan_iterations is not None and (isinstance(plan_iterations, bool) or not isinstance(plan_iterations, int)
                                         or plan_iterations < 1):
-        raise ConfigError("must be a positive integer", field="plan_iterations", value=plan_iterations)
+        raise ConfigError("must be a positive integer", field="--plan-iterations", value=plan_iterations)
     if replay and fresh:
         raise ConfigError("replay executes the policies on file; fresh would forget them", field="replay/fresh",
                           value=[replay, fresh])

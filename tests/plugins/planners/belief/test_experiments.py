@@ -51,9 +51,9 @@ def test_a_second_run_resumes_from_the_tasks_on_file(tmp_path):
 
 
 @pytest.mark.parametrize("name, options, field", [
-    ("nope", {}, "NAME"), ("maze", {"plans": 0}, "plans"), ("maze", {"jobs": True}, "jobs"),
-    ("maze", {"plan_time": -1.0}, "plan_time"), ("maze", {"plan_iterations": 0}, "plan_iterations"),
-    ("maze", {"plan_iterations": 2.5}, "plan_iterations")])
+    ("nope", {}, "NAME"), ("maze", {"plans": 0}, "--plans"), ("maze", {"jobs": True}, "--jobs"),
+    ("maze", {"plan_time": -1.0}, "--plan-time"), ("maze", {"plan_iterations": 0}, "--plan-iterations"),
+    ("maze", {"plan_iterations": 2.5}, "--plan-iterations"), ("maze", {"exec_time": 0}, "--exec-time")])
 def test_bad_input_names_the_field(tmp_path, name, options, field):
     kwargs = {"plans": 1, "executions": 1, "plan_time": 1.0, "exec_time": 1.0, "jobs": 1, **options}
     with pytest.raises(ConfigError, match=field):
