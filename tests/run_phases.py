@@ -1,7 +1,8 @@
 """``make test``: the suite's two phases, run side by side.
 
 - The real-time tests (``-m realtime``: drivers and their peers, watchdogs, the browser) run in one process, one at
-  a time, at the caller's priority.  They wait far more than they compute (about 120-180 s of CPU in 4 minutes).
+  a time, at the caller's priority.  They wait more than they compute (150 s of CPU in 3:49 alone, their peers
+  included).
 - Every other test runs at the same time on ``--workers`` pytest-xdist processes at the lowest priority
   (``nice 19``), so that they take the CPU the real-time tests leave and never delay a peer's loop or a watchdog:
   the kernel runs a waking nice-0 thread before a nice-19 one.
