@@ -11,6 +11,10 @@
   polyhedral cone and each end of the interval is one linear programme (``S_b = 1``, minimise or maximise
   ``S_a``).  ``groups`` ties objects to classes (a class shares one value), as the hidden truth does.
 - :func:`class_ratios`, :func:`in_order`: what a recovery is scored by.
+- :func:`object_order_intervals`, :func:`order_determined`: whether the demonstrations themselves fix the order of
+  every object below every object of the next class, when each object has a value of its own (a learner is not told
+  which objects share a class).  Where they do not, a recovery in the wrong order can still keep every shown path
+  within its slack, so no learner can be held to that order on that set.
 """
 
 from __future__ import annotations
@@ -129,3 +133,25 @@ def in_order(sensitivities: dict[str, float], classes: dict[str, str], order: li
                 min(sensitivities[n] for n in classes if classes[n] == high):
             return False
     return True
+
+
+def object_order_intervals(shown, candidates, slack, names: list[str], classes: dict[str, str],
+                           order: list[str]) -> dict[str, tuple[float, float]]:
+    """For every object of each class and every object of the next (``order`` least sensitive first), the interval
+    of ``S_high / S_low`` (keys ``"high/low"`` by object name) under which every shown path stays within its slack of
+    every candidate, each object free to take its own value: :func:`allowed_ratio_interval` with one group per
+    object.  ``names``: the objects in the features' column order."""
+    each = np.eye(len(names))
+    intervals = {}
+    for low, high in itertools.pairwise(order):
+        for a in (n for n in names if classes[n] == low):
+            for b in (n for n in names if classes[n] == high):
+                intervals[f"{b}/{a}"] = allowed_ratio_interval(shown, candidates, slack, each, names.index(b),
+                                                               names.index(a))
+    return intervals
+
+
+def order_determined(intervals: dict[str, tuple[float, float]]) -> bool:
+    """Whether every sensitivity vector the demonstrations allow puts each object below every object of the next
+    class: the lowest allowed ratio of every pair of :func:`object_order_intervals` above 1."""
+    return all(lowest > 1.0 for lowest, _ in intervals.values())

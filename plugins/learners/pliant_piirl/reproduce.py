@@ -67,11 +67,13 @@ def table_41(run: ReproductionRun) -> Outcome:
     rows_ = summary["rows"]
     tasks = max(len(rows_), 1)
     thesis_ratios = sorted(sum(p[0] for p in planned) / sum(shown) for shown, planned in THESIS_TABLE_41)
-    # measured with these budgets and seeds and the default recovery, the ranking, and the local search started from
-    # the cheaper of the RRT* path and the best straight insertion (docs/plugins/piirl.md): full 12 of 12 tasks no
-    # costlier, 12 of 12 the same main class, median ratio 0.94; quick 3 of 3, 3 of 3, 0.93.  The plans are
-    # functions of their seeds; the ranges leave one task of room for another machine's rounding
-    bound = {"cheaper": 11 / 12, "same": 11 / 12, "median": 1.0} if not quick else \
+    # a range is the figure measured with these budgets and seeds less one task of room for another machine's
+    # rounding, but never below what the thesis's chapter is asked to show (10 of 12 no costlier, 11 of 12 the same
+    # main class).  Measured with the default recovery (the geometric mean of the ranking at h = 5 and 10) and the
+    # local search started from the cheaper of the RRT* path and the best straight insertion (docs/plugins/piirl.md):
+    # full 10 of 12 tasks no costlier (12 of 12 with h = 5 alone, the default before session 25), 12 of 12 the same
+    # main class, median ratio 0.94; quick 3 of 3, 3 of 3, 0.93.  So the full run's "no costlier" range has no room
+    bound = {"cheaper": 10 / 12, "same": 11 / 12, "median": 1.0} if not quick else \
         {"cheaper": 2 / 3, "same": 2 / 3, "median": 1.0}
     rows.append(Row("tasks where most plans deform the same classes (a class > 10% of the true cost)",
                     11 / 12, summary.get("tasks_same_share", 0) / tasks))

@@ -11,6 +11,8 @@ from pliant_piirl.heldout import (
     class_ratios,
     groups_of,
     in_order,
+    object_order_intervals,
+    order_determined,
 )
 
 
@@ -46,6 +48,36 @@ def test_class_ratios_and_order():
     assert class_ratios(values, classes, ["low", "high"]) == {"high/low": pytest.approx(4.0)}
     assert in_order(values, classes, ["low", "high"])
     assert not in_order({**values, "L2": 8.0}, classes, ["low", "high"])
+
+
+def test_the_order_of_two_objects_is_determined_only_when_no_allowed_value_reverses_it():
+    # one low object "a" and one high object "b", r = S_b / S_a.  Shown: 1 unit of "a"; on offer: "b" by 0.5, so
+    # S_a <= (1 + slack) 0.5 S_b, r >= 1 / (0.5 (1 + slack)) = 1 / 0.51 with 2% slack: every allowed r is above 1
+    names, classes = ["a", "b"], {"a": "low", "b": "high"}
+    shown = np.array([[1.0, 0.0]])
+    intervals = object_order_intervals(shown, [np.array([[0.0, 0.5]])], 0.02, names, classes, ["low", "high"])
+    assert list(intervals) == ["b/a"]
+    assert intervals["b/a"] == pytest.approx((1 / 0.51, 1e4), rel=1e-7)
+    assert order_determined(intervals)
+    # on offer "b" by 1: r >= 1 / 1.02, so a shown path within its slack allows "b" a little below "a"
+    intervals = object_order_intervals(shown, [np.array([[0.0, 1.0]])], 0.02, names, classes, ["low", "high"])
+    assert intervals["b/a"][0] == pytest.approx(1 / 1.02, rel=1e-7)
+    assert not order_determined(intervals)
+
+
+def test_objects_free_of_their_class_allow_what_a_shared_value_forbids():
+    # "a1" and "a2" are low, "b" high.  Shown: a1 by 2 and a2 by 1 where b by 3 was on offer: with a shared low value
+    # 3 S_a <= 3 S_b, so r >= 1 (the class interval); each object free, S_a1 may be small and S_a2 large: 2 S_a1 +
+    # S_a2 <= 3 S_b allows S_b / S_a2 down to 1 / 3 (and a little more: the other object stays at the box's lower end,
+    # 1e-4 with the compared one at 1)
+    names, classes = ["a1", "a2", "b"], {"a1": "low", "a2": "low", "b": "high"}
+    shown, offer = np.array([[2.0, 1.0, 0.0]]), [np.array([[0.0, 0.0, 3.0]])]
+    groups = groups_of(names, classes, ["low", "high"])
+    assert allowed_ratio_interval(shown, offer, 0.0, groups, 1, 0)[0] == pytest.approx(1.0, rel=1e-7)
+    intervals = object_order_intervals(shown, offer, 0.0, names, classes, ["low", "high"])
+    assert intervals["b/a2"][0] == pytest.approx((2e-4 + 1) / 3, rel=1e-7)
+    assert intervals["b/a1"][0] == pytest.approx((2 + 1e-4) / 3, rel=1e-7)
+    assert not order_determined(intervals)
 
 
 @pytest.fixture(scope="module")
