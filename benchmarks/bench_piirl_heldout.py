@@ -16,7 +16,9 @@ order (every object of a class below every object of the next), each pairwise cl
 class's objects) against the truth, and against the interval the demonstrations allow: the ratios under which every
 shown path stays within its demonstrator's slack of every straight insertion that was on offer (2% for the
 near-optimal demonstrator; for the expert, how far its noisy path is above its optimum).  ``pass`` is a ratio within
-that interval widened by a factor 1.25 at each end.
+that interval widened by a factor 1.25 at each end.  A second table splits the order by whether the demonstrations
+fix it: with each object free (the learner is not told the classes), does every allowed vector put each object
+below every object of the next class (:func:`pliant_piirl.heldout.order_determined`)?
 
     pliant bench piirl_heldout [-- --quick]          # quick: seconds, 4 pairs, 20 samples, a coarse search
 """
