@@ -8,7 +8,8 @@ turns: only the planner varies), a random collision-free start per seed (2 cm cl
 extensions.  Development set: the first five objects, seeds 2000-2007 (where ``refine_optimum`` was chosen);
 held-out set: the other objects (cup-1, plate-2, fork-2, knife-2, cup-2), seeds 3000-3007; held-out B, drawn after
 the defaults were fixed: the forks, the knives and cup-2 (four boxes), seeds 4000-4007; held-out C, drawn after the
-identical objects' assignment was chosen on B: plate-1, cup-1, plate-2, fork-2, cup-2, seeds 5000-5007.  Each
+identical objects' assignment was chosen on B: plate-1, cup-1, plate-2, fork-2, cup-2, seeds 5000-5007; held-out D,
+drawn in session 28 for the strokes experiment: plate-1, knife-1, plate-2, fork-2, knife-2, seeds 6000-6007.  Each
 ratio is the plan's final cost over the best reference found for those objects (:func:`reference_optimum` with
 3000 rounds from seed 0, and 1500 rounds from each plan's final arrangement).  Every budget is a count; CPU
 seconds are reported.
@@ -35,10 +36,12 @@ MEANS = np.array([[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], 
 #: development: where refine_optimum and its orders were chosen; held-out: run after refine_optimum's rounds were
 #: chosen (and looked at again when the orders were added); held-out B: drawn after both were fixed (and where the
 #: assignment of identical objects to the optimum's places was tried); held-out C: drawn after that (two plates, two
-#: cups and a fork: three pairs of identical objects)
+#: cups and a fork: three pairs of identical objects); held-out D: drawn in session 28 (two plates, two knives and a
+#: fork)
 SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 3000),
         "held-out B": ((1, 2, 5, 6, 7), 4000),
-        "held-out C": ((0, 3, 4, 5, 7), 5000)}
+        "held-out C": ((0, 3, 4, 5, 7), 5000),
+        "held-out D": ((0, 2, 4, 5, 6), 6000)}
 
 
 class _Models:
