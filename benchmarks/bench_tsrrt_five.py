@@ -15,6 +15,7 @@ ratio is the plan's final cost over the best reference found for those objects (
 seconds are reported.
 
     pliant bench tsrrt_five [-- --settings 0,3000 --seeds 8]
+    pliant bench tsrrt_five -- --settings 3000:120 --sets "held-out B" --strokes 1,0.5,0.25,0.125,0.0625
 """
 
 from __future__ import annotations
@@ -45,12 +46,17 @@ SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 30
 
 
 class _Models:
+    """The hand-made models, each followed by the same scaled by every fraction of ``strokes`` after the first."""
+
+    def __init__(self, strokes: tuple[float, ...] = (1.0,)) -> None:
+        self.table = np.concatenate([f * MEANS for f in strokes])
+
     def means(self, classes):
-        return np.repeat(MEANS[None], len(classes), 0)
+        return np.repeat(self.table[None], len(classes), 0)
 
 
 def run_set(label: str, indices, base: int, seeds: int, settings: list[str], iterations: int,
-            overrides: dict | None = None) -> list[dict]:
+            overrides: dict | None = None, strokes: tuple[float, ...] = (1.0,)) -> list[dict]:
     from pliant import api
     from pliant.api import Termination, build_options
     from pliant_tsrrt.planner import TSRRTOptions, build_space
@@ -68,7 +74,7 @@ def run_set(label: str, indices, base: int, seeds: int, settings: list[str], ite
                                                    "improvement.refine_optimum_orders": int(orders or 0),
                                                    **(overrides or {})})
             if space is None:
-                space = build_space(scene, options, _Models(), names)
+                space = build_space(scene, options, _Models(strokes), names)
                 space.warm_up()
                 ref = reference_optimum(space, np.random.default_rng(0), rounds=3000)[1]
             rng = np.random.default_rng(seed)
@@ -97,7 +103,15 @@ def main() -> None:
     parser.add_argument("--sets", default="development,held-out,held-out B")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="another TS-RRT option for every plan (e.g. improvement.refine_width=128)")
+    parser.add_argument("--strokes", default="1", help="fractions of a stroke the tree and the beams may push with, "
+                        "comma-separated, the whole stroke first (e.g. 1,0.5,0.25): planning only, no plan is executed")
     args = parser.parse_args()
+    try:
+        strokes = tuple(float(f) for f in args.strokes.split(","))
+    except ValueError:
+        parser.error(f"--strokes {args.strokes!r}: expected comma-separated numbers")
+    if strokes[0] != 1.0 or not all(0.0 < f <= 1.0 for f in strokes) or len(set(strokes)) != len(strokes):
+        parser.error(f"--strokes {args.strokes!r}: distinct fractions in (0, 1], the whole stroke (1) first")
     overrides = {}
     for item in args.set:
         key, sep, value = item.partition("=")
@@ -111,7 +125,7 @@ def main() -> None:
     plans = []
     for label in args.sets.split(","):
         indices, base = SETS[label]
-        plans += run_set(label, indices, base, args.seeds, settings, args.iterations, overrides)
+        plans += run_set(label, indices, base, args.seeds, settings, args.iterations, overrides, strokes)
     rows = []
     for label in args.sets.split(","):
         for setting in settings:
@@ -122,7 +136,8 @@ def main() -> None:
                          f"{mine[0]['reference']:.4f}"))
     print_table("TS-RRT, 5 objects: plan / reference optimum (target: median <= 1.1)",
                 ("set", "refine_optimum", "median", "within 10%", "ratios", "CPU s (median)", "reference"), rows)
-    write_json("tsrrt_five", {"settings": settings, "iterations": args.iterations, "plans": plans})
+    write_json("tsrrt_five", {"settings": settings, "iterations": args.iterations, "strokes": list(strokes),
+                              "plans": plans})
 
 
 if __name__ == "__main__":

@@ -234,11 +234,13 @@ def rollout(s0, objs, prims, means):
 @numba.njit(cache=True, nogil=True)
 def beam_expand(poses, means, target, scale, period, bin_width):
     """One object's beam step (:func:`pliant_tsrrt.refine.push_toward`): every pose ``(b, 3)`` moved by each of the
-    six mean displacements ``means`` ``(6, 3)`` (MODEL); returns the new poses ``(6 b, 3)``, their pose error to
+    ``P`` mean displacements ``means`` ``(P, 3)`` (MODEL; the six primitives, or more: fractions of a stroke);
+    returns the new poses ``(P b, 3)``, their pose error to
     ``target`` (position and ``scale`` times the yaw error modulo ``period``), the duplicate keys (0.5 mm, 2 mrad)
     and the yaw bins (``bin_width`` rad, modulo ``period``)."""
     b = poses.shape[0]
-    n = 6 * b
+    P = means.shape[0]
+    n = P * b
     to = np.empty((n, 3))
     err = np.empty(n)
     key = np.empty(n, dtype=np.int64)
@@ -246,8 +248,8 @@ def beam_expand(poses, means, target, scale, period, bin_width):
     for i in range(b):
         x, y, t = poses[i, 0], poses[i, 1], poses[i, 2]
         c, s = math.cos(t), math.sin(t)
-        for p in range(6):
-            j = 6 * i + p
+        for p in range(P):
+            j = P * i + p
             dx, dy, dt = means[p, 0], means[p, 1], means[p, 2]
             nx = x + c * dx - s * dy
             ny = y + s * dx + c * dy

@@ -37,8 +37,6 @@ from pliant.api import PlanningError
 from pliant_tsrrt import kernels
 from pliant_tsrrt.models import compose
 
-N_PRIMITIVES = 6
-
 
 def _late(deadline: float | None) -> bool:
     return deadline is not None and time.perf_counter() >= deadline
@@ -362,7 +360,7 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
     means = np.ascontiguousarray(space.means[o])
     target = np.asarray(target, dtype=np.float64)
     scale, period = float(space.scale[o]), float(space.period[o])
-    prims6 = np.arange(N_PRIMITIVES)
+    prims = np.arange(space.n_prims)
     clean = not space.checker.in_collision(s)[0]          # then only the moved object's pairs need checking
     poses = s[o][None]                                     # the beam: object o's poses (the others stay)
     back: list[tuple[np.ndarray, np.ndarray]] = []         # per depth: the kept outcomes' parents and actions
@@ -387,8 +385,8 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
         if _late(deadline) or closest < 1e-3 or stale >= 4:      # there, or no closer for four pushes
             break
         b = len(poses)
-        from_pose = np.repeat(poses, N_PRIMITIVES, axis=0)
-        prim = np.tile(prims6, b)
+        from_pose = np.repeat(poses, space.n_prims, axis=0)
+        prim = np.tile(prims, b)
         to_pose, err, key, all_bins = kernels.beam_expand(poses, means, target, scale, period, np.radians(0.25))
         _, first = np.unique(key, return_index=True)
         if yaw_quota and scale > 0:
@@ -406,11 +404,11 @@ def push_toward(space, s: np.ndarray, o: int, target: np.ndarray, depth: int = 2
         before[:, o] = from_pose[keep]
         after = before.copy()
         after[:, o] = to_pose[keep]
-        ok = space.valid_steps(before, after, prim[keep] + N_PRIMITIVES * o, valid_before=clean)
+        ok = space.valid_steps(before, after, prim[keep] + space.n_prims * o, valid_before=clean)
         keep = keep[ok][:width]
         if not len(keep):
             break
-        back.append((keep // N_PRIMITIVES, prim[keep] + N_PRIMITIVES * o))
+        back.append((keep // space.n_prims, prim[keep] + space.n_prims * o))
         poses = to_pose[keep]
         if err[keep[0]] < closest - 1e-4:
             closest, stale = float(err[keep[0]]), 0
@@ -566,9 +564,9 @@ def final_beam(space, s: np.ndarray, depth: int = 4, width: int = 128, deadline:
     Unlike the greedy descent
     (:func:`pliant_tsrrt.search.descend`) it goes through pushes that first raise the cost -- one object moved out
     of the way, or a turn that needs a push after it -- and moves any objects together."""
-    n_actions = space.k * N_PRIMITIVES
+    n_actions = space.k * space.n_prims
     acts_all = np.arange(n_actions)
-    objs, prims = acts_all // N_PRIMITIVES, acts_all % N_PRIMITIVES
+    objs, prims = acts_all // space.n_prims, acts_all % space.n_prims
     best = (float(space.cost.cost(s[None])[0]), [])
     best_score = plan_score(best[0], 0, push_cost, enough)
     frontier = s[None]
@@ -609,10 +607,10 @@ def finishing_push(space, s: np.ndarray, scales: tuple[float, ...] = (1.0,)) -> 
     valid push is predicted to lower the cost by 0.1 %.  The closed-loop finishing of an execution
     (``execution.finish_steps``): fractions of a stroke make corrections finer than a whole push (a turn of 0.2 rad
     cannot take out a yaw error of 0.1 rad; a third of one can)."""
-    n_actions = space.k * N_PRIMITIVES
+    n_actions = space.k * space.n_prims
     acts = np.tile(np.arange(n_actions), len(scales))
     scale = np.repeat(np.asarray(scales, dtype=np.float64), n_actions)
-    objs, prims = acts // N_PRIMITIVES, acts % N_PRIMITIVES
+    objs, prims = acts // space.n_prims, acts % space.n_prims
     before = np.repeat(s[None], len(acts), axis=0)
     after = before.copy()
     rows = np.arange(len(acts))

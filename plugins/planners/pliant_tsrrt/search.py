@@ -60,6 +60,7 @@ from pliant_tsrrt.options import PlanningOptions, TSRRTOptions
 from pliant_tsrrt.pushing import PushSettings, contact_frames, paddle_sweep_rows
 from pliant_tsrrt.refine import final_beam, improve, optimum_targets, plan_score
 
+#: the primitives of one stroke: pushes along +x, -x, +y, -y of the object's frame and turns +, - (the models' order)
 N_PRIMITIVES = 6
 
 
@@ -69,9 +70,15 @@ DUPLICATE = 1e-3
 
 @dataclass
 class ObjectSpace:
-    """The planning domain: footprints ``fp`` of the ``k`` objects, the mean displacements ``means`` ``(k, 6, 3)``,
+    """The planning domain: footprints ``fp`` of the ``k`` objects, the mean displacements ``means`` ``(k, P, 3)``,
     the collision checker, the task cost, the push settings and the scene bounds ``(x0, y0, x1, y1)`` (m) that the
-    paddle must stay inside."""
+    paddle must stay inside.
+
+    ``P`` is the models' six primitives (``P = 6``, what the planner builds) or a multiple of six: primitive ``p``
+    then moves the object as its ``means`` say and is checked as primitive ``p % 6``, with that primitive's whole
+    stroke's paddle sweep, which contains a shorter stroke's.  An action is ``a = P o + p``.  The benchmark of
+    fractions of a stroke in planning (``bench_tsrrt_five.py --strokes``) builds such a space; plans with ``P > 6``
+    cannot be executed yet (the plan's format has no stroke)."""
 
     fp: Footprints
     means: np.ndarray
@@ -90,13 +97,18 @@ class ObjectSpace:
         self.period = np.where(square, np.pi / 2, np.pi)
         self.step_length = float(np.mean(np.linalg.norm(self.means[..., :2], axis=-1)))
         self.frames = contact_frames(self.fp, self.push.turn_offset)
+        if self.means.ndim != 3 or self.means.shape[0] != self.k or self.means.shape[1] % N_PRIMITIVES \
+                or self.means.shape[1] == 0 or self.means.shape[2] != 3:
+            raise ValueError(f"means must be (k, 6 n, 3) for the {self.k} objects, got {self.means.shape}")
+        self.n_prims = self.means.shape[1]
         # the paddle's swept box per (object, primitive) in the object's frame (paddle_sweep_rows): its centre, its
         # heading and its half extents, for the compiled validity check
-        objs, prims = np.divmod(np.arange(self.k * N_PRIMITIVES), N_PRIMITIVES)
-        pose, half = paddle_sweep_rows(np.zeros((len(objs), 3)), objs, prims, self.fp, self.push, self.frames)
-        self._sweep = (np.ascontiguousarray(pose[:, :2].reshape(self.k, N_PRIMITIVES, 2)),
-                       np.ascontiguousarray(pose[:, 2].reshape(self.k, N_PRIMITIVES)),
-                       np.ascontiguousarray(half.reshape(self.k, N_PRIMITIVES, 2)))
+        objs, prims = np.divmod(np.arange(self.k * self.n_prims), self.n_prims)
+        pose, half = paddle_sweep_rows(np.zeros((len(objs), 3)), objs, prims % N_PRIMITIVES, self.fp, self.push,
+                                       self.frames)
+        self._sweep = (np.ascontiguousarray(pose[:, :2].reshape(self.k, self.n_prims, 2)),
+                       np.ascontiguousarray(pose[:, 2].reshape(self.k, self.n_prims)),
+                       np.ascontiguousarray(half.reshape(self.k, self.n_prims, 2)))
 
     def warm_up(self) -> None:
         """Call every compiled kernel once (:mod:`pliant_tsrrt.kernels`), so that their compilation -- some 10 s on
@@ -113,16 +125,16 @@ class ObjectSpace:
     # --- MODEL, rho, IN_COLLISION ------------------------------------------------------------------------------
 
     def outcomes(self, s: np.ndarray) -> np.ndarray:
-        """MODEL(s, a) for every action ``a = 6 o + p``: ``(6 k, k, 3)``."""
-        out = np.repeat(s[None], self.k * N_PRIMITIVES, axis=0)
-        moved = compose(np.repeat(s, N_PRIMITIVES, axis=0), self.means.reshape(-1, 3))
-        idx = np.arange(self.k * N_PRIMITIVES)
-        out[idx, idx // N_PRIMITIVES] = moved
+        """MODEL(s, a) for every action ``a = P o + p``: ``(P k, k, 3)``."""
+        out = np.repeat(s[None], self.k * self.n_prims, axis=0)
+        moved = compose(np.repeat(s, self.n_prims, axis=0), self.means.reshape(-1, 3))
+        idx = np.arange(self.k * self.n_prims)
+        out[idx, idx // self.n_prims] = moved
         return out
 
     def step(self, s: np.ndarray, action: int) -> np.ndarray:
-        """MODEL(s, a) for one action (object ``action // 6``, primitive ``action % 6``)."""
-        o, p = divmod(int(action), N_PRIMITIVES)
+        """MODEL(s, a) for one action (object ``action // P``, primitive ``action % P``)."""
+        o, p = divmod(int(action), self.n_prims)
         out = s.copy()
         out[o] = compose(s[o], self.means[o, p])
         return out
@@ -144,10 +156,10 @@ class ObjectSpace:
         return np.sqrt(np.sum(d[..., 0] ** 2 + d[..., 1] ** 2 + (self.scale * dtheta) ** 2, axis=-1))
 
     def valid_actions(self, s: np.ndarray, outcomes: np.ndarray, actions: np.ndarray | None = None) -> np.ndarray:
-        """Bool ``(a,)``: which of the outcomes ``(a, k, 3)`` of ``actions`` (default all ``6 k``) from ``s`` are valid
+        """Bool ``(a,)``: which of the outcomes ``(a, k, 3)`` of ``actions`` (default all ``P k``) from ``s`` are valid
         (see the module docstring)."""
         if actions is None:
-            actions = np.arange(self.k * N_PRIMITIVES)
+            actions = np.arange(self.k * self.n_prims)
         return self.valid_steps(np.repeat(s[None], len(actions), axis=0), outcomes, np.asarray(actions))
 
     def valid_steps(self, before: np.ndarray, after: np.ndarray, actions: np.ndarray,
@@ -159,8 +171,8 @@ class ObjectSpace:
         actions = np.asarray(actions, dtype=np.int64)
         c = self.checker
         return kernels.valid_steps(np.ascontiguousarray(before, dtype=np.float64),
-                                   np.ascontiguousarray(after, dtype=np.float64), actions // N_PRIMITIVES,
-                                   actions % N_PRIMITIVES, self.means, c.objects.kind, c.objects.half,
+                                   np.ascontiguousarray(after, dtype=np.float64), actions // self.n_prims,
+                                   actions % self.n_prims, self.means, c.objects.kind, c.objects.half,
                                    c.obstacles.kind, c.obstacles.half, c.obstacle_poses, c._table, float(c.margin),
                                    *self._sweep, np.asarray(self.bounds, dtype=np.float64), bool(valid_before))
 
@@ -168,12 +180,12 @@ class ObjectSpace:
         """:meth:`valid_steps` in batched numpy."""
         m = len(actions)
         rows = np.arange(m)
-        objs, prims = actions // N_PRIMITIVES, actions % N_PRIMITIVES
+        objs, prims = actions // self.n_prims, actions % self.n_prims
         half = after.copy()
         half[rows, objs] = compose(before[rows, objs], 0.5 * self.means[objs, prims])
         hit = self.checker.in_collision_numpy(np.concatenate([after, half]))
         ok = ~hit[:m] & ~hit[m:]
-        boxes, sh = paddle_sweep_rows(before[rows, objs], objs, prims, self.fp, self.push, self.frames)
+        boxes, sh = paddle_sweep_rows(before[rows, objs], objs, prims % N_PRIMITIVES, self.fp, self.push, self.frames)
         ok &= ~self.checker.boxes_hit(before, boxes, sh, objs)
         corners = box_corners(boxes, sh)
         x0, y0, x1, y1 = self.bounds
@@ -191,8 +203,8 @@ class ObjectSpace:
         """The predicted states ``(m + 1, k, 3)`` of an action sequence and whether every action was valid
         (compiled: :func:`pliant_tsrrt.kernels.rollout`)."""
         acts = np.asarray(actions, dtype=np.int64).reshape(-1)
-        states = kernels.rollout(np.ascontiguousarray(s0, dtype=np.float64), acts // N_PRIMITIVES,
-                                 acts % N_PRIMITIVES, self.means)
+        states = kernels.rollout(np.ascontiguousarray(s0, dtype=np.float64), acts // self.n_prims,
+                                 acts % self.n_prims, self.means)
         if not len(acts):
             return states, True
         return states, bool(np.all(self.valid_steps(states[:-1], states[1:], acts)))
@@ -225,7 +237,7 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     t0 = time.perf_counter()
     imp = settings.improvement
     k = space.k
-    n_actions = k * N_PRIMITIVES
+    n_actions = k * space.n_prims
     cap = 1024
     states = np.empty((cap, k, 3))
     parents = np.full(cap, -1, dtype=np.int64)
@@ -502,7 +514,7 @@ def shortcut(space: ObjectSpace, s0: np.ndarray, plan: list[int], budget: int = 
                         (deadline is not None and time.perf_counter() >= deadline):
                     break
                 a, b = plan[i], plan[k]
-                if a // N_PRIMITIVES == b // N_PRIMITIVES and (a % N_PRIMITIVES) ^ 1 == b % N_PRIMITIVES \
+                if a // space.n_prims == b // space.n_prims and (a % space.n_prims) ^ 1 == b % space.n_prims \
                         and attempt((i, k)):
                     changed = True
                     break

@@ -78,3 +78,39 @@ def test_beam_expand_moves_every_pose_by_every_primitive():
     assert np.allclose(err, np.sqrt(np.sum((to[:, :2] - target[:2]) ** 2, axis=1) + (0.144 * d) ** 2), atol=1e-12)
     assert len(np.unique(key)) == len(key)                  # 300 distinct poses, 300 keys
     assert np.all((bins >= 0) & (bins <= round(np.pi / np.radians(0.25))))
+
+
+def test_a_space_with_fractions_of_a_stroke_moves_and_checks_them_as_the_numpy_code_does():
+    # the six primitives followed by the same at half their stroke: actions 12 o + p; a half stroke moves half as far,
+    # and is checked with its primitive's whole sweep (which contains it), in the kernel as in numpy
+    k = 3
+    space = _space(k, OBSTACLES, 0.0)
+    halves = ObjectSpace(space.fp, np.array([MODEL + [[0.5 * v for v in m] for m in MODEL]] * k, dtype=float),
+                         space.checker, space.cost, PushSettings(), BOUNDS)
+    assert halves.n_prims == 12
+    rng = np.random.default_rng(12)
+    s = space.random_config(rng)
+    outcomes = halves.outcomes(s)
+    assert outcomes.shape == (12 * k, k, 3)
+    for o in range(k):
+        for p in range(6):
+            assert np.allclose(outcomes[12 * o + p], space.step(s, 6 * o + p), rtol=0, atol=1e-15)
+            half = outcomes[12 * o + 6 + p]
+            assert np.allclose(half[o, :2] - s[o, :2], 0.5 * (outcomes[12 * o + p][o, :2] - s[o, :2]), atol=1e-12)
+    states = _crowded(halves, rng, 3000)
+    actions = rng.integers(0, 12 * k, len(states))
+    after = np.stack([halves.step(x, a) for x, a in zip(states, actions)])
+    ok = halves.valid_steps(states, after, actions)
+    assert np.array_equal(ok, halves.valid_steps_numpy(states, after, actions))
+    assert 0 < ok.sum() < len(ok)
+    # the beam step moves a pose by all twelve
+    from pliant_tsrrt.kernels import beam_expand
+
+    to, *_ = beam_expand(s[:1].copy(), halves.means[0].copy(), s[0].copy(), 0.1, np.pi, 0.01)
+    assert len(to) == 12
+
+
+def test_means_that_are_not_whole_sets_of_six_primitives_are_refused():
+    space = _space(2, OBSTACLES, 0.0)
+    with pytest.raises(ValueError, match="means must be"):
+        ObjectSpace(space.fp, np.zeros((2, 7, 3)), space.checker, space.cost, PushSettings(), BOUNDS)
