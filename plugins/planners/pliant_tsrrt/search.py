@@ -92,14 +92,14 @@ class ObjectSpace:
     def __post_init__(self) -> None:
         self.means = np.ascontiguousarray(self.means, dtype=np.float64)
         self.k = len(self.fp)
+        if self.means.ndim != 3 or self.means.shape[0] != self.k or self.means.shape[1] % N_PRIMITIVES \
+                or self.means.shape[1] == 0 or self.means.shape[2] != 3:
+            raise ValueError(f"means must be (k, 6 n, 3) for the {self.k} objects, got {self.means.shape}")
         self.scale = np.where(self.fp.kind == CIRCLE, 0.0, self.fp.radius)
         square = np.abs(self.fp.half[:, 0] - self.fp.half[:, 1]) < 1e-9
         self.period = np.where(square, np.pi / 2, np.pi)
         self.step_length = float(np.mean(np.linalg.norm(self.means[..., :2], axis=-1)))
         self.frames = contact_frames(self.fp, self.push.turn_offset)
-        if self.means.ndim != 3 or self.means.shape[0] != self.k or self.means.shape[1] % N_PRIMITIVES \
-                or self.means.shape[1] == 0 or self.means.shape[2] != 3:
-            raise ValueError(f"means must be (k, 6 n, 3) for the {self.k} objects, got {self.means.shape}")
         self.n_prims = self.means.shape[1]
         # the paddle's swept box per (object, primitive) in the object's frame (paddle_sweep_rows): its centre, its
         # heading and its half extents, for the compiled validity check
