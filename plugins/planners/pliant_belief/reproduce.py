@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import os
 from pathlib import Path
 
@@ -179,7 +180,7 @@ def write_tables(directory, name: str) -> Path:
         lines.append(f"| {r['variant']} | {r['plans']} | {fmt(r['p_plan'], r['p_plan_ci95'])} | "
                      f"{'-' if t is None else t[0]} | {fmt(r['p_exec'], r['p_exec_ci95'])} | {pooled} | "
                      f"{'-' if t is None else f'{t[1]} ({t[2]})'} | "
-                     f"{'-' if r['actions'] != r['actions'] else format(r['actions'], '.1f')} |")
+                     f"{'-' if math.isnan(r['actions']) else format(r['actions'], '.1f')} |")
     lines += ["", "P_plan's interval: Wilson, over the plans. P_exec: the mean over planned policies of each one's "
               "success rate; its interval a percentile bootstrap over those policies (4,000 resamples, seed 0), which "
               "has no width when every policy scored the same; executions: every execution of the planned policies "

@@ -98,7 +98,9 @@ class ObjectSpace:
         self.scale = np.where(self.fp.kind == CIRCLE, 0.0, self.fp.radius)
         square = np.abs(self.fp.half[:, 0] - self.fp.half[:, 1]) < 1e-9
         self.period = np.where(square, np.pi / 2, np.pi)
-        self.step_length = float(np.mean(np.linalg.norm(self.means[..., :2], axis=-1)))
+        # a whole push's mean travel (m), DIRECTGD's unit step: the six primitives of the whole stroke, not the
+        # fractions a space with more primitives adds after them
+        self.step_length = float(np.mean(np.linalg.norm(self.means[:, :N_PRIMITIVES, :2], axis=-1)))
         self.frames = contact_frames(self.fp, self.push.turn_offset)
         self.n_prims = self.means.shape[1]
         # the paddle's swept box per (object, primitive) in the object's frame (paddle_sweep_rows): its centre, its
