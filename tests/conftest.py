@@ -150,9 +150,14 @@ _BROKEN_GROUPS = ("9.2", "3.9")
 
 
 def pytest_configure(config):
-    """Refuse ``--dist loadgroup`` with a pytest and pytest-xdist that ignore ``xdist_group`` (above): shared fixtures
-    and reproduction records would be built on every worker and the serial groups (the Ray cluster) run side by
-    side.  pyproject.toml's test extra pins pytest below 9.2."""
+    """BLAS on one thread in every test process, as the ``pliant`` command runs (``pin_threads``: OpenBLAS's
+    threads spin between the suite's small products and take the other worker's core; the user's
+    ``OPENBLAS_NUM_THREADS`` and the like win).  Refuse ``--dist loadgroup`` with a pytest and pytest-xdist that
+    ignore ``xdist_group`` (above): shared fixtures and reproduction records would be built on every worker and the
+    serial groups (the Ray cluster) run side by side.  pyproject.toml's test extra pins pytest below 9.2."""
+    from pliant.experiments.executor import pin_threads
+
+    pin_threads(1)
     if os.environ.get("PYTEST_XDIST_WORKER") or config.getoption("dist", "no") != "loadgroup":
         return
     import xdist

@@ -558,8 +558,10 @@ def main(argv: list[str] | None = None) -> int:
     from pliant.termination import interrupted_by, sigterm_as_interrupt
 
     try:
-        from pliant.experiments.executor import from_args, using
+        from pliant.experiments.executor import from_args, pin_threads, using
         from pliant.files import check_path_name
+
+        pin_threads(1)          # BLAS on one thread unless the user sized it (OPENBLAS_NUM_THREADS, ...)
 
         if isinstance(getattr(args, "output", None), str):      # any command's --output: "" is not "here"
             check_path_name(args.output, "--output")

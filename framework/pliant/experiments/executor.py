@@ -344,11 +344,14 @@ _OPENBLAS_SETTERS = ("openblas_set_num_threads", "openblas_set_num_threads64_", 
 
 
 def pin_threads(threads: int = 1) -> int:
-    """Make BLAS and OpenMP use ``threads`` threads in this process (a pool worker: the pool already runs one task
-    per core, so more threads per task only contend for the cores).  Sets :data:`THREAD_VARIABLES` for libraries
-    loaded later and resizes the OpenBLAS libraries already loaded (a forked worker inherits its parent's, sized
-    for the whole machine) through their own setter.  Does nothing when the user set any of the variables: their
-    choice wins.  Returns how many loaded OpenBLAS libraries were resized."""
+    """Make BLAS and OpenMP use ``threads`` threads in this process: a pool worker (the pool already runs one task
+    per core, so more threads per task only contend for the cores), and the ``pliant`` command itself, whose
+    products are small batches (a few hundred states by a few hundred body points) where OpenBLAS's threads cost
+    more than they give: they spin between calls, and Table 4.2's ci plans took 169 s of CPU in 99 s with them
+    against 82 s in 82 s on one thread (docs/benchmarking.md, "BLAS threads").  Sets :data:`THREAD_VARIABLES` for
+    libraries loaded later and resizes the OpenBLAS libraries already loaded (a forked worker inherits its
+    parent's, sized for the whole machine) through their own setter.  Does nothing when the user set any of the
+    variables: their choice wins.  Returns how many loaded OpenBLAS libraries were resized."""
     if any(name in os.environ for name in THREAD_VARIABLES):
         return 0
     for name in THREAD_VARIABLES:
