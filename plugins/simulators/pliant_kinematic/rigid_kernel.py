@@ -522,6 +522,30 @@ def _placement(kind, q, r_, pos):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
+def placed_points_hit(kind, q, local, lower, inv_res, shape, occupied_flat, out):
+    """Whether any body point lies inside an occupied voxel or outside the grid, per configuration: ``out[a]`` (n,)
+    for ``q[a]`` (n, d), the points ``local`` (k, 3) in the body frame placed as :func:`_placement` places them
+    (the rigid body's ``body_points``).  ``occupied_flat``: the occupancy, C order.  The compiled first pass of
+    the simulator's start check (``start_penetration``): most starts are free, and this answers them without the
+    ``(n, k, 3)`` array of placed points."""
+    nx, ny, nz = shape[0], shape[1], shape[2]
+    r_ = np.empty((3, 3))
+    pos = np.empty(3)
+    for a in range(q.shape[0]):
+        _placement(kind, q[a], r_, pos)
+        hit = False
+        for i in range(local.shape[0]):
+            x, y, z = local[i, 0], local[i, 1], local[i, 2]
+            ix = int(np.floor((r_[0, 0] * x + r_[0, 1] * y + r_[0, 2] * z + pos[0] - lower[0]) * inv_res))
+            iy = int(np.floor((r_[1, 0] * x + r_[1, 1] * y + r_[1, 2] * z + pos[1] - lower[1]) * inv_res))
+            iz = int(np.floor((r_[2, 0] * x + r_[2, 1] * y + r_[2, 2] * z + pos[2] - lower[2]) * inv_res))
+            if not (0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz) or occupied_flat[(ix * ny + iy) * nz + iz]:
+                hit = True
+                break
+        out[a] = hit
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _retract(kind, q, delta, out):
     """``Space.retract`` of the core for R^3, SE(2) and SE(3) (world-frame rotation vectors)."""
     if kind == KIND_R3:

@@ -55,6 +55,7 @@ from pliant_kinematic.rigid_kernel import (
     SOLVE_LEAST_SQUARES,
     effort_correction,
     fused_advance,
+    placed_points_hit,
     point_segments,
 )
 
@@ -146,6 +147,8 @@ class KinematicSimulator(Simulator):
         kinds = {"rn": KIND_R3, "se2": KIND_SE2, "se3": KIND_SE3}
         self.kernel_kind = kinds.get(self.space.kind) if (placement is not None and o.fused_kernel
                                                           and o.solver != "qp") else None
+        #: a rigid body's placement convention for the compiled start check (None: a robot with joints)
+        self.placement_kind = kinds.get(self.space.kind) if placement is not None else None
         self.reach_radius = None
         self.self_collision = o.self_collision and self.robot.self_contacts(
             np.asarray(scene.start, dtype=np.float64)) is not None
@@ -255,12 +258,24 @@ class KinematicSimulator(Simulator):
         voxel (:class:`pliant.execution.starts.VoxelStartCheck`).  Every occupied voxel counts, deformable material
         and movable objects included: this simulator holds every object fixed and rigid."""
         q = np.atleast_2d(np.asarray(configurations, dtype=np.float64))
+        depth = np.zeros(len(q))
+        if self.placement_kind is not None:                 # a rigid body: the compiled test first, most are free
+            c = self.contact
+            suspect = np.empty(len(q), dtype=np.bool_)
+            placed_points_hit(self.placement_kind, np.ascontiguousarray(q), self.surface_local, c.lower,
+                              1.0 / c.res, c._shape, c.occupied_flat, suspect)
+            q = q[suspect]
+        else:
+            suspect = np.ones(len(q), dtype=bool)
+        if len(q) == 0:
+            return depth
         points = self.robot.body_points(q, self.surface)
         hit = self.contact.colliding(points)                # the compiled lookup first: most starts are free
-        depth = np.zeros(len(q))
         if hit.any():
             rows, cols = np.nonzero(hit)
-            np.maximum.at(depth, rows, self.starts.depth(points[rows, cols]))
+            measured = np.zeros(len(q))
+            np.maximum.at(measured, rows, self.starts.depth(points[rows, cols]))
+            depth[suspect] = measured
         return depth
 
     def describe_obstacle(self, q):

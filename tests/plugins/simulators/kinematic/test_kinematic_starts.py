@@ -162,3 +162,33 @@ def test_a_scene_whose_start_is_inside_an_object_cannot_be_stepped_from_it():
     assert np.allclose(sim.configuration(), [0.5, 0.5, 0.5])
     sim.reset(np.array([0.5, 0.5, 0.9]))                # above the ball: free, and stepping works from there
     assert sim.step(np.array([0.0, 0.0, 0.5]), 0.1, np.random.default_rng(0))[2] == pytest.approx(0.9, abs=0.06)
+
+
+def _numpy_penetration(sim, q: np.ndarray) -> np.ndarray:
+    """The start check without the compiled first pass: every configuration's surface points placed by the robot's
+    ``body_points``, looked up, and the deepest colliding one measured."""
+    points = sim.robot.body_points(q, sim.surface)
+    hit = sim.contact.colliding(points)
+    depth = np.zeros(len(q))
+    rows, cols = np.nonzero(hit)
+    np.maximum.at(depth, rows, sim.starts.depth(points[rows, cols]))
+    return depth
+
+
+@pytest.mark.parametrize("scene", ["se2-maze", "se3-peg-tight", "cube-wall"])
+def test_the_compiled_start_check_gives_the_depths_of_the_placed_points(scene):
+    """The compiled pass (``placed_points_hit``) only decides which configurations to measure: the depths equal the
+    numpy path's, on configurations that are free, touching, deep inside and outside the grid (SE(2), SE(3), R^3)."""
+    ctx = Context(scene=load_scene(scene))
+    ctx.robot = registry.create("robot", "rigid", ctx)
+    sim = registry.create("simulator", "kinematic", ctx)
+    assert sim.placement_kind is not None
+    space, rng = ctx.robot.space, np.random.default_rng(5)
+    lower, upper = np.asarray(space.lower, dtype=float), np.asarray(space.upper, dtype=float)
+    q = space.sample(rng, 300)
+    q[:40, :3 if space.kind != "se2" else 2] = (lower + 1.2 * (upper - lower))[:3 if space.kind != "se2" else 2]
+    q[40:60] = np.asarray(ctx.scene.start, dtype=float)
+    depth = sim.start_penetration(q)
+    expected = _numpy_penetration(sim, q)
+    assert np.array_equal(depth, expected)
+    assert (depth > 0).sum() >= 40 and (depth == 0).sum() >= 20          # both kinds were drawn
