@@ -522,27 +522,47 @@ def _placement(kind, q, r_, pos):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def placed_points_hit(kind, q, local, lower, inv_res, shape, occupied_flat, out):
+def placed_points_hit(kind, q, local, segments, centres, radii, free_clearance, lower, inv_res, shape,
+                      occupied_flat, out):
     """Whether any body point lies inside an occupied voxel or outside the grid, per configuration: ``out[a]`` (n,)
     for ``q[a]`` (n, d), the points ``local`` (k, 3) in the body frame placed as :func:`_placement` places them
     (the rigid body's ``body_points``).  ``occupied_flat``: the occupancy, C order.  The compiled first pass of
     the simulator's start check (``start_penetration``): most starts are free, and this answers them without the
-    ``(n, k, 3)`` array of placed points."""
+    ``(n, k, 3)`` array of placed points.  The broad phase of :func:`_accumulate` skips a segment of points
+    (``segments`` / ``centres`` / ``radii``) whose centre lies in a voxel whose ``free_clearance`` exceeds its
+    radius: none of its points can be inside."""
     nx, ny, nz = shape[0], shape[1], shape[2]
     r_ = np.empty((3, 3))
     pos = np.empty(3)
     for a in range(q.shape[0]):
         _placement(kind, q[a], r_, pos)
         hit = False
-        for i in range(local.shape[0]):
-            x, y, z = local[i, 0], local[i, 1], local[i, 2]
-            ix = int(np.floor((r_[0, 0] * x + r_[0, 1] * y + r_[0, 2] * z + pos[0] - lower[0]) * inv_res))
-            iy = int(np.floor((r_[1, 0] * x + r_[1, 1] * y + r_[1, 2] * z + pos[1] - lower[1]) * inv_res))
-            iz = int(np.floor((r_[2, 0] * x + r_[2, 1] * y + r_[2, 2] * z + pos[2] - lower[2]) * inv_res))
-            if not (0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz) or occupied_flat[(ix * ny + iy) * nz + iz]:
-                hit = True
+        for s in range(segments.shape[0] - 1):
+            c0, c1, c2 = centres[s, 0], centres[s, 1], centres[s, 2]
+            ix = int(np.floor((r_[0, 0] * c0 + r_[0, 1] * c1 + r_[0, 2] * c2 + pos[0] - lower[0]) * inv_res))
+            iy = int(np.floor((r_[1, 0] * c0 + r_[1, 1] * c1 + r_[1, 2] * c2 + pos[1] - lower[1]) * inv_res))
+            iz = int(np.floor((r_[2, 0] * c0 + r_[2, 1] * c1 + r_[2, 2] * c2 + pos[2] - lower[2]) * inv_res))
+            if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz and \
+                    free_clearance[(ix * ny + iy) * nz + iz] - radii[s] > 0.0:
+                continue
+            hit = _segment_hit(local, segments[s], segments[s + 1], r_, pos, lower, inv_res, nx, ny, nz,
+                               occupied_flat)
+            if hit:
                 break
         out[a] = hit
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _segment_hit(local, first, end, r_, pos, lower, inv_res, nx, ny, nz, occupied_flat):
+    """Whether any of the points ``local[first:end]`` placed by ``r_`` / ``pos`` is occupied or off the grid."""
+    for i in range(first, end):
+        x, y, z = local[i, 0], local[i, 1], local[i, 2]
+        ix = int(np.floor((r_[0, 0] * x + r_[0, 1] * y + r_[0, 2] * z + pos[0] - lower[0]) * inv_res))
+        iy = int(np.floor((r_[1, 0] * x + r_[1, 1] * y + r_[1, 2] * z + pos[1] - lower[1]) * inv_res))
+        iz = int(np.floor((r_[2, 0] * x + r_[2, 1] * y + r_[2, 2] * z + pos[2] - lower[2]) * inv_res))
+        if not (0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz) or occupied_flat[(ix * ny + iy) * nz + iz]:
+            return True
+    return False
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")

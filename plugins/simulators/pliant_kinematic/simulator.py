@@ -156,6 +156,12 @@ class KinematicSimulator(Simulator):
             self.surface_local = np.ascontiguousarray(placement[2][self.surface])
             self.reach_radius = float(np.max(np.linalg.norm(self.surface_local, axis=1)))
             self._segments = point_segments(self.surface_local, SEGMENT_RADIUS * self.grid.resolution)
+            # the start check's broad phase: a planar grid's clearance ignores its z faces, which an SE(2) body's
+            # points (their height fixed in the body) never cross unless they lie outside the layer from the start
+            k, z = len(self.surface_local), self.surface_local[:, 2]
+            layer = (self.grid.lower[2] <= z) & (z < self.grid.lower[2] + self.grid.shape[2] * self.grid.resolution)
+            self._start_segments = self._segments if not self.contact.planar or layer.all() else (
+                np.array([0, k], dtype=np.int64), np.zeros((1, 3)), np.array([np.inf]))
         self.effort_groups, self.effort_weights = self._effort_metric(placement)
         self.dt = 1.0 / o.frequency
         self.reach = o.reach_tolerance if o.reach_tolerance is not None else (
@@ -262,8 +268,8 @@ class KinematicSimulator(Simulator):
         if self.placement_kind is not None:                 # a rigid body: the compiled test first, most are free
             c = self.contact
             suspect = np.empty(len(q), dtype=np.bool_)
-            placed_points_hit(self.placement_kind, np.ascontiguousarray(q), self.surface_local, c.lower,
-                              1.0 / c.res, c._shape, c.occupied_flat, suspect)
+            placed_points_hit(self.placement_kind, np.ascontiguousarray(q), self.surface_local, *self._start_segments,
+                              c.free_clearance, c.lower, 1.0 / c.res, c._shape, c.occupied_flat, suspect)
             q = q[suspect]
         else:
             suspect = np.ones(len(q), dtype=bool)

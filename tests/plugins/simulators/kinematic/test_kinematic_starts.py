@@ -175,7 +175,7 @@ def _numpy_penetration(sim, q: np.ndarray) -> np.ndarray:
     return depth
 
 
-@pytest.mark.parametrize("scene", ["se2-maze", "se3-peg-tight", "cube-wall"])
+@pytest.mark.parametrize("scene", ["se2-maze", "se2-through-passage", "se3-peg-tight", "cube-wall"])
 def test_the_compiled_start_check_gives_the_depths_of_the_placed_points(scene):
     """The compiled pass (``placed_points_hit``) only decides which configurations to measure: the depths equal the
     numpy path's, on configurations that are free, touching, deep inside and outside the grid (SE(2), SE(3), R^3)."""
