@@ -266,3 +266,22 @@ def test_bench_runs_a_script_as_its_own_program_and_returns_its_status(tmp_path,
     assert cli.main(["bench", "probe", "--repeats", "2"]) == 4
     assert "argv ['--repeats', '2']" in capfd.readouterr().out
     assert sys.argv == before                  # this process's argv untouched
+
+
+def test_the_command_runs_blas_on_one_thread_unless_the_user_chose(monkeypatch, capsys):
+    """``pliant`` pins BLAS and OpenMP to one thread (docs/benchmarking.md, "BLAS threads"): the variables are set
+    for the libraries loaded later, and a variable the user set keeps its value with the others left unset."""
+    import os
+
+    from pliant.experiments import executor
+
+    for name in executor.THREAD_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    assert cli.main(["plugins"]) == 0
+    assert {os.environ.get(name) for name in executor.THREAD_VARIABLES} == {"1"}
+    for name in executor.THREAD_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")
+    assert cli.main(["plugins"]) == 0
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "2" and os.environ.get("OMP_NUM_THREADS") is None
+    capsys.readouterr()
