@@ -178,8 +178,10 @@ def test_the_recovery_is_no_worse_than_any_point_of_a_random_search_and_invarian
     samples = [rng.uniform(0, 2, (5, 4)) for _ in range(3)]
     result = recover(demos, samples, options)
     s = result["sensitivities"]
-    assert result["objective"] == pytest.approx(reference(s, demos, samples), rel=1e-9)
-    assert reference(s * 123.0, demos, samples) == pytest.approx(result["objective"], rel=1e-9)
+    # an absolute tolerance too: near its optimum the likelihood is a small difference of terms of order h (3.2e-4
+    # from terms near 30 with seed 1333), where the batched and the reference sums differed by 7e-11 in one CI run
+    assert result["objective"] == pytest.approx(reference(s, demos, samples), rel=1e-9, abs=1e-9)
+    assert reference(s * 123.0, demos, samples) == pytest.approx(result["objective"], rel=1e-9, abs=1e-9)
     best = reference(rng.uniform(0.1, 1000, (2000, 4)), demos, samples).min()
     assert result["objective"] <= best + 1e-9
     assert s.min() == pytest.approx(0.1) and s.max() <= 1000 + 1e-9
