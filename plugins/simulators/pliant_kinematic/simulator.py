@@ -145,10 +145,9 @@ class KinematicSimulator(Simulator):
         placement = self.robot.rigid_placement(np.asarray(scene.start, dtype=np.float64)[None])
         self.per_actuator = bool(o.joint_velocity_limits) or placement is None
         kinds = {"rn": KIND_R3, "se2": KIND_SE2, "se3": KIND_SE3}
-        self.kernel_kind = kinds.get(self.space.kind) if (placement is not None and o.fused_kernel
-                                                          and o.solver != "qp") else None
-        #: a rigid body's placement convention for the compiled start check (None: a robot with joints)
+        #: a rigid body's placement convention for the compiled kernels (None: a robot with joints)
         self.placement_kind = kinds.get(self.space.kind) if placement is not None else None
+        self.kernel_kind = self.placement_kind if o.fused_kernel and o.solver != "qp" else None
         self.reach_radius = None
         self.self_collision = o.self_collision and self.robot.self_contacts(
             np.asarray(scene.start, dtype=np.float64)) is not None
