@@ -46,9 +46,9 @@ class RosDriverOptions(DriverOptions):
 
     master_uri: str = option(None, "ROS master URI (default: $ROS_MASTER_URI, else http://127.0.0.1:11311)",
                              default_factory=default_master_uri)
-    master_timeout: float = option(0.5, "seconds the ROS master may take to answer (when connecting, and at each "
-                                   "check of the watchdog: three checks in a row without an answer, or a refused "
-                                   "connection, and the master is lost)", minimum=0.01, maximum=60.0)
+    master_timeout: float = option(0.5, "seconds the ROS master may take to answer one check; three checks in a row "
+                                   "without an answer (when connecting or watching), or a refused connection, and "
+                                   "the master is lost", minimum=0.01, maximum=60.0)
     master_check_period: float = option(0.1, "seconds between two checks of the ROS master while connected",
                                         minimum=0.01, maximum=10.0)
 
@@ -96,12 +96,12 @@ class RosDriver(Driver):
     def open(self) -> None:
         """Connect (see the module docstring); raises :class:`ConnectionLost` in one line naming what is
         unreachable."""
-        from pliant_ros1.node import MasterWatch, ensure_node, wait_for
+        from pliant_ros1.node import MASTER_PATIENCE, MasterWatch, ensure_node, wait_for
 
         if self._connected:
             return
         o = self.options
-        ensure_node(o.master_uri, timeout=o.master_timeout)
+        ensure_node(o.master_uri, timeout=o.master_timeout, attempts=MASTER_PATIENCE)
         self._state, self._count = None, 0
         try:
             self._watch = MasterWatch(o.master_uri, o.master_check_period, o.master_timeout).start()

@@ -43,6 +43,10 @@ class _TimeoutTransport(xmlrpc.client.Transport):
         return connection
 
 
+#: checks of the master in a row without an answer before it is lost (connecting and watching alike)
+MASTER_PATIENCE = 3
+
+
 def normalise(uri: str) -> str:
     """A master URI without its trailing slash (``http://127.0.0.1:11311``)."""
     return uri.strip().rstrip("/")
@@ -54,8 +58,22 @@ def is_loopback(uri: str) -> bool:
     return host == "localhost" or host.startswith("127.") or host == "::1"
 
 
-def check_master(uri: str, timeout: float = 0.5) -> int:
-    """The pid of the ROS master at ``uri``, or :class:`ConnectionLost` naming it (one line) within ``timeout`` s."""
+def check_master(uri: str, timeout: float = 0.5, attempts: int = 1) -> int:
+    """The pid of the ROS master at ``uri``, or :class:`ConnectionLost` naming it (one line).
+
+    Each of ``attempts`` asks may take ``timeout`` s; a master that does not answer in time is asked again (a busy
+    master: one registering a new node's topics on a loaded machine took more than 0.5 s in a test), and a refused
+    connection (no master) or a malformed URI ends at once."""
+    for attempt in range(attempts):
+        try:
+            return _ask_pid(uri, timeout)
+        except ConnectionLost as exc:
+            if attempt == attempts - 1 or f"(no answer within {timeout:g} s)" not in exc.message:
+                raise
+    raise AssertionError("unreachable")
+
+
+def _ask_pid(uri: str, timeout: float) -> int:
     import rosgraph
 
     uri = normalise(uri)
@@ -78,8 +96,9 @@ def check_master(uri: str, timeout: float = 0.5) -> int:
     raise ConnectionLost(f"ROS master at {uri} unreachable ({reason})")
 
 
-def ensure_node(master_uri: str, name: str = "pliant_driver", timeout: float = 0.5) -> None:
-    """Make sure this process is a ROS node of the master at ``master_uri`` (checked first; see the module doc).
+def ensure_node(master_uri: str, name: str = "pliant_driver", timeout: float = 0.5, attempts: int = 1) -> None:
+    """Make sure this process is a ROS node of the master at ``master_uri`` (checked first, :func:`check_master`
+    with ``timeout`` and ``attempts``; see the module doc).
 
     Raises :class:`ConnectionLost` when the master does not answer, and :class:`DriverError` when the process is
     already the node of another master (rospy allows one master per process: run that driver in another process).
@@ -88,7 +107,7 @@ def ensure_node(master_uri: str, name: str = "pliant_driver", timeout: float = 0
 
     global _node_master
     master_uri = normalise(master_uri)
-    check_master(master_uri, timeout)
+    check_master(master_uri, timeout, attempts)
     with _lock:
         if rospy.core.is_initialized():
             current = normalise(_node_master or os.environ.get("ROS_MASTER_URI", ""))
@@ -134,7 +153,7 @@ class MasterWatch:
     ``timeout`` s each.  A different pid means it restarted.
     """
 
-    def __init__(self, uri: str, period: float = 0.1, timeout: float = 0.5, patience: int = 3) -> None:
+    def __init__(self, uri: str, period: float = 0.1, timeout: float = 0.5, patience: int = MASTER_PATIENCE) -> None:
         self.uri = normalise(uri)
         self.period = period
         self.timeout = timeout
