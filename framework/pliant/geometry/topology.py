@@ -53,6 +53,8 @@ __all__ = ["Topology", "SurfaceTopology", "euler_number", "topology", "surface_t
 
 _FOREGROUND = np.ones((3, 3, 3), dtype=bool)                     # 26-connectivity
 _BACKGROUND = ndimage.generate_binary_structure(3, 1)            # 6-connectivity
+#: removed sets whose puncture verdicts a checker remembers (each key is the set's bytes: 8 per voxel)
+VERDICTS_KEPT = 2048
 
 
 # --- the Euler-number method -------------------------------------------------------------------------
@@ -406,6 +408,9 @@ class PunctureChecker:
             self._voids.append(np.sort(first[(labels[first] != 0) & (labels[first] != labels[0])]))
             self._pieces.append(ndimage.label(crop, structure=_FOREGROUND)[0].ravel())
         self.names = [names[k] for k in self.ids]
+        #: the verdicts of :meth:`_judge` by object and removed set: a tree's sibling edges and a rewired subtree
+        #: meet the same sets again (about half the calls in Table 4.2's RRT* plans); cleared when full
+        self._verdicts: dict[tuple[int, bytes], tuple[str, ...]] = {}
         # slot of the watched object at each voxel of the grid padded by one voxel (-1: none), so that
         # a body point maps to its object with one clipped index computation and one lookup
         slots = np.full(tuple(self._shape + 2), -1, dtype=np.int16)
@@ -542,6 +547,17 @@ class PunctureChecker:
         return _topology_padded(mask)
 
     def _judge(self, slot: int, removed: np.ndarray) -> list[str]:
+        """:meth:`_judge_anew`, remembered for the last :data:`VERDICTS_KEPT` sets (``removed``: sorted, as
+        :meth:`extend_swept` builds it with ``union1d``)."""
+        key = (slot, np.ascontiguousarray(removed, dtype=np.int64).tobytes())
+        verdict = self._verdicts.get(key)
+        if verdict is None:
+            if len(self._verdicts) >= VERDICTS_KEPT:
+                self._verdicts.clear()
+            verdict = self._verdicts[key] = tuple(self._judge_anew(slot, removed))
+        return list(verdict)
+
+    def _judge_anew(self, slot: int, removed: np.ndarray) -> list[str]:
         """What the removal of ``removed`` did wrong to object ``slot``: puncture (a hole gained, one of its own
         voids opened to the outside or joined to another) or cut (one of its own pieces split).
 

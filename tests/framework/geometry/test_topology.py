@@ -226,6 +226,29 @@ def test_a_cut_splits_a_bar():
     assert not ok and reason.startswith("cut: object 'bar' split into 2 pieces (was 1)")
 
 
+def test_remembered_verdicts_equal_fresh_ones_and_survive_a_full_memory(monkeypatch):
+    """The checker remembers the verdicts of removed sets (a tree meets the same sets again); what it returns from
+    memory equals a fresh judgement, for sets it has seen, new ones, and after its memory filled and was cleared."""
+    from pliant.geometry import topology as module
+
+    monkeypatch.setattr(module, "VERDICTS_KEPT", 5)
+    m = np.zeros((12, 12, 12), bool)
+    m[2:10, 4:7, 2:10] = True                                     # a slab three voxels thick in y
+    checker = PunctureChecker(_grid({"slab": (m, 0.5)}), _probe())
+    rng = np.random.default_rng(3)
+    crop = checker._masks[0]
+    front = np.flatnonzero((crop & (np.arange(crop.shape[1]) == 1)[None, :, None]).ravel())   # the first layer
+    column = np.ravel_multi_index((np.full(3, 4), np.arange(1, 4), np.full(3, 4)), crop.shape)  # through it
+    sets = [np.unique(np.concatenate([rng.choice(front, size=int(rng.integers(1, 20))),
+                                      column if k % 3 == 0 else []]).astype(np.int64)) for k in range(12)]
+    verdicts = set()
+    for removed in sets + sets[::-1] + sets:                       # seen, seen again, after clearing
+        remembered, fresh = checker._judge(0, removed), checker._judge_anew(0, removed)
+        assert remembered == fresh and len(checker._verdicts) <= 5
+        verdicts.add(bool(fresh))
+    assert verdicts == {True, False}                               # the columns puncture the slab, dents do not
+
+
 def test_a_legal_hollow_object_and_untouched_objects_pass():
     checker = PunctureChecker(_shell_grid(), _probe())
     state, ok, reason = checker.extend(checker.initial_state(), _line(_centre(0, 0, 0), _centre(11, 0, 0)))
