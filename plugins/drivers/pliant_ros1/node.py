@@ -58,19 +58,22 @@ def is_loopback(uri: str) -> bool:
     return host == "localhost" or host.startswith("127.") or host == "::1"
 
 
+class _NoAnswer(ConnectionLost):
+    """The master did not answer within the timeout (it may be busy: asked again where patience allows)."""
+
+
 def check_master(uri: str, timeout: float = 0.5, attempts: int = 1) -> int:
     """The pid of the ROS master at ``uri``, or :class:`ConnectionLost` naming it (one line).
 
     Each of ``attempts`` asks may take ``timeout`` s; a master that does not answer in time is asked again (a busy
     master: one registering a new node's topics on a loaded machine took more than 0.5 s in a test), and a refused
     connection (no master) or a malformed URI ends at once."""
-    for attempt in range(attempts):
+    for _ in range(max(1, attempts) - 1):
         try:
             return _ask_pid(uri, timeout)
-        except ConnectionLost as exc:
-            if attempt == attempts - 1 or f"(no answer within {timeout:g} s)" not in exc.message:
-                raise
-    raise AssertionError("unreachable")
+        except _NoAnswer:
+            continue
+    return _ask_pid(uri, timeout)
 
 
 def _ask_pid(uri: str, timeout: float) -> int:
@@ -88,7 +91,7 @@ def _ask_pid(uri: str, timeout: float) -> int:
     except ConnectionRefusedError:
         reason = "connection refused"
     except TimeoutError:
-        reason = f"no answer within {timeout:g} s"
+        raise _NoAnswer(f"ROS master at {uri} unreachable (no answer within {timeout:g} s)") from None
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
     except (rosgraph.MasterException, xmlrpc.client.Error) as exc:
