@@ -53,8 +53,10 @@ __all__ = ["Topology", "SurfaceTopology", "euler_number", "topology", "surface_t
 
 _FOREGROUND = np.ones((3, 3, 3), dtype=bool)                     # 26-connectivity
 _BACKGROUND = ndimage.generate_binary_structure(3, 1)            # 6-connectivity
-#: removed sets whose puncture verdicts a checker remembers (each key is the set's bytes: 8 per voxel)
+#: removed sets whose puncture verdicts a checker remembers, and the most bytes their keys may take (8 per voxel);
+#: the memory is cleared when either is reached
 VERDICTS_KEPT = 2048
+VERDICT_BYTES = 16 * 2**20
 
 
 # --- the Euler-number method -------------------------------------------------------------------------
@@ -411,6 +413,7 @@ class PunctureChecker:
         #: the verdicts of :meth:`_judge` by object and removed set: a tree's sibling edges and a rewired subtree
         #: meet the same sets again (about half the calls in Table 4.2's RRT* plans); cleared when full
         self._verdicts: dict[tuple[int, bytes], tuple[str, ...]] = {}
+        self._verdict_bytes = 0
         # slot of the watched object at each voxel of the grid padded by one voxel (-1: none), so that
         # a body point maps to its object with one clipped index computation and one lookup
         slots = np.full(tuple(self._shape + 2), -1, dtype=np.int16)
@@ -547,14 +550,16 @@ class PunctureChecker:
         return _topology_padded(mask)
 
     def _judge(self, slot: int, removed: np.ndarray) -> list[str]:
-        """:meth:`_judge_anew`, remembered for the last :data:`VERDICTS_KEPT` sets (``removed``: sorted, as
-        :meth:`extend_swept` builds it with ``union1d``)."""
+        """:meth:`_judge_anew`, remembered for up to :data:`VERDICTS_KEPT` sets whose keys take up to
+        :data:`VERDICT_BYTES` (``removed``: sorted, as :meth:`extend_swept` builds it with ``union1d``)."""
         key = (slot, np.ascontiguousarray(removed, dtype=np.int64).tobytes())
         verdict = self._verdicts.get(key)
         if verdict is None:
-            if len(self._verdicts) >= VERDICTS_KEPT:
+            if len(self._verdicts) >= VERDICTS_KEPT or self._verdict_bytes + len(key[1]) > VERDICT_BYTES:
                 self._verdicts.clear()
+                self._verdict_bytes = 0
             verdict = self._verdicts[key] = tuple(self._judge_anew(slot, removed))
+            self._verdict_bytes += len(key[1])
         return list(verdict)
 
     def _judge_anew(self, slot: int, removed: np.ndarray) -> list[str]:

@@ -226,12 +226,15 @@ def test_a_cut_splits_a_bar():
     assert not ok and reason.startswith("cut: object 'bar' split into 2 pieces (was 1)")
 
 
-def test_remembered_verdicts_equal_fresh_ones_and_survive_a_full_memory(monkeypatch):
+@pytest.mark.parametrize(("kept", "kept_bytes"), [(5, 2**20), (1000, 8 * 30)], ids=["by count", "by bytes"])
+def test_remembered_verdicts_equal_fresh_ones_and_survive_a_full_memory(monkeypatch, kept, kept_bytes):
     """The checker remembers the verdicts of removed sets (a tree meets the same sets again); what it returns from
-    memory equals a fresh judgement, for sets it has seen, new ones, and after its memory filled and was cleared."""
+    memory equals a fresh judgement, for sets it has seen, new ones, and after its memory filled (by count or by
+    bytes) and was cleared."""
     from pliant.geometry import topology as module
 
-    monkeypatch.setattr(module, "VERDICTS_KEPT", 5)
+    monkeypatch.setattr(module, "VERDICTS_KEPT", kept)
+    monkeypatch.setattr(module, "VERDICT_BYTES", kept_bytes)
     m = np.zeros((12, 12, 12), bool)
     m[2:10, 4:7, 2:10] = True                                     # a slab three voxels thick in y
     checker = PunctureChecker(_grid({"slab": (m, 0.5)}), _probe())
@@ -241,11 +244,14 @@ def test_remembered_verdicts_equal_fresh_ones_and_survive_a_full_memory(monkeypa
     column = np.ravel_multi_index((np.full(3, 4), np.arange(1, 4), np.full(3, 4)), crop.shape)  # through it
     sets = [np.unique(np.concatenate([rng.choice(front, size=int(rng.integers(1, 20))),
                                       column if k % 3 == 0 else []]).astype(np.int64)) for k in range(12)]
-    verdicts = set()
+    verdicts, cleared = set(), 0
     for removed in sets + sets[::-1] + sets:                       # seen, seen again, after clearing
+        before = len(checker._verdicts)
         remembered, fresh = checker._judge(0, removed), checker._judge_anew(0, removed)
-        assert remembered == fresh and len(checker._verdicts) <= 5
+        assert remembered == fresh and len(checker._verdicts) <= kept and checker._verdict_bytes <= kept_bytes
+        cleared += len(checker._verdicts) < before
         verdicts.add(bool(fresh))
+    assert cleared >= 2                                            # the memory filled and was emptied
     assert verdicts == {True, False}                               # the columns puncture the slab, dents do not
 
 
