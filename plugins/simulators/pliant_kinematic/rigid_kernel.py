@@ -336,6 +336,20 @@ def _face_contact(p, motion, lower, res, ix, iy, iz, flat, exposed, deep_normal,
     return d[best]
 
 
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _segment_clearance(r_, pos, centre, radius, lower, inv, nx, ny, nz, free_clearance):
+    """The broad phase's test of one segment of points: the ``free_clearance`` of the voxel holding its ``centre``
+    (body frame, placed by ``r_`` / ``pos``) less its ``radius``; -1 when the centre is off the grid.  Positive: no
+    point of the segment can be in an occupied voxel (see :func:`_accumulate`)."""
+    c0, c1, c2 = centre[0], centre[1], centre[2]
+    ix = int(np.floor((r_[0, 0] * c0 + r_[0, 1] * c1 + r_[0, 2] * c2 + pos[0] - lower[0]) * inv))
+    iy = int(np.floor((r_[1, 0] * c0 + r_[1, 1] * c1 + r_[1, 2] * c2 + pos[1] - lower[1]) * inv))
+    iz = int(np.floor((r_[2, 0] * c0 + r_[2, 1] * c1 + r_[2, 2] * c2 + pos[2] - lower[2]) * inv))
+    if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
+        return free_clearance[(ix * ny + iy) * nz + iz] - radius
+    return -1.0
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, exposed, deep_normal,
                 deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance, planar, segments, centres, radii,
@@ -375,15 +389,10 @@ def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, expose
         if reading > reach:
             continue
         if reading >= 0.0 or -reading <= reach:
-            c0, c1, c2 = centres[s, 0], centres[s, 1], centres[s, 2]
-            ix = int(np.floor((a00 * c0 + a01 * c1 + a02 * c2 + b0 - lo0) * inv))
-            iy = int(np.floor((a10 * c0 + a11 * c1 + a12 * c2 + b1 - lo1) * inv))
-            iz = int(np.floor((a20 * c0 + a21 * c1 + a22 * c2 + b2 - lo2) * inv))
-            if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
-                free = free_clearance[(ix * ny + iy) * nz + iz] - radii[s]
-                if free > 0.0:
-                    readings[s] = free + reach
-                    continue
+            free = _segment_clearance(r_, pos, centres[s], radii[s], lower, inv, nx, ny, nz, free_clearance)
+            if free > 0.0:
+                readings[s] = free + reach
+                continue
             readings[s] = -(reach + res)           # near an obstacle: its points one by one until it moved a voxel
         for i in range(segments[s], segments[s + 1]):
             if distance[i] > reach:
@@ -538,12 +547,7 @@ def placed_points_hit(kind, q, local, segments, centres, radii, free_clearance, 
         _placement(kind, q[a], r_, pos)
         hit = False
         for s in range(segments.shape[0] - 1):
-            c0, c1, c2 = centres[s, 0], centres[s, 1], centres[s, 2]
-            ix = int(np.floor((r_[0, 0] * c0 + r_[0, 1] * c1 + r_[0, 2] * c2 + pos[0] - lower[0]) * inv_res))
-            iy = int(np.floor((r_[1, 0] * c0 + r_[1, 1] * c1 + r_[1, 2] * c2 + pos[1] - lower[1]) * inv_res))
-            iz = int(np.floor((r_[2, 0] * c0 + r_[2, 1] * c1 + r_[2, 2] * c2 + pos[2] - lower[2]) * inv_res))
-            if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz and \
-                    free_clearance[(ix * ny + iy) * nz + iz] - radii[s] > 0.0:
+            if _segment_clearance(r_, pos, centres[s], radii[s], lower, inv_res, nx, ny, nz, free_clearance) > 0.0:
                 continue
             hit = _segment_hit(local, segments[s], segments[s + 1], r_, pos, lower, inv_res, nx, ny, nz,
                                occupied_flat)

@@ -275,7 +275,7 @@ class KinematicSimulator(Simulator):
         if len(q) == 0:
             return depth
         points = self.robot.body_points(q, self.surface)
-        hit = self.contact.colliding(points)                # the compiled lookup first: most starts are free
+        hit = self.contact.colliding(points)                # which points collide: the ones to measure
         if hit.any():
             rows, cols = np.nonzero(hit)
             measured = np.zeros(len(q))
