@@ -42,6 +42,10 @@ from pliant_pinocchio.catalog import RobotEntry, named_robot
 from pliant_pinocchio.kinematics import JointChain
 from pliant_pinocchio.sampling import surface_points
 
+#: selections of body points a robot remembers (:meth:`PinocchioRobot._select`); more are rare: a planner's and a
+#: simulator's surface points, a metric's subset
+SELECTIONS_KEPT = 8
+
 
 @dataclass(frozen=True)
 class PinocchioOptions:
@@ -312,6 +316,7 @@ class PinocchioRobot(RobotModel):
         self.local_points = np.ascontiguousarray(np.concatenate(pts), dtype=np.float64)
         self.point_joint = np.concatenate(joints)
         self._used, self._slot = np.unique(self.point_joint, return_inverse=True)
+        self._selections: dict = {}                 # _select's memory: (shape, index bytes) -> (points, slots)
         self._used_support = self._support_mask(self._used)
         o = self.options
         deformability = material.deformability if o.deformability is None else o.deformability
@@ -434,14 +439,29 @@ class PinocchioRobot(RobotModel):
         return self._materials
 
     def _select(self, indices):
+        """The body points ``indices`` select, in their joint's frame, and their joints' slots (read-only).
+
+        Callers ask for the same selection again and again (a simulator's surface points on every microstep: five
+        selections per control period of a peer's arm, which copied 48 us each), so the last few are remembered,
+        keyed by the indices' values."""
         if indices is None:
             return self.local_points, self._slot
         indices = np.asarray(indices, dtype=np.int64)
+        key = (indices.shape, indices.tobytes())
+        selected = self._selections.get(key)
+        if selected is not None:
+            return selected
         if indices.ndim != 1 or (indices.size and (indices.min() < -len(self.local_points)
                                                    or indices.max() >= len(self.local_points))):
             raise DimensionError(f"point indices must be a 1-d array within [0, {len(self.local_points)})",
                                  field="indices", value=indices.tolist() if indices.size < 50 else indices.shape)
-        return self.local_points[indices], self._slot[indices]
+        selected = (self.local_points[indices], self._slot[indices])
+        for array in selected:
+            array.flags.writeable = False
+        if len(self._selections) >= SELECTIONS_KEPT:
+            self._selections.clear()
+        self._selections[key] = selected
+        return selected
 
     def _placements(self, joints) -> tuple[np.ndarray, np.ndarray]:
         """Rotations ``(u, 3, 3)`` and origins ``(u, 3)`` of joints after a kinematics call."""

@@ -334,6 +334,8 @@ class KinematicSimulator(Simulator):
         point of any particle moves more than ``step_fraction`` of a voxel, noise included (one count per batch)."""
         delta = velocity * dt
         bound = delta + np.where(delta >= 0, 1.0, -1.0) * self.noise.limits(velocity) * dt
+        if not bound.any():                             # nothing moves (an arm at rest, noiseless): no travel
+            return 1
         if self.reach_radius is not None:
             # a rigid body's points move at most |translation| + |rotation| * (farthest point's radius)
             linear = np.linalg.norm(bound[:, ~self.angular], axis=1)
@@ -354,7 +356,7 @@ class KinematicSimulator(Simulator):
         """One microstep with RESOLVECOLLISIONS; returns (q, converged, touched) per particle (the generic path:
         rigid bodies go through :meth:`_advance_fused`)."""
         surface = self.surface
-        before = self.robot.body_points(q, surface)
+        before = None                                # the points at q: needed only once something collides
         trial = self.space.retract(q, step)
         touched = np.zeros(len(q), dtype=bool)
         for _ in range(self.options.max_corrections):
@@ -362,10 +364,14 @@ class KinematicSimulator(Simulator):
             hit = self.contact.colliding(pts)
             active = np.nonzero(hit.any(axis=1))[0]
             if len(active) == 0:
+                still = np.zeros(len(q), dtype=bool)     # these points are the trial's: every particle is free
                 break
+            if before is None:
+                before = self.robot.body_points(q, surface)
             touched[active] = True
             trial[active] = self._correct(trial[active], pts[active], before[active], hit[active])
-        still = self.contact.colliding(self.robot.body_points(trial, surface)).any(axis=1)
+        else:                                         # corrections used up (or none allowed): test the last trial
+            still = self.contact.colliding(self.robot.body_points(trial, surface)).any(axis=1)
         if self.self_collision:
             for a in np.nonzero(~still)[0]:
                 trial[a], ok, hit_self = self._resolve_self_collision(trial[a], step[a])

@@ -270,6 +270,33 @@ def test_body_points_follow_their_links(iiwa):
     assert np.allclose(gaps, gaps[0], atol=1e-9)
 
 
+def test_selected_points_are_remembered_by_value_and_equal_fresh_ones(iiwa):
+    from pliant_pinocchio.robot import SELECTIONS_KEPT
+
+    q = iiwa.space.sample(np.random.default_rng(5), 4)
+    every = iiwa.body_points(q)
+    rng = np.random.default_rng(6)
+    picks = [rng.choice(iiwa.point_count(), size, replace=False) for size in (1, 7, 40, iiwa.point_count())]
+    for _ in range(2):                     # the first pass selects, the second is answered from memory
+        for pick in picks:
+            np.testing.assert_array_equal(iiwa.body_points(q, pick), every[:, pick])
+            np.testing.assert_array_equal(iiwa.body_points(q, pick.tolist()), every[:, pick])   # same values
+            np.testing.assert_array_equal(iiwa.point_jacobians(q[:1], pick), iiwa.point_jacobians(q[:1])[:, pick])
+    # another array with the same values is the same selection; a changed one is not
+    changed = picks[2].copy()
+    changed[0] = np.setdiff1d(np.arange(iiwa.point_count()), changed)[0]
+    np.testing.assert_array_equal(iiwa.body_points(q, changed), every[:, changed])
+    local, _ = iiwa._select(picks[1])
+    assert not local.flags.writeable                # shared between callers: nobody may write into it
+    for k in range(3 * SELECTIONS_KEPT):            # bounded
+        iiwa._select(np.array([k]))
+    assert len(iiwa._selections) <= SELECTIONS_KEPT
+    with pytest.raises(DimensionError, match="indices"):
+        iiwa.body_points(q, [iiwa.point_count()])   # out of range: refused, as before, every time
+    with pytest.raises(DimensionError, match="indices"):
+        iiwa.body_points(q, [iiwa.point_count()])
+
+
 def test_iiwa_velocity_limits_are_the_published_ones(iiwa):
     assert np.allclose(iiwa.velocity_limits, np.radians([98, 98, 100, 130, 140, 180, 180]))
     assert np.allclose(iiwa.acceleration_limits, 4.0 * iiwa.velocity_limits)

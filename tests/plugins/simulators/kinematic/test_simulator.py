@@ -192,6 +192,30 @@ def test_an_arm_pushed_into_a_board_stops_in_contact_within_its_limits():
     assert free.reached[0] and not free.in_contact[0]
 
 
+def test_an_arm_at_rest_stays_put_for_one_look_at_its_points_per_step(monkeypatch):
+    """A robot peer's arm holds still for most of a test: a noiseless step at zero velocity is one microstep,
+    and a free microstep places the body points once (not again for the travel bound, the point of departure and
+    the final check)."""
+    ctx = Context(scene=load_scene("iiwa-shelf"))
+    ctx.robot = registry.create("robot", "pinocchio", ctx)
+    sim = registry.create("simulator", "kinematic", ctx)
+    start = np.array([0.0, 0.3, 0.0, -1.2, 0.0, 0.6, 0.0])
+    sim.reset(start)
+    rng = np.random.default_rng(0)
+    assert sim.microsteps(start[None], np.zeros((1, 7)), 0.002) == 1
+    calls = []
+    placed = ctx.robot.body_points
+    monkeypatch.setattr(ctx.robot, "body_points", lambda q, indices=None: calls.append(len(q)) or placed(q, indices))
+    for _ in range(3):
+        assert np.array_equal(sim.step(np.zeros(7), 0.002, rng), start) and not sim.in_contact()
+    assert calls == [1, 1, 1]
+    # moving, the travel bound looks at the points before and after, then the free microsteps once each
+    micro = sim.microsteps(start[None], np.full((1, 7), 0.1), 0.002)
+    calls.clear()
+    moved = sim.step(np.full(7, 0.1), 0.002, rng)
+    assert np.allclose(moved, start + 0.0002) and calls == [1, 1] + [1] * micro
+
+
 def test_self_collision_momentum_model_keeps_an_arm_out_of_itself():
     ctx = Context(scene=load_scene("iiwa-shelf"))
     ctx.robot = registry.create("robot", "pinocchio", ctx)
