@@ -28,7 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pliant.api import ConfigError, PlanningError, VoxelGrid, option
+from pliant.api import ConfigError, PlanningError, VoxelGrid, cached_arrays, option
 from scipy import ndimage
 
 from pliant_piirl.demonstration import DemonstrationTask
@@ -59,6 +59,18 @@ class TaskOptions:
     attempts: int = option(10_000, "most target samples before giving up", minimum=1)
 
 
+#: the version of :func:`distance_fields` in the cache's keys: change it when its results would change
+FIELDS_VERSION = "1"
+
+
+def distance_fields(object_id: np.ndarray, occupied: np.ndarray, resolution: float, count: int) -> dict:
+    """Distance (m) from every voxel centre to the nearest voxel of each object ``object{i}`` (``i < count``) and to
+    the nearest occupied voxel (``clearance``): exact Euclidean transforms of the grid."""
+    fields = {f"object{i}": ndimage.distance_transform_edt(object_id != i) * resolution for i in range(count)}
+    fields["clearance"] = ndimage.distance_transform_edt(~occupied) * resolution
+    return fields
+
+
 class TaskSpace:
     """The distance fields of a scene's objects and what Algorithms 2 and 3 ask of them."""
 
@@ -69,9 +81,13 @@ class TaskSpace:
             raise ConfigError("must be two lengths, lower <= upper", field="depth_range", value=[lo, hi])
         self.grid = VoxelGrid.from_scene(scene)
         self.names = list(self.grid.object_names)
-        res = self.grid.resolution
-        self._each = [ndimage.distance_transform_edt(self.grid.object_id != i) * res for i in range(len(self.names))]
-        self.clearance_field = ndimage.distance_transform_edt(~self.grid.occupied) * res
+        grid, count = self.grid, len(self.names)
+        # one Euclidean transform per object and one of the free space: built once per grid (pliant.cache)
+        fields = cached_arrays("piirl-task-fields", FIELDS_VERSION,
+                               (grid.object_id, grid.occupied, float(grid.resolution), count),
+                               lambda: distance_fields(grid.object_id, grid.occupied, grid.resolution, count))
+        self._each = [fields[f"object{i}"] for i in range(count)]
+        self.clearance_field = fields["clearance"]
 
     # --- Algorithm 2's graph -----------------------------------------------------------------------------------
 

@@ -27,6 +27,28 @@ def test_every_face_is_adjacent_to_the_four_faces_it_meets(cube):
         assert neighbours == set(opposite) - {name, opposite[name]}
 
 
+def test_the_distance_fields_are_built_once_per_grid_and_equal_fresh_transforms(cube, tmp_path, monkeypatch):
+    from pliant import cache
+    from scipy import ndimage
+
+    scene, tasks, _ = cube
+    grid = tasks.grid
+    for k in range(len(tasks.names)):               # against the transforms themselves
+        np.testing.assert_array_equal(tasks._each[k], ndimage.distance_transform_edt(grid.object_id != k) *
+                                      grid.resolution)
+    np.testing.assert_array_equal(tasks.clearance_field, ndimage.distance_transform_edt(~grid.occupied) *
+                                  grid.resolution)
+    monkeypatch.setenv("PLIANT_CACHE_DIR", str(tmp_path / "cache"))
+    cache.forget()
+    first = TaskSpace(scene)
+    before = dict(cache.counts)
+    second = TaskSpace(scene)
+    assert cache.counts["built"] == before["built"] and cache.counts["memo"] > before["memo"]   # nothing rebuilt
+    for a, b in zip(first._each + [first.clearance_field], second._each + [second.clearance_field]):
+        np.testing.assert_array_equal(a, b)
+    cache.forget()
+
+
 def test_edge_points_are_equidistant_and_inside_is_the_hollow(cube):
     _, tasks, _ = cube
     points = tasks.edge_points("L1", "M1")
