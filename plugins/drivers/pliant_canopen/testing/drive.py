@@ -139,6 +139,12 @@ class PeerDrive:
             self._consumer = (master, timeout_ms / 1000)
             network.subscribe(cia402.HEARTBEAT_BASE + master, self._on_master_heartbeat)
 
+    @property
+    def master_heard(self) -> bool:
+        """Whether the heartbeat consumer (0x1016) is set and has heard the master: only from its first heartbeat on
+        does a silent master trip it (CiA 301's consumer starts with the first heartbeat it receives)."""
+        return self._consumer is not None and self._master_seen is not None
+
     def _on_master_heartbeat(self, can_id: int, data: bytearray, timestamp: float) -> None:
         self._master_seen = time.monotonic()
         self._consumer_tripped = False

@@ -249,6 +249,9 @@ def test_the_drives_fault_when_the_master_heartbeat_stops(arm3, make_peer, make_
     driver = make_driver(joint_map=str(arm3), heartbeat_timeout=0.3)
     driver.open()
     driver.enable()
+    # a consumer watches from the master's first heartbeat on (one every 75 ms here): a master that dies before a
+    # drive has heard it is not missed by that drive
+    assert _wait(lambda: all(d.master_heard for d in peer.drives.values()))
     driver._stop.set()                 # the master dies: no more SYNC, no more heartbeat
     driver._thread.join()
     assert _wait(lambda: all(d.state == DriveState.FAULT for d in peer.drives.values()), timeout=3.0)
