@@ -285,3 +285,41 @@ def test_the_command_runs_blas_on_one_thread_unless_the_user_chose(monkeypatch, 
     assert cli.main(["plugins"]) == 0
     assert os.environ["OPENBLAS_NUM_THREADS"] == "2" and os.environ.get("OMP_NUM_THREADS") is None
     capsys.readouterr()
+
+
+class _Lopsided:
+    """A third party's controller whose command has the wrong shape: the conformance kit must say so."""
+
+    @hookimpl
+    def pliant_register(self, registrar):
+        import numpy as np
+        from pliant.api import Controller
+
+        class Lopsided(Controller):
+            def command(self, q, target, dt):
+                return np.zeros(len(q) + 1)
+
+        registrar.add("controller", "lopsided", Lopsided, description="commands one value too many")
+
+
+@pytest.fixture
+def lopsided():
+    registry = default_registry()
+    plugin = _Lopsided()
+    assert registry.add_plugin(plugin, "lopsided-plugin", "lopsided-dist")
+    yield plugin
+    registry.manager.unregister(plugin)
+    registry._plugins.pop("lopsided-plugin", None)
+    registry._entries.pop(("controller", "lopsided"), None)
+
+
+def test_plugins_check_runs_the_conformance_kit_and_fails_on_a_broken_component(lopsided, capsys):
+    assert cli.main(["plugins", "--check", "--kind", "cost"]) == 0
+    out = capsys.readouterr().out
+    assert "[1/1] cost 'voxel' (voxel): ok" in out and "1 of 1 components conform" in out
+    assert cli.main(["plugins", "--check", "--kind", "controller"]) == 1
+    out = capsys.readouterr().out
+    assert "controller 'contact' (contact): ok" in out and "controller 'lopsided' (lopsided-plugin): FAILED" in out
+    assert "command() returns (tangent_dim,)" in out and "1 of 2 components conform" in out
+    assert cli.main(["plugins", "--check", "--kind", "nope"]) == 2             # a bad kind, as without --check
+    assert "--kind" in capsys.readouterr().err

@@ -9,9 +9,7 @@ from pliant.errors import DimensionError
 from pliant.interfaces import Learner, PathMetric
 from pliant.registry import default_registry
 from pliant.spaces import RealVectorSpace
-from pliant.testing import ConformanceFailure, check_component, check_space
-
-CHECKED_KINDS = ("robot", "cost", "planner", "simulator", "controller", "metric", "learner", "driver")
+from pliant.testing import CHECKED_KINDS, ConformanceFailure, check_component, check_space
 
 
 def _builtins():

@@ -90,6 +90,8 @@ def cmd_plugins(args) -> int:
 
         if args.kind not in KINDS:
             raise PliantError(f"unknown component kind (kinds: {', '.join(KINDS)})", field="--kind", value=args.kind)
+    if args.check:
+        return _check_components(reg, args.kind)
     plugins = reg.plugins()
     print(_table([(p.name, p.distribution, p.status, p.error) for p in plugins],
                  ("plugin", "distribution", "status", "error")))
@@ -98,6 +100,33 @@ def cmd_plugins(args) -> int:
     print(_table([(e.kind, e.name, e.plugin, e.description) for e in entries],
                  ("kind", "name", "plugin", "description")))
     return 0
+
+
+def _check_components(reg, kind: str | None) -> int:
+    """``pliant plugins --check``: the conformance kit (:func:`pliant.testing.check_component`) on every component
+    of a checked kind (only ``kind``'s), one line each as it goes, then a table; 1 when any fails.  Running each
+    component's example also compiles its numba kernels into numba's cache, so that the first run does not."""
+    import time
+
+    from pliant.testing import CHECKED_KINDS, ConformanceFailure, check_component
+
+    entries = [e for e in reg.entries() if e.kind in CHECKED_KINDS and kind in (None, e.kind)]
+    rows, failed = [], 0
+    for k, entry in enumerate(entries, 1):
+        started = time.perf_counter()
+        try:
+            verdict, detail = "ok", ", ".join(check_component(entry.kind, entry.name, registry=reg))
+        except (ConformanceFailure, PliantError) as exc:
+            failed += 1
+            verdict, detail = "FAILED", f"{type(exc).__name__}: {exc}"
+        seconds = time.perf_counter() - started
+        print(f"[{k}/{len(entries)}] {entry.kind} '{entry.name}' ({entry.plugin}): {verdict} in {seconds:.1f} s",
+              flush=True)
+        rows.append((entry.kind, entry.name, entry.plugin, verdict, detail))
+    print()
+    print(_table(rows, ("kind", "name", "plugin", "verdict", "checks (or what failed)")))
+    print(f"\n{len(entries) - failed} of {len(entries)} components conform")
+    return 1 if failed else 0
 
 
 def cmd_scenes(args) -> int:
@@ -484,6 +513,9 @@ def build_parser(declarations: tuple[list[Command], list[Alias]] | None = None) 
     p = sub.add_parser("plugins", help=GROUPS["plugins"][0])
     p.add_argument("--kind", help="only components of this kind")
     p.add_argument("--options", nargs=2, metavar=("KIND", "NAME"), help="show one component's options")
+    p.add_argument("--check", action="store_true",
+                   help="run the conformance kit on every component (of --kind); exit 1 if one fails. Also compiles "
+                        "and caches their numba kernels (make does this once)")
     p.set_defaults(handler=cmd_plugins)
 
     _add_view(sub, by_group["view"])

@@ -12,6 +12,7 @@ errors on bad input (a :class:`~pliant.errors.PliantError`) and determinism unde
 """
 
 from pliant.testing.conformance import (
+    CHECKED_KINDS,
     ConformanceFailure,
     build_context,
     check_component,
@@ -24,5 +25,5 @@ from pliant.testing.conformance import (
     check_space,
 )
 
-__all__ = ["ConformanceFailure", "build_context", "check_component", "check_cost", "check_driver", "check_learner",
-           "check_metric", "check_planner", "check_robot", "check_space"]
+__all__ = ["CHECKED_KINDS", "ConformanceFailure", "build_context", "check_component", "check_cost", "check_driver",
+           "check_learner", "check_metric", "check_planner", "check_robot", "check_space"]

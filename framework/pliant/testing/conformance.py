@@ -31,6 +31,8 @@ from pliant.scene import load_scene
 from pliant.spaces import Space
 
 DEFAULT_SCENE = "triple-wall"
+#: the component kinds :func:`check_component` has a contract for (a driver's without its robot or peer)
+CHECKED_KINDS = ("robot", "cost", "planner", "simulator", "controller", "metric", "learner", "driver")
 
 
 class ConformanceFailure(AssertionError):
