@@ -60,9 +60,20 @@ $(CHROMIUM_STAMP): $(STAMP)
 	fi
 	touch $(CHROMIUM_STAMP)
 
-install: $(STAMP) $(ROS_STAMP) $(ROS2_STAMP) $(CHROMIUM_STAMP)
+install: $(STAMP) $(ROS_STAMP) $(ROS2_STAMP) $(CHROMIUM_STAMP) $(CHECK_STAMP)
 
-demo: $(STAMP) $(ROS_STAMP)
+# Every component's example run once (pliant plugins --check): the conformance kit on each, and their numba kernels
+# compiled into numba's cache in one process.  Otherwise every process of the first run that needs a kernel compiles
+# it: both test workers, their pools and the commands they start.  A kernel whose source changes later is compiled
+# again on its first use.
+CHECK_STAMP := $(VENV)/.checked
+
+$(CHECK_STAMP): $(STAMP) $(ROS_STAMP) $(ROS2_STAMP)
+	@echo "checking every component and compiling its kernels (pliant plugins --check, about a minute) ..."
+	@$(BIN)/pliant plugins --check > $(VENV)/plugins-check.log 2>&1 || { tail -40 $(VENV)/plugins-check.log; exit 1; }
+	touch $(CHECK_STAMP)
+
+demo: $(STAMP) $(ROS_STAMP) $(CHECK_STAMP)
 	$(BIN)/pliant run demo
 	@echo "open out/demo/report.md"
 
@@ -74,7 +85,7 @@ demo: $(STAMP) $(ROS_STAMP)
 robot-demo: $(STAMP) $(ROS_STAMP)
 	$(BIN)/pliant robot ros-demo iiwa-policy
 
-lint: $(STAMP) $(ROS_STAMP) $(ROS2_STAMP) $(CHROMIUM_STAMP)
+lint: $(STAMP) $(ROS_STAMP) $(ROS2_STAMP) $(CHROMIUM_STAMP) $(CHECK_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
 
