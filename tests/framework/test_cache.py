@@ -84,6 +84,27 @@ def test_padding_and_per_voxel_materials_are_kept(cache_dir, tmp_path):
     assert cache.counts["built"] == 4
 
 
+@pytest.mark.parametrize("count", [3, 126, 127, 140])
+def test_a_grid_read_back_has_its_objects_materials_whatever_the_ids_type(cache_dir, count):
+    """Up to 126 objects the cache keeps the ids as int8 and the materials are looked up by the ids' bytes; from 127
+    on as int16, looked up by id + 1: both give the fresh build's arrays."""
+    rng = np.random.default_rng(count)
+    objects = [{"name": f"b{k}", "shape": "box", "size": [0.08, 0.08, 0.08],
+                "position": [0.05 + 0.1 * (k % 12), 0.05 + 0.1 * (k // 12 % 12), 0.05 + 0.1 * (k // 144)],
+                "deformability": float(rng.uniform(0.0, 1.0)), "sensitivity": float(rng.uniform(0.0, 5.0))}
+               for k in range(count)]
+    scene = Scene.from_dict({
+        "name": "many", "start": [1.25, 1.25, 0.25], "goal": [1.25, 1.15, 0.25],
+        "bounds": {"lower": [0, 0, 0], "upper": [1.3, 1.3, 0.3], "resolution": 0.05}, "objects": objects,
+        "robot": {"kind": "rigid", "space": "r3", "parts": [{"shape": "sphere", "radius": 0.01}]}})
+    fresh = VoxelGrid._build(scene, 0.0, False)
+    VoxelGrid.from_scene(scene)
+    cache.forget()                                          # the next one is read from disk
+    read = VoxelGrid.from_scene(scene)
+    _same(_grid_arrays(fresh), _grid_arrays(read))
+    assert set(np.unique(read.object_id)) == {-1, *range(count)}
+
+
 def _moved(scene: Scene, index: int, offset) -> Scene:
     obj = scene.objects[index]
     pose = dataclasses.replace(obj.part.pose, position=obj.part.pose.position + np.asarray(offset))

@@ -201,9 +201,14 @@ class VoxelGrid:
         materials = _material_tables(scene)
         arrays = cache.cached_arrays("voxelgrid", GRID_VERSION, inputs,
                                      lambda: _compact(cls._build(scene, padding, static_only), materials))
-        object_id = arrays["object_id"].astype(np.int32)
-        defo = arrays["deformability"] if "deformability" in arrays else materials[0][object_id + 1]
-        sens = arrays["sensitivity"] if "sensitivity" in arrays else materials[1][object_id + 1]
+        ids = arrays["object_id"]
+        object_id = ids.astype(np.int32)
+        if ids.dtype == np.int8:          # ids' bytes index a 256-entry table (free, -1, is byte 255): no int temporary
+            index, tables = ids.view(np.uint8), [_byte_table(t) for t in materials]
+        else:
+            index, tables = object_id + 1, materials
+        defo = arrays["deformability"] if "deformability" in arrays else tables[0][index]
+        sens = arrays["sensitivity"] if "sensitivity" in arrays else tables[1][index]
         return cls(scene.lower.copy(), scene.resolution, defo, sens, object_id, [o.name for o in scene.objects])
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -260,6 +265,15 @@ def _material_tables(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     defo = np.array([1.0] + [o.material.deformability for o in scene.objects], dtype=np.float64)
     sens = np.array([0.0] + [o.material.sensitivity for o in scene.objects], dtype=np.float64)
     return defo, sens
+
+
+def _byte_table(table: np.ndarray) -> np.ndarray:
+    """A material table by ``object_id + 1`` (:func:`_material_tables`, at most 128 entries) as a table by the byte
+    of an int8 object id: objects 0..126 at their own index, free space (-1) at 255, NaN elsewhere."""
+    out = np.full(256, np.nan)
+    out[:len(table) - 1] = table[1:]
+    out[255] = table[0]
+    return out
 
 
 def _compact(grid: VoxelGrid, materials: tuple[np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:

@@ -170,7 +170,7 @@ class PressDeformabilityLearner(Learner):
     """
 
     Options = PressOptions
-    example_options = {"repetitions": 1, "steps": 600, "window": 300, "calibration": 2, "calibration_repetitions": 1,
+    example_options = {"repetitions": 1, "steps": 200, "window": 100, "calibration": 2, "calibration_repetitions": 1,
                        "probes": 1}
     example_data = staticmethod(lambda: {"soft": 0.75, "stiff": 0.25})
 
