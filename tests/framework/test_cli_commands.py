@@ -299,7 +299,12 @@ class _Lopsided:
             def command(self, q, target, dt):
                 return np.zeros(len(q) + 1)
 
+        class Crashing(Controller):
+            def command(self, q, target, dt):
+                return None + q                     # a bug, not a contract's error: the check reports it too
+
         registrar.add("controller", "lopsided", Lopsided, description="commands one value too many")
+        registrar.add("controller", "crashing", Crashing, description="raises a TypeError")
 
 
 @pytest.fixture
@@ -311,6 +316,7 @@ def lopsided():
     registry.manager.unregister(plugin)
     registry._plugins.pop("lopsided-plugin", None)
     registry._entries.pop(("controller", "lopsided"), None)
+    registry._entries.pop(("controller", "crashing"), None)
 
 
 def test_plugins_check_runs_the_conformance_kit_and_fails_on_a_broken_component(lopsided, capsys):
@@ -320,6 +326,7 @@ def test_plugins_check_runs_the_conformance_kit_and_fails_on_a_broken_component(
     assert cli.main(["plugins", "--check", "--kind", "controller"]) == 1
     out = capsys.readouterr().out
     assert "controller 'contact' (contact): ok" in out and "controller 'lopsided' (lopsided-plugin): FAILED" in out
-    assert "command() returns (tangent_dim,)" in out and "1 of 2 components conform" in out
+    assert "command() returns (tangent_dim,)" in out and "1 of 3 components conform" in out
+    assert "controller 'crashing' (lopsided-plugin): FAILED" in out and "TypeError" in out
     assert cli.main(["plugins", "--check", "--kind", "nope"]) == 2             # a bad kind, as without --check
     assert "--kind" in capsys.readouterr().err
