@@ -39,8 +39,16 @@ def brute_depth(points: np.ndarray, grid: VoxelGrid) -> np.ndarray:
     free = np.argwhere(~grid.occupied)
     lower = grid.lower + free * grid.resolution
     upper = lower + grid.resolution
-    gap = np.maximum(np.maximum(lower[None] - points[:, None], points[:, None] - upper[None]), 0.0)
-    return np.sqrt(np.min(np.sum(gap ** 2, axis=2), axis=1))
+    # a point in a free voxel is in that voxel's closed box (depth 0): only the others need the search
+    cell = np.floor((points - grid.lower) / grid.resolution).astype(int)
+    in_grid = np.all((cell >= 0) & (cell < np.array(grid.shape)), axis=1)
+    solid = ~in_grid
+    solid[in_grid] = grid.occupied[tuple(cell[in_grid].T)]
+    depth = np.zeros(len(points))
+    deep = points[solid]
+    gap = np.maximum(np.maximum(lower[None] - deep[:, None], deep[:, None] - upper[None]), 0.0)
+    depth[solid] = np.sqrt(np.min(np.sum(gap ** 2, axis=2), axis=1)) if len(deep) else 0.0
+    return depth
 
 
 @functools.cache

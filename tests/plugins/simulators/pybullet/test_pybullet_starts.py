@@ -58,10 +58,17 @@ def independent_depth(q: np.ndarray) -> float:
     free = np.argwhere(~block) + lo
     outside = np.min(np.concatenate([points - g.lower, g.lower + shape * RES - points], axis=1), axis=1)
     depth = np.where(outside > 0, outside, 0.0)            # outside the grid: free
-    if len(free):
+    # a point in a free voxel is in that voxel's closed box (depth 0): only the others need the search
+    cell = np.floor((points - g.lower) / RES).astype(int)
+    in_grid = np.all((cell >= 0) & (cell < shape), axis=1)
+    occupied = np.zeros(len(points), dtype=bool)
+    occupied[in_grid] = g.occupied[tuple(cell[in_grid].T)]
+    depth = np.where(occupied, depth, 0.0)
+    deep = points[occupied]
+    if len(free) and len(deep):
         lower = g.lower + free * RES
-        gap = np.maximum(np.maximum(lower[None] - points[:, None], points[:, None] - (lower + RES)[None]), 0)
-        depth = np.minimum(depth, np.sqrt(np.min(np.sum(gap ** 2, axis=2), axis=1)))
+        gap = np.maximum(np.maximum(lower[None] - deep[:, None], deep[:, None] - (lower + RES)[None]), 0)
+        depth[occupied] = np.minimum(depth[occupied], np.sqrt(np.min(np.sum(gap ** 2, axis=2), axis=1)))
     return float(depth.max())
 
 
