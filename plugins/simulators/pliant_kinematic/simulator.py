@@ -129,6 +129,7 @@ class KinematicSimulator(Simulator):
         # an SE(2) body in a one-layer grid never leaves the layer: the grid's z faces are no walls to it
         self.contact = ContactModel(self.grid, planar=self.space.kind == "se2" and self.grid.shape[2] == 1)
         self.surface = self.robot.surface_indices()
+        self._placed = (b"", None)      # the surface points last placed: (configurations' bytes, points)
         faces = self.robot.surface_faces()
         self.surface_faces = None if faces is None else np.ascontiguousarray(faces, dtype=np.bool_)
         if self.surface_faces is not None and self.surface_faces.shape != (len(self.surface), 6):
@@ -342,7 +343,7 @@ class KinematicSimulator(Simulator):
             angular = np.linalg.norm(bound[:, self.angular], axis=1) if self.angular.any() else 0.0
             travel = float(np.max(linear + angular * self.reach_radius))
         else:
-            p0 = self.robot.body_points(q, self.surface)
+            p0 = self._surface_points(q)
             p1 = self.robot.body_points(self.space.retract(q, bound), self.surface)
             # the largest squared displacement, then one square root: the same number as the largest norm (the
             # square root is monotonic and the sum is norm's own, x^2 + y^2 + z^2 in that order), without a
@@ -351,6 +352,14 @@ class KinematicSimulator(Simulator):
             travel = math.sqrt(float(np.max(d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2]))) \
                 if p0.size else 0.0
         return max(1, math.ceil(travel / (self.options.step_fraction * self.grid.resolution)))
+
+    def _surface_points(self, q: np.ndarray) -> np.ndarray:
+        """The surface points of configurations ``q`` ``(n, d)``; those of the last free microstep's result when
+        ``q`` is it, bit for bit (the next step's travel bound starts where that microstep ended)."""
+        key, points = self._placed
+        if points is not None and key == q.tobytes():
+            return points
+        return self.robot.body_points(q, self.surface)
 
     def _microstep(self, q, step):
         """One microstep with RESOLVECOLLISIONS; returns (q, converged, touched) per particle (the generic path:
@@ -365,9 +374,10 @@ class KinematicSimulator(Simulator):
             active = np.nonzero(hit.any(axis=1))[0]
             if len(active) == 0:
                 still = np.zeros(len(q), dtype=bool)     # these points are the trial's: every particle is free
+                self._placed = (trial.tobytes(), pts)
                 break
             if before is None:
-                before = self.robot.body_points(q, surface)
+                before = self._surface_points(q)
             touched[active] = True
             trial[active] = self._correct(trial[active], pts[active], before[active], hit[active])
         else:                                         # corrections used up (or none allowed): test the last trial

@@ -194,8 +194,8 @@ def test_an_arm_pushed_into_a_board_stops_in_contact_within_its_limits():
 
 def test_an_arm_at_rest_stays_put_for_one_look_at_its_points_per_step(monkeypatch):
     """A robot peer's arm holds still for most of a test: a noiseless step at zero velocity is one microstep,
-    and a free microstep places the body points once (not again for the travel bound, the point of departure and
-    the final check)."""
+    and a free microstep places the body points once (not again for the point of departure and the final check; the
+    next step's travel bound starts from them)."""
     ctx = Context(scene=load_scene("iiwa-shelf"))
     ctx.robot = registry.create("robot", "pinocchio", ctx)
     sim = registry.create("simulator", "kinematic", ctx)
@@ -209,11 +209,16 @@ def test_an_arm_at_rest_stays_put_for_one_look_at_its_points_per_step(monkeypatc
     for _ in range(3):
         assert np.array_equal(sim.step(np.zeros(7), 0.002, rng), start) and not sim.in_contact()
     assert calls == [1, 1, 1]
-    # moving, the travel bound looks at the points before and after, then the free microsteps once each
+    # moving, the travel bound places the points after the step (those before are the last free microstep's), then
+    # each free microstep places them once
     micro = sim.microsteps(start[None], np.full((1, 7), 0.1), 0.002)
     calls.clear()
     moved = sim.step(np.full(7, 0.1), 0.002, rng)
-    assert np.allclose(moved, start + 0.0002) and calls == [1, 1] + [1] * micro
+    assert np.allclose(moved, start + 0.0002) and calls == [1] + [1] * micro
+    sim.reset(start)                                # another configuration than the last placed: placed again
+    calls.clear()
+    sim.step(np.full(7, 0.1), 0.002, rng)
+    assert calls == [1, 1] + [1] * micro
 
 
 def test_self_collision_momentum_model_keeps_an_arm_out_of_itself():
