@@ -136,3 +136,28 @@ def test_build_context_creates_components_with_the_given_options():
     ctx = build_context("tsrrt-table", options={"simulator": {"max_force": 50.0}}, simulator="pymunk")
     assert ctx.simulator.options.max_force == 50.0
     assert build_context("tsrrt-table", simulator="pymunk").simulator.options.max_force == 2000.0
+
+
+def test_kit_detects_a_robot_that_reuses_its_points_buffer(scene_context):
+    """Callers keep body_points' result (the kinematic simulator reuses a step's end points for the next step): a
+    robot that writes every call into one buffer breaks them, and the kit says so."""
+    from pliant.testing import check_robot
+
+    robot = scene_context("triple-wall").robot
+
+    class Reusing:
+        def __init__(self, inner):
+            self._inner, self._buffers = inner, {}             # one buffer per result shape
+
+        def __getattr__(self, name):
+            return getattr(self._inner, name)
+
+        def body_points(self, q, indices=None):
+            fresh = self._inner.body_points(q, indices)
+            buffer = self._buffers.setdefault(fresh.shape, np.empty_like(fresh))
+            buffer[...] = fresh
+            return buffer
+
+    assert "a new array per call" in check_robot(robot)
+    with pytest.raises(ConformanceFailure, match="a new array each call"):
+        check_robot(Reusing(robot))

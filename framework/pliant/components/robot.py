@@ -76,7 +76,9 @@ class RobotModel(Component):
     def body_points(self, q: np.ndarray, indices: np.ndarray | None = None) -> np.ndarray:
         """World positions of the body points, ``(n, m, 3)`` for ``q`` ``(n, d)``; metres.
 
-        ``indices`` ``(k,)`` selects a subset of the points (then ``(n, k, 3)``).
+        ``indices`` ``(k,)`` selects a subset of the points (then ``(n, k, 3)``).  Each call returns a new array that
+        the caller may keep: a later call never writes into it (the kinematic simulator keeps the points of a step's
+        end for the next step).
         """
 
     @abstractmethod

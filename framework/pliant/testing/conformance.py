@@ -109,6 +109,10 @@ def check_robot(robot: RobotModel, seed: int = 0, who: str = "robot") -> list[st
     pts = robot.body_points(q)
     _require(pts.shape == (4, m, 3) and pts.dtype == np.float64, who, "body_points is (n, m, 3) float64")
     _require(np.allclose(robot.body_points(q[1]), pts[1:2]), who, "a single configuration equals its batch row")
+    kept = pts.copy()
+    again = robot.body_points(q[::-1])
+    _require(not np.shares_memory(again, pts) and np.array_equal(pts, kept), who,
+             "body_points returns a new array each call (a later call leaves an earlier result alone)")
     jac = robot.point_jacobians(q[:1])
     t = robot.space.tangent_dim
     _require(jac.shape == (1, m, 3, t), who, "point_jacobians is (n, m, 3, tangent_dim)")
@@ -121,7 +125,7 @@ def check_robot(robot: RobotModel, seed: int = 0, who: str = "robot") -> list[st
                  f"Jacobian column {k} matches central finite differences")
     _raises_pliant_error(lambda: robot.body_points(np.zeros(robot.space.dim + 1)), who,
                          "a configuration of the wrong length raises PliantError")
-    return [*rules, "body points", "jacobians", "bad input"]
+    return [*rules, "body points", "a new array per call", "jacobians", "bad input"]
 
 
 def check_cost(cost: CostModel, space: Space, seed: int = 0, who: str = "cost", configurations=None) -> list[str]:
