@@ -181,6 +181,7 @@ _NAMES: dict[str, tuple[str, str]] = {
     "example_robot_data_dir": ("pliant.robot_data", "example_robot_data_dir"),
     "Fields": ("pliant.validation", "Fields"),
     "fingerprint": ("pliant.cache", "fingerprint"),
+    "ProcessMemo": ("pliant.cache", "ProcessMemo"),
     "option": ("pliant.options", "option"),
     "OptionDeprecationWarning": ("pliant.options", "OptionDeprecationWarning"),
     "ProgressLine": ("pliant.progress", "ProgressLine"),

@@ -31,6 +31,7 @@ import os
 import struct
 import tempfile
 import threading
+import weakref
 from collections import OrderedDict
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -324,10 +325,73 @@ def _memo_bytes() -> int:
     return sum(a.nbytes for arrays in _memo.values() for a in arrays.values())
 
 
+class ProcessMemo:
+    """A memo of results derived in this process, for what the disk cache should not keep (results too large to be
+    worth a file, or Python objects such as a parsed robot model): :meth:`get` builds a result once per key and
+    hands the same object to every later caller, so callers must treat it as read-only (make arrays read-only).
+
+    Bounded: at most ``entries`` results, and at most ``max_bytes`` bytes of the numpy arrays in them (a result that
+    is an array or a dict of arrays; other results count 0); the least recently used are dropped.  Off with
+    ``PLIANT_CACHE=0`` (every call builds), and emptied by :func:`forget` like the cache's own memo.  ``key``: any
+    hashable value naming everything the result depends on (e.g. a :func:`fingerprint`)."""
+
+    def __init__(self, entries: int, max_bytes: int | None = None) -> None:
+        if isinstance(entries, bool) or not isinstance(entries, int) or entries < 1:
+            raise ConfigError("must be a positive integer", field="entries", value=entries)
+        self.entries = entries
+        self.max_bytes = max_bytes
+        self._items: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
+        with _lock:
+            _process_memos.append(weakref.ref(self))
+
+    def get(self, key: Any, build: Callable[[], Any]) -> Any:
+        """The result for ``key``: remembered, or ``build()`` (then remembered)."""
+        if not enabled():
+            return build()
+        with self._lock:
+            if key in self._items:
+                self._items.move_to_end(key)
+                return self._items[key]
+        value = build()
+        with self._lock:
+            self._items[key] = value
+            while len(self._items) > 1 and (len(self._items) > self.entries or (
+                    self.max_bytes is not None and self.nbytes() > self.max_bytes)):
+                self._items.popitem(last=False)
+        return value
+
+    def nbytes(self) -> int:
+        """Bytes of the numpy arrays held."""
+        def size(value) -> int:
+            if isinstance(value, np.ndarray):
+                return value.nbytes
+            if isinstance(value, Mapping):
+                return sum(v.nbytes for v in value.values() if isinstance(v, np.ndarray))
+            return 0
+        return sum(size(v) for v in self._items.values())
+
+    def clear(self) -> None:
+        """Forget every result."""
+        with self._lock:
+            self._items.clear()
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+
+_process_memos: list[weakref.ref] = []
+
+
 def forget() -> None:
-    """Empty this process's memo (the files stay)."""
+    """Empty this process's memo and every :class:`ProcessMemo` (the files stay)."""
     with _lock:
         _memo.clear()
+        memos = [ref() for ref in _process_memos]
+        _process_memos[:] = [ref for ref, memo in zip(_process_memos, memos) if memo is not None]
+    for memo in memos:
+        if memo is not None:
+            memo.clear()
 
 
 def clear(kind: str | None = None) -> int:

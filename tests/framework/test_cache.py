@@ -12,6 +12,7 @@ import textwrap
 import numpy as np
 import pytest
 from pliant import cache, load_scene
+from pliant.errors import ConfigError
 from pliant.geometry.voxelgrid import VoxelGrid, _signed_distance
 from pliant.scene import Scene
 
@@ -285,3 +286,34 @@ def test_the_memo_is_bounded(cache_dir, monkeypatch):
     monkeypatch.setattr(cache, "MEMO_BYTES", 10)
     cache.cached_arrays("test", "v1", 99, lambda: {"a": np.zeros(100)})
     assert len(cache._memo) == 1                       # the newest stays, however large
+
+
+def test_a_process_memo_builds_once_per_key_is_bounded_and_forgotten_with_the_cache(monkeypatch):
+    from pliant.cache import ProcessMemo
+
+    builds = []
+
+    def build(k, size=10):
+        builds.append(k)
+        return {"a": np.zeros(size)}
+
+    memo = ProcessMemo(entries=2, max_bytes=800)
+    first = memo.get("x", lambda: build("x"))
+    assert memo.get("x", lambda: build("x")) is first and builds == ["x"]           # the same object, built once
+    memo.get("y", lambda: build("y"))
+    memo.get("x", lambda: build("x"))                                               # x is now the most recent
+    memo.get("z", lambda: build("z"))                                               # drops y, the least recent
+    assert len(memo) == 2 and builds == ["x", "y", "z"]
+    memo.get("x", lambda: build("x"))
+    memo.get("y", lambda: build("y"))
+    assert builds == ["x", "y", "z", "y"]
+    memo.get("big", lambda: build("big", size=95))          # 760 bytes: with another 80 over the 800
+    assert len(memo) == 1 and memo.nbytes() == 760
+    cache.forget()                                          # emptied with the cache's own memo
+    assert len(memo) == 0
+    monkeypatch.setenv("PLIANT_CACHE", "0")                 # off: every call builds, nothing is kept
+    memo.get("x", lambda: build("x"))
+    memo.get("x", lambda: build("x"))
+    assert builds[-2:] == ["x", "x"] and len(memo) == 0
+    with pytest.raises(ConfigError, match="entries"):
+        ProcessMemo(entries=0)

@@ -19,6 +19,7 @@ group joints, every other joint at its posture); frame and contact queries call 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,6 +30,7 @@ from pliant.api import (
     ConfigError,
     DimensionError,
     PlanningError,
+    ProcessMemo,
     RealVectorSpace,
     RobotModel,
     SceneError,
@@ -45,6 +47,19 @@ from pliant_pinocchio.sampling import surface_points
 #: selections of body points a robot remembers (:meth:`PinocchioRobot._select`); more are rare: a planner's and a
 #: simulator's surface points, a metric's subset
 SELECTIONS_KEPT = 8
+#: URDFs a process keeps parsed, with the body points sampled on them: a test session, an experiment or a planner's
+#: pool creates the same robot many times, and parsing the meshes and sampling them took most of its creation
+PARSED_KEPT = 4
+_parsed = ProcessMemo(PARSED_KEPT)          # file key -> (model, geometry), the collision pairs chosen
+_sampled = ProcessMemo(PARSED_KEPT)         # (file key, joints, spacing) -> (local points, their joints)
+
+
+def _file_key(entry: RobotEntry) -> tuple:
+    """What a parsed URDF depends on: the URDF's and SRDF's paths, sizes and modification times, and the package
+    directories its meshes are found in (a mesh edited while a process runs is not seen: create it in a new one)."""
+    files = [entry.urdf] if entry.srdf is None else [entry.urdf, entry.srdf]
+    stats = tuple((str(f), os.stat(f).st_mtime_ns, os.stat(f).st_size) for f in files)
+    return stats, tuple(str(p) for p in entry.package_dirs)
 
 
 @dataclass(frozen=True)
@@ -169,6 +184,23 @@ class PinocchioRobot(RobotModel):
         return named_robot(model, source)
 
     def _load(self, entry: RobotEntry, source: str, model_name: str) -> None:
+        """Parse the URDF (once per process: later robots of the same files copy the models) and choose the
+        collision pairs checked."""
+        try:
+            self._file_key = _file_key(entry)
+        except OSError as exc:
+            raise SceneError(f"cannot load the URDF {entry.urdf}: {exc}", source=source, field="robot.model",
+                             value=model_name) from None
+        parsed = _parsed.get(self._file_key, lambda: self._parse(entry, source, model_name))
+        # copies: a robot moves its own base (_place_base) and keeps its own data; the coal shapes are shared, and
+        # nothing changes them
+        self.model, self.geometry = parsed[0].copy(), parsed[1].copy()
+        self.data = self.model.createData()
+        self.geometry_data = pin.GeometryData(self.geometry)
+
+    def _parse(self, entry: RobotEntry, source: str, model_name: str) -> tuple:
+        """The URDF's model and collision model, with the collision pairs checked: the SRDF's, or every pair but
+        adjacent links'."""
         try:
             self.model = pin.buildModelFromUrdf(str(entry.urdf))
             self.geometry = pin.buildGeomFromUrdf(self.model, str(entry.urdf), pin.GeometryType.COLLISION,
@@ -181,8 +213,7 @@ class PinocchioRobot(RobotModel):
             pin.removeCollisionPairs(self.model, self.geometry, str(entry.srdf))
         else:
             self._remove_adjacent_pairs()
-        self.data = self.model.createData()
-        self.geometry_data = pin.GeometryData(self.geometry)
+        return self.model, self.geometry
 
     def _place_base(self, position, orientation) -> None:
         """Move the robot's base to a world placement (the scene task's ``base``): every joint, frame and geometry
@@ -298,8 +329,24 @@ class PinocchioRobot(RobotModel):
         return {j for j in range(1, self.model.njoints) if group & {int(s) for s in self.model.supports[j]}}
 
     def _sample_body(self, spacing: float, material) -> None:
-        pts, joints = [], []
         moving = self.moving_joints() if self.options.body == "moving" else None
+        key = (self._file_key, None if moving is None else tuple(sorted(int(j) for j in moving)), float(spacing))
+        sampled = _sampled.get(key, lambda: self._sample_geometries(spacing, moving))
+        #: body points in their joint's frame (m), and the joint that carries each
+        self.local_points, self.point_joint = sampled[0].copy(), sampled[1].copy()
+        self._used, self._slot = np.unique(self.point_joint, return_inverse=True)
+        self._selections: dict = {}                 # _select's memory: (shape, index bytes) -> (points, slots)
+        self._used_support = self._support_mask(self._used)
+        o = self.options
+        deformability = material.deformability if o.deformability is None else o.deformability
+        sensitivity = material.sensitivity if o.sensitivity is None else o.sensitivity
+        self._materials = np.tile(np.array([deformability, sensitivity], dtype=np.float64),
+                                  (len(self.local_points), 1))
+
+    def _sample_geometries(self, spacing: float, moving) -> tuple[np.ndarray, np.ndarray]:
+        """Points on the collision geometries of the joints ``moving`` (None: all), about ``spacing`` m apart, in
+        their joint's frame ``(k, 3)``, and the joint carrying each ``(k,)``."""
+        pts, joints = [], []
         for geom in self.geometry.geometryObjects:
             if moving is not None and geom.parentJoint not in moving:
                 continue
@@ -312,17 +359,7 @@ class PinocchioRobot(RobotModel):
         if not pts:
             raise SceneError("the URDF has no collision geometry to sample body points from", source=self._source,
                              field="robot.model", value=self.model_name)
-        #: body points in their joint's frame (m), and the joint that carries each
-        self.local_points = np.ascontiguousarray(np.concatenate(pts), dtype=np.float64)
-        self.point_joint = np.concatenate(joints)
-        self._used, self._slot = np.unique(self.point_joint, return_inverse=True)
-        self._selections: dict = {}                 # _select's memory: (shape, index bytes) -> (points, slots)
-        self._used_support = self._support_mask(self._used)
-        o = self.options
-        deformability = material.deformability if o.deformability is None else o.deformability
-        sensitivity = material.sensitivity if o.sensitivity is None else o.sensitivity
-        self._materials = np.tile(np.array([deformability, sensitivity], dtype=np.float64),
-                                  (len(self.local_points), 1))
+        return np.ascontiguousarray(np.concatenate(pts), dtype=np.float64), np.concatenate(joints)
 
     def _support_mask(self, joints) -> np.ndarray:
         """Float ``(len(joints), d)``: 1 where the group joint of the column moves the given joint."""

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from pliant.api import VoxelGrid, cached_arrays
+from pliant.api import ProcessMemo, VoxelGrid, cached_arrays, fingerprint
 
 from pliant_kinematic.rigid_kernel import ROBOT_FACE_COS
 
@@ -34,6 +34,12 @@ from pliant_kinematic.rigid_kernel import ROBOT_FACE_COS
 TABLES_VERSION = "kinematic-contact-2"
 #: outward normals of the six faces: -x, +x, -y, +y, -z, +z
 FACE_NORMALS = np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1]], dtype=np.float64)
+#: the per-voxel arrays of the contact models this process built (a metric's cells, a test session's simulators
+#: over one scene: one build each), read-only and shared by every model of the same occupancy; the least recently
+#: used are dropped beyond either bound
+_models = ProcessMemo(entries=4, max_bytes=512 * 2**20)
+#: the arrays a contact model shares with the others of its occupancy
+SHARED = ("occupied_flat", "exposed", "free_clearance", "deep_normal", "deep_depth")
 
 
 class ContactModel:
@@ -47,31 +53,16 @@ class ContactModel:
     def __init__(self, grid: VoxelGrid, planar: bool = False) -> None:
         self.grid = grid
         occ = grid.occupied
-        self.occupied_flat = np.append(occ.reshape(-1), True)      # last entry: outside the grid
-        padded = np.pad(occ, 1, constant_values=True)               # outside counts as solid
-        exposed = np.zeros(occ.shape + (6,), dtype=bool)
-        for f, (dx, dy, dz) in enumerate(FACE_NORMALS.astype(int)):
-            neighbour = padded[1 + dx:padded.shape[0] - 1 + dx, 1 + dy:padded.shape[1] - 1 + dy,
-                               1 + dz:padded.shape[2] - 1 + dz]
-            exposed[..., f] = occ & ~neighbour
-        self.exposed = exposed.reshape(-1, 6)
         self.lower = grid.lower
         self.upper = grid.lower + np.array(grid.shape) * grid.resolution
         self.res = grid.resolution
         self._shape = np.asarray(grid.shape, dtype=np.int64)
         self.planar = bool(planar) and occ.shape[2] == 1
-        # the distance transforms below take seconds on a large grid: kept in the content-addressed cache, under the
-        # occupancy, the grid's placement and resolution and the planar flag (pliant.cache; docs/architecture.md)
-        tables = cached_arrays("kinematic-contact", TABLES_VERSION,
-                               (occ, np.asarray(grid.lower, dtype=np.float64), float(grid.resolution), self.planar),
-                               lambda: _tables(grid, occ, self.exposed, self.planar))
-        self.free_clearance = tables["free_clearance"]
-        # voxels with no exposed face: the SDF's normal and depth at their centre
-        self.deep_normal = np.zeros((occ.size, 3))
-        self.deep_depth = np.zeros(occ.size)
-        deep = tables["deep"].astype(np.int64)
-        self.deep_normal[deep] = tables["deep_normal"]
-        self.deep_depth[deep] = tables["deep_depth"]
+        inputs = (occ, np.asarray(grid.lower, dtype=np.float64), float(grid.resolution), self.planar)
+        key = fingerprint("kinematic-contact-model", TABLES_VERSION, inputs)
+        arrays = _models.get(key, lambda: _derive(grid, occ, self.planar, inputs))
+        for name in SHARED:
+            setattr(self, name, arrays[name])
 
     def colliding(self, points: np.ndarray) -> np.ndarray:
         """Bool ``(n, k)``: points ``(n, k, 3)`` inside an occupied voxel or outside the grid."""
@@ -153,6 +144,35 @@ class ContactModel:
             exit_ = np.where(along > 1e-9, d[rows] / along, np.inf).min(axis=1)
         normals[ins[rows]] = n
         depth[ins[rows]] = exit_
+
+
+def _derive(grid: VoxelGrid, occ: np.ndarray, planar: bool, inputs: tuple) -> dict[str, np.ndarray]:
+    """The arrays a contact model queries (:data:`SHARED`), per voxel of the grid: ``occupied_flat`` ``(N + 1,)``
+    (the last entry: outside the grid, solid), ``exposed`` ``(N, 6)`` (the faces whose neighbour is free; outside
+    the grid counts as solid), ``free_clearance`` ``(N,)`` and the deep voxels' ``deep_normal`` ``(N, 3)`` and
+    ``deep_depth`` ``(N,)`` (zeros elsewhere)."""
+    padded = np.pad(occ, 1, constant_values=True)               # outside counts as solid
+    exposed = np.zeros(occ.shape + (6,), dtype=bool)
+    for f, (dx, dy, dz) in enumerate(FACE_NORMALS.astype(int)):
+        neighbour = padded[1 + dx:padded.shape[0] - 1 + dx, 1 + dy:padded.shape[1] - 1 + dy,
+                           1 + dz:padded.shape[2] - 1 + dz]
+        exposed[..., f] = occ & ~neighbour
+    exposed = exposed.reshape(-1, 6)
+    # the distance transforms below take seconds on a large grid: kept in the content-addressed cache, under the
+    # occupancy, the grid's placement and resolution and the planar flag (pliant.cache; docs/architecture.md)
+    tables = cached_arrays("kinematic-contact", TABLES_VERSION, inputs,
+                           lambda: _tables(grid, occ, exposed, planar))
+    # voxels with no exposed face: the SDF's normal and depth at their centre
+    deep_normal = np.zeros((occ.size, 3))
+    deep_depth = np.zeros(occ.size)
+    deep = tables["deep"].astype(np.int64)
+    deep_normal[deep] = tables["deep_normal"]
+    deep_depth[deep] = tables["deep_depth"]
+    arrays = {"occupied_flat": np.append(occ.reshape(-1), True), "exposed": exposed,
+              "free_clearance": tables["free_clearance"], "deep_normal": deep_normal, "deep_depth": deep_depth}
+    for a in arrays.values():
+        a.flags.writeable = False                   # shared by every model of this occupancy
+    return arrays
 
 
 def _tables(grid: VoxelGrid, occ: np.ndarray, exposed: np.ndarray, planar: bool) -> dict[str, np.ndarray]:

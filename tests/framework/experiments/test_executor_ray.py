@@ -60,17 +60,20 @@ def _connected(address: str, cpus: float) -> RayExecutor:
     return executor
 
 
-def test_the_pliant_command_runs_a_reproduction_on_the_cluster(cluster, tmp_path, capsys):
-    """``pliant reproduce table-3.1 --ci --executor ray --address ...``: the command-line path end to end."""
+def test_the_pliant_command_runs_an_experiment_on_the_cluster(cluster, tmp_path, capsys):
+    """``pliant experiment metric-tables se2-through-passage --quick --runs 1 --methods simulation --executor ray
+    --address ...``: the command-line path end to end (every experiment and reproduction takes ``--executor`` from
+    the same place, :func:`pliant.cli.main`); 9 cells of 300 simulations, a few seconds."""
     from pliant.cli import main
 
     RayExecutor(cluster.address).wait_for_cpus(2)
     ray.shutdown()
-    assert main(["experiment", "table-3.1", "--ci", "--output", str(tmp_path), "--executor", "ray",
-                 "--address", cluster.address]) == 0
+    assert main(["experiment", "metric-tables", TASK, "--quick", "--runs", "1", "--methods", "simulation",
+                 "--output", str(tmp_path), "--executor", "ray", "--address", cluster.address]) == 0
     out = capsys.readouterr().out
-    assert out.count("[node ") == 4 and "report:" in out                  # four runs, each naming its Ray node
-    assert (tmp_path / "table-3.1" / "ci" / "benchmark.db").exists()
+    assert out.count("[node ") == 9 and "written:" in out                  # nine cells, each naming its Ray node
+    records = read_jsonl(tmp_path / "metric-tables-quick" / "runs.jsonl")[0]
+    assert sorted(r["cell"] for r in records) == list(range(9))
 
 
 def test_a_stop_condition_cancels_the_tasks_left_on_the_cluster(cluster, tmp_path):

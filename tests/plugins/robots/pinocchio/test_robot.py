@@ -297,6 +297,40 @@ def test_selected_points_are_remembered_by_value_and_equal_fresh_ones(iiwa):
         iiwa.body_points(q, [iiwa.point_count()])
 
 
+def test_a_urdf_is_parsed_once_per_process_and_every_robot_gets_its_own_models(monkeypatch):
+    """The second iiwa parses nothing and samples nothing, yet equals a robot built from scratch; placing one
+    robot's base (arm-reach: 0.45 m up, 0.2 m right) moves no other."""
+    from pliant_pinocchio import robot as module
+
+    parses, samples = [], []
+    parse, sample = pin.buildModelFromUrdf, module.PinocchioRobot._sample_geometries
+    monkeypatch.setattr(module.pin, "buildModelFromUrdf", lambda *a: parses.append(a) or parse(*a))
+    monkeypatch.setattr(module.PinocchioRobot, "_sample_geometries",
+                        lambda self, *a: samples.append(a) or sample(self, *a))
+    module._parsed.clear()
+    module._sampled.clear()
+    q = np.random.default_rng(3).uniform(-1.0, 1.0, (4, 7))
+    fresh = registry.create("robot", "pinocchio", Context(scene=load_scene("iiwa-shelf")))
+    points, jacobians = fresh.body_points(q), fresh.point_jacobians(q)
+    placed = registry.create("robot", "pinocchio", Context(scene=load_scene("arm-reach")), model="iiwa")
+    again = registry.create("robot", "pinocchio", Context(scene=load_scene("iiwa-shelf")))
+    assert len(parses) == 1 and len(samples) == 1
+    assert again.model is not fresh.model and again.geometry is not fresh.geometry
+    np.testing.assert_array_equal(again.local_points, fresh.local_points)
+    np.testing.assert_array_equal(again.body_points(q), points)
+    np.testing.assert_array_equal(again.point_jacobians(q), jacobians)
+    np.testing.assert_array_equal(fresh.body_points(q), points)             # unmoved by the placed one
+    np.testing.assert_allclose(placed.body_points(q), points + [0.0, -0.2, 0.45], atol=1e-12)
+    assert len(again.geometry.collisionPairs) == len(fresh.geometry.collisionPairs)
+    np.testing.assert_array_equal(again.collisions(q), fresh.collisions(q))
+    # another spacing is another sampling; the memory is bounded
+    registry.create("robot", "pinocchio", Context(scene=load_scene("iiwa-shelf")), resolution=0.07)
+    assert len(samples) == 2
+    for k in range(module.PARSED_KEPT + 2):
+        _robot("iiwa", resolution=0.05 + 0.001 * k)
+    assert len(module._parsed) <= module.PARSED_KEPT and len(module._sampled) <= module.PARSED_KEPT
+
+
 def test_iiwa_velocity_limits_are_the_published_ones(iiwa):
     assert np.allclose(iiwa.velocity_limits, np.radians([98, 98, 100, 130, 140, 180, 180]))
     assert np.allclose(iiwa.acceleration_limits, 4.0 * iiwa.velocity_limits)

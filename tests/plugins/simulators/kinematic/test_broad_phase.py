@@ -30,7 +30,9 @@ def _without_broad_phase(sim) -> None:
     point is looked up every pass."""
     k = len(sim.surface_local)
     sim._segments = (np.array([0, k], dtype=np.int64), np.zeros((1, 3)), np.array([np.inf]))
-    sim.contact.free_clearance = np.minimum(sim.contact.free_clearance, 0)
+    bound = np.minimum(sim.contact.free_clearance, 0)
+    bound.flags.writeable = False           # read-only, as the model's own (one compiled signature for both)
+    sim.contact.free_clearance = bound
 
 
 @pytest.mark.parametrize("scene", list(CASES))
