@@ -275,6 +275,16 @@ class SE2Space(_RigidMotionSpace):
     def distance(self, a, b):
         a = np.asarray(a, dtype=np.float64)
         b = np.asarray(b, dtype=np.float64)
+        if a.ndim in (1, 2) and b.ndim in (1, 2) and a.shape[-1] == 3 == b.shape[-1]:
+            a2, b2 = a.reshape(-1, 3), b.reshape(-1, 3)
+            n = max(len(a2), len(b2))
+            if len(a2) in (1, n) and len(b2) in (1, n):        # one against many, or pairs: compiled, same bits
+                from pliant.geometry import space_kernels  # numba: loaded on the first distance, not at import
+
+                out = np.empty(n)
+                space_kernels.se2_distances(np.ascontiguousarray(a2), np.ascontiguousarray(b2),
+                                            self.translation_weight ** 2, float(self.rotation_weight), out)
+                return out[0] if a.ndim == 1 and b.ndim == 1 else out
         dxy = a[..., :2] - b[..., :2]
         dth = wrap_angle(a[..., 2] - b[..., 2])
         return np.sqrt(self.translation_weight ** 2 * np.sum(dxy * dxy, axis=-1)

@@ -46,9 +46,12 @@ class RosDriverOptions(DriverOptions):
 
     master_uri: str = option(None, "ROS master URI (default: $ROS_MASTER_URI, else http://127.0.0.1:11311)",
                              default_factory=default_master_uri)
-    master_timeout: float = option(0.5, "seconds the ROS master may take to answer one check; three checks in a row "
-                                   "without an answer (when connecting or watching), or a refused connection, and "
-                                   "the master is lost", minimum=0.01, maximum=60.0)
+    master_timeout: float = option(0.5, "seconds the ROS master may take to answer one check; connecting, three "
+                                   "checks without an answer or a refused connection and the master is lost",
+                                   minimum=0.01, maximum=60.0)
+    master_grace: float = option(3.0, "seconds a connected ROS master may stay silent (three checks at least) "
+                                 "before it is lost; a refused connection is lost at once", minimum=0.0,
+                                 maximum=600.0)
     master_check_period: float = option(0.1, "seconds between two checks of the ROS master while connected",
                                         minimum=0.01, maximum=10.0)
 
@@ -104,7 +107,8 @@ class RosDriver(Driver):
         ensure_node(o.master_uri, timeout=o.master_timeout, attempts=MASTER_PATIENCE)
         self._state, self._count = None, 0
         try:
-            self._watch = MasterWatch(o.master_uri, o.master_check_period, o.master_timeout).start()
+            self._watch = MasterWatch(o.master_uri, o.master_check_period, o.master_timeout,
+                                      grace=o.master_grace).start()
             self._connect()
             self._command_pub = self._command_publisher()
             if not wait_for(lambda: self._command_pub.get_num_connections() > 0, o.connect_timeout):

@@ -45,6 +45,9 @@ class _TimeoutTransport(xmlrpc.client.Transport):
 
 #: checks of the master in a row without an answer before it is lost (connecting and watching alike)
 MASTER_PATIENCE = 3
+#: seconds a connected master may stay silent before it is lost (besides MASTER_PATIENCE checks): a loaded
+#: machine once kept a live master from answering three checks of 0.5 s in a row (1.8 s) during a test
+MASTER_GRACE = 3.0
 
 
 def normalise(uri: str) -> str:
@@ -153,14 +156,17 @@ class MasterWatch:
 
     A refused connection means the master's port is closed: gone at once.  A master that is merely slow (a loaded
     machine, a congested link) is gone only after ``patience`` consecutive checks without an answer within
-    ``timeout`` s each.  A different pid means it restarted.
+    ``timeout`` s each that span at least ``grace`` s from the first unanswered one.  A different pid means it
+    restarted.
     """
 
-    def __init__(self, uri: str, period: float = 0.1, timeout: float = 0.5, patience: int = MASTER_PATIENCE) -> None:
+    def __init__(self, uri: str, period: float = 0.1, timeout: float = 0.5, patience: int = MASTER_PATIENCE,
+                 grace: float = MASTER_GRACE) -> None:
         self.uri = normalise(uri)
         self.period = period
         self.timeout = timeout
         self.patience = patience
+        self.grace = grace
         self.error: str | None = None
         self.pid: int | None = None
         self._stop = threading.Event()
@@ -178,14 +184,20 @@ class MasterWatch:
             self._thread.join(timeout=self.timeout + 1.0)
 
     def _run(self) -> None:
-        silent = 0
+        silent, since = 0, 0.0
         while not self._stop.wait(self.period):
+            asked = time.monotonic()
             try:
                 pid = check_master(self.uri, self.timeout)
             except ConnectionLost as exc:
                 silent += 1
-                if "connection refused" in exc.message or silent >= self.patience:
-                    self.error = exc.message.replace(" unreachable ", " stopped answering ")
+                since = since if silent > 1 else asked
+                if "connection refused" in exc.message or (
+                        silent >= self.patience and time.monotonic() - since >= self.grace):
+                    reason = exc.message.replace(" unreachable ", " stopped answering ")
+                    if silent > 1 and reason.endswith(")"):
+                        reason = f"{reason[:-1]}; silent for {time.monotonic() - since:.1f} s)"
+                    self.error = reason
                     return
                 continue
             silent = 0
