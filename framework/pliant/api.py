@@ -109,6 +109,7 @@ _NAMES: dict[str, tuple[str, str]] = {
     "FREE_VOXEL": ("pliant.geometry.voxelgrid", "FREE"),
     "load_scene": ("pliant.scene", "load_scene"),
     "matrix_to_quat": ("pliant.geometry.rotations", "matrix_to_quat"),
+    "point_runs": ("pliant.geometry.broad_phase", "point_runs"),
     "PunctureChecker": ("pliant.geometry.topology", "PunctureChecker"),
     "quat_angle": ("pliant.geometry.rotations", "quat_angle"),
     "quat_conjugate": ("pliant.geometry.rotations", "quat_conjugate"),

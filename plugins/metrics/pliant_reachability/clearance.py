@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from pliant.api import RobotModel, VoxelGrid
+from pliant.api import RobotModel, VoxelGrid, point_runs
 
 #: configurations per chunk on the articulated path (bounds memory: chunk x points x 3 floats)
 CHUNK = 256
@@ -22,37 +22,90 @@ CHUNK = 256
 THREADED = 1024
 
 
+#: the broad phase: runs of at most this many consecutive surface points ...
+SEGMENT_POINTS = 32
+#: ... within this many voxels of their bounding box's centre
+SEGMENT_RADIUS = 3.0
+#: voxels: the signed distances at two voxel centres differ by at most the centres' distance plus (sqrt(3) - 1) h
+#: (both 1-Lipschitz distance fields meet within sqrt(3)/2 h of a centre where the sign changes), and a point lies
+#: within sqrt(3)/2 h of its voxel's centre, so every point of a segment has at least ``sdf(centre's voxel) -
+#: radius - SLACK h``; the 1e-6 covers the rounding of the placements
+SLACK = 2.0 * np.sqrt(3.0) - 1.0 + 1e-6
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _placed(rot, trans, i, x, y, z):  # pragma: no cover - numba
+    """The body-frame point ``(x, y, z)`` placed by configuration ``i``'s rotation and translation."""
+    return (rot[i, 0, 0] * x + rot[i, 0, 1] * y + rot[i, 0, 2] * z + trans[i, 0],
+            rot[i, 1, 0] * x + rot[i, 1, 1] * y + rot[i, 1, 2] * z + trans[i, 1],
+            rot[i, 2, 0] * x + rot[i, 2, 1] * y + rot[i, 2, 2] * z + trans[i, 2])
+
+
 @numba.njit(cache=True, nogil=True)
-def _rigid_clearance(rot, trans, local, sdf, occupied, shape, lower, resolution):  # pragma: no cover - numba
+def _rigid_clearance(rot, trans, local, sdf, occupied, shape, lower, resolution, starts, centres, extents,
+                     radii):  # pragma: no cover - numba
+    """Per configuration ``(rot[i], trans[i])``: the smallest signed distance over the surface points ``local``
+    (``-inf`` at the first point off the grid), the index of the first point that has it, and whether a point is in
+    an occupied voxel or off the grid.
+
+    Broad phase (the results are the same, bit for bit, without it): once a smallest distance ``best`` is known, a
+    segment of points (``starts`` / ``centres`` / ``extents`` / ``radii``, ``pliant.api.point_runs``) whose box lies
+    inside the grid and whose lower bound ``sdf(centre's voxel) - radius - SLACK h`` is positive and at least
+    ``best`` is skipped: none of its points is off the grid, in an occupied voxel (their distance is negative), or
+    below ``best`` (only a point strictly below it changes the result)."""
     n = rot.shape[0]
-    m = local.shape[0]
     clearance = np.empty(n)
     closest = np.empty(n, dtype=np.int64)
     colliding = np.zeros(n, dtype=np.bool_)
     nx, ny, nz = shape[0], shape[1], shape[2]
+    margin = 1e-6 * resolution
+    upper0, upper1, upper2 = (lower[0] + nx * resolution - margin, lower[1] + ny * resolution - margin,
+                              lower[2] + nz * resolution - margin)
+    lower0, lower1, lower2 = lower[0] + margin, lower[1] + margin, lower[2] + margin
+    slack = SLACK * resolution
     for i in range(n):
         best = np.inf
         arg = 0
         hit = False
-        for j in range(m):
-            p0 = rot[i, 0, 0] * local[j, 0] + rot[i, 0, 1] * local[j, 1] + rot[i, 0, 2] * local[j, 2] + trans[i, 0]
-            p1 = rot[i, 1, 0] * local[j, 0] + rot[i, 1, 1] * local[j, 1] + rot[i, 1, 2] * local[j, 2] + trans[i, 1]
-            p2 = rot[i, 2, 0] * local[j, 0] + rot[i, 2, 1] * local[j, 1] + rot[i, 2, 2] * local[j, 2] + trans[i, 2]
-            a = int(np.floor((p0 - lower[0]) / resolution))
-            b = int(np.floor((p1 - lower[1]) / resolution))
-            c = int(np.floor((p2 - lower[2]) / resolution))
-            if a < 0 or b < 0 or c < 0 or a >= nx or b >= ny or c >= nz:
-                hit = True
-                best = -np.inf
-                arg = j
+        off = False
+        for s in range(starts.shape[0] - 1):
+            if best < np.inf:
+                c0, c1, c2 = _placed(rot, trans, i, centres[s, 0], centres[s, 1], centres[s, 2])
+                e0 = abs(rot[i, 0, 0]) * extents[s, 0] + abs(rot[i, 0, 1]) * extents[s, 1] \
+                    + abs(rot[i, 0, 2]) * extents[s, 2]
+                e1 = abs(rot[i, 1, 0]) * extents[s, 0] + abs(rot[i, 1, 1]) * extents[s, 1] \
+                    + abs(rot[i, 1, 2]) * extents[s, 2]
+                e2 = abs(rot[i, 2, 0]) * extents[s, 0] + abs(rot[i, 2, 1]) * extents[s, 1] \
+                    + abs(rot[i, 2, 2]) * extents[s, 2]
+                if (c0 - e0 >= lower0 and c1 - e1 >= lower1 and c2 - e2 >= lower2 and c0 + e0 <= upper0
+                        and c1 + e1 <= upper1 and c2 + e2 <= upper2):
+                    a = int(np.floor((c0 - lower[0]) / resolution))
+                    b = int(np.floor((c1 - lower[1]) / resolution))
+                    c = int(np.floor((c2 - lower[2]) / resolution))
+                    if 0 <= a < nx and 0 <= b < ny and 0 <= c < nz:
+                        bound = sdf[(a * ny + b) * nz + c] - radii[s] - slack
+                        if bound > 0.0 and bound >= best:
+                            continue
+            for j in range(starts[s], starts[s + 1]):
+                p0, p1, p2 = _placed(rot, trans, i, local[j, 0], local[j, 1], local[j, 2])
+                a = int(np.floor((p0 - lower[0]) / resolution))
+                b = int(np.floor((p1 - lower[1]) / resolution))
+                c = int(np.floor((p2 - lower[2]) / resolution))
+                if a < 0 or b < 0 or c < 0 or a >= nx or b >= ny or c >= nz:
+                    hit = True
+                    best = -np.inf
+                    arg = j
+                    off = True
+                    break
+                flat = (a * ny + b) * nz + c
+                if occupied[flat]:
+                    hit = True
+                d = sdf[flat]
+                if d < best:
+                    best = d
+                    arg = j
+            if off:
                 break
-            flat = (a * ny + b) * nz + c
-            if occupied[flat]:
-                hit = True
-            d = sdf[flat]
-            if d < best:
-                best = d
-                arg = j
         clearance[i] = best
         closest[i] = arg
         colliding[i] = hit
@@ -77,6 +130,9 @@ class Clearance:
         self.local = None if placement is None else np.ascontiguousarray(placement[2][self.surface])
         self.reach = None if self.local is None else \
             (float(np.max(np.linalg.norm(self.local, axis=1))) if len(self.local) else 0.0)
+        #: the rigid kernel's broad phase (``pliant.api.point_runs``)
+        self.segments = None if self.local is None else \
+            point_runs(self.local, SEGMENT_RADIUS * float(grid.resolution), SEGMENT_POINTS)
 
     def query(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For configurations ``(n, d)``: clearance ``(n,)`` (m; ``-inf`` outside the grid), the index into
@@ -99,8 +155,10 @@ class Clearance:
         return tuple(np.concatenate(parts) for parts in zip(*out))
 
     def _rigid(self, rot, trans):
+        starts, centres, extents, radii = self.segments
         return _rigid_clearance(np.ascontiguousarray(rot), np.ascontiguousarray(trans), self.local, self.sdf,
-                                self.occupied, self.shape, self.lower, float(self.grid.resolution))
+                                self.occupied, self.shape, self.lower, float(self.grid.resolution), starts, centres,
+                                extents, radii)
 
     def _articulated(self, q):
         points = self.robot.body_points(q, self.surface)

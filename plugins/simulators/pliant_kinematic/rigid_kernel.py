@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from pliant.api import point_runs
 
 KIND_R3, KIND_SE2, KIND_SE3 = 0, 1, 2
 SOLVE_LEAST_SQUARES, SOLVE_EFFORT = 0, 1
@@ -76,29 +77,12 @@ def point_segments(local: np.ndarray, max_radius: float, max_points: int = SEGME
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The broad phase's segments of a rigid body's surface points ``local`` ``(k, 3)`` (body frame, m): runs of
     consecutive points, each as long as its bounding box's half-diagonal stays within ``max_radius`` (m) and it has at
-    most ``max_points`` points.  Returns ``segments`` ``(s + 1,)`` (int64: the first point of each run, then ``k``),
-    ``centres`` ``(s, 3)`` (m: the runs' bounding-box centres) and ``radii`` ``(s,)`` (m: the farthest point of each
-    run from its centre).  The points keep their order, so the contacts a microstep finds come in the same order
-    as without segments (:func:`_accumulate`)."""
-    local = np.asarray(local, dtype=np.float64)
-    starts, centres, radii = [], [], []
-    i, k = 0, len(local)
-    while i < k:
-        lo = local[i].copy()
-        hi = local[i].copy()
-        j = i + 1
-        while j < k and j - i < max_points:
-            lo2, hi2 = np.minimum(lo, local[j]), np.maximum(hi, local[j])
-            if 0.5 * np.linalg.norm(hi2 - lo2) > max_radius:
-                break
-            lo, hi, j = lo2, hi2, j + 1
-        centre = 0.5 * (lo + hi)
-        starts.append(i)
-        centres.append(centre)
-        radii.append(float(np.max(np.linalg.norm(local[i:j] - centre, axis=1))))
-        i = j
-    return (np.array(starts + [k], dtype=np.int64), np.ascontiguousarray(np.array(centres).reshape(-1, 3)),
-            np.array(radii, dtype=np.float64))
+    most ``max_points`` points (``pliant.api.point_runs``).  Returns ``segments`` ``(s + 1,)`` (int64: the first point
+    of each run, then ``k``), ``centres`` ``(s, 3)`` (m: the runs' bounding-box centres) and ``radii`` ``(s,)`` (m: the
+    farthest point of each run from its centre).  The points keep their order, so the contacts a microstep finds come
+    in the same order as without segments (:func:`_accumulate`)."""
+    starts, centres, _, radii = point_runs(local, max_radius, max_points)
+    return starts, centres, radii
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
