@@ -58,7 +58,6 @@ MEMO_BYTES = 512 * 1024**2
 
 _KEY_ARRAY = "__pliant_cache_key__"
 _NAMES_ARRAY = "__pliant_cache_names__"
-_memo: OrderedDict[str, dict[str, np.ndarray]] = OrderedDict()
 _lock = threading.Lock()
 #: what happened to each request of this process: ``memo``, ``disk`` or ``built`` (tests and the benchmark read it)
 counts = {"memo": 0, "disk": 0, "built": 0}
@@ -286,10 +285,7 @@ def cached_arrays(kind: str, version: str, inputs: Any, build: Callable[[], Mapp
         counts["built"] += 1
         return dict(build())
     key = fingerprint(kind, version, inputs)
-    with _lock:
-        hit = _memo.get(key)
-        if hit is not None:
-            _memo.move_to_end(key)
+    hit = _memo.peek(key)
     if hit is not None:
         counts["memo"] += 1
         return _copy(hit)
@@ -314,15 +310,11 @@ def cached_arrays(kind: str, version: str, inputs: Any, build: Callable[[], Mapp
             if a.dtype.hasobject:
                 raise TypeError(f"cached array {name!r} holds Python objects")
         _write(path, key, arrays)
-    with _lock:
-        _memo[key] = arrays
-        while len(_memo) > 1 and (len(_memo) > MEMO_ENTRIES or _memo_bytes() > MEMO_BYTES):
-            _memo.popitem(last=False)
+    _memo.put(key, arrays)
     return _copy(arrays)
 
 
-def _memo_bytes() -> int:
-    return sum(a.nbytes for arrays in _memo.values() for a in arrays.values())
+_process_memos: list[weakref.ref] = []       # every ProcessMemo of this process, for forget()
 
 
 class ProcessMemo:
@@ -349,17 +341,29 @@ class ProcessMemo:
         """The result for ``key``: remembered, or ``build()`` (then remembered)."""
         if not enabled():
             return build()
+        value = self.peek(key)
+        if value is None:
+            value = build()
+            self.put(key, value)
+        return value
+
+    def peek(self, key: Any) -> Any:
+        """The result remembered for ``key`` (now the most recently used), or None."""
         with self._lock:
-            if key in self._items:
-                self._items.move_to_end(key)
-                return self._items[key]
-        value = build()
+            if key not in self._items:
+                return None
+            self._items.move_to_end(key)
+            return self._items[key]
+
+    def put(self, key: Any, value: Any) -> None:
+        """Remember ``value`` for ``key``, then drop the least recently used results beyond the bounds (never the
+        newest)."""
         with self._lock:
             self._items[key] = value
+            self._items.move_to_end(key)
             while len(self._items) > 1 and (len(self._items) > self.entries or (
                     self.max_bytes is not None and self.nbytes() > self.max_bytes)):
                 self._items.popitem(last=False)
-        return value
 
     def nbytes(self) -> int:
         """Bytes of the numpy arrays held."""
@@ -380,13 +384,13 @@ class ProcessMemo:
         return len(self._items)
 
 
-_process_memos: list[weakref.ref] = []
+#: this process's memo of the results :func:`cached_arrays` built (one :class:`ProcessMemo` among those registered)
+_memo = ProcessMemo(MEMO_ENTRIES, MEMO_BYTES)
 
 
 def forget() -> None:
     """Empty this process's memo and every :class:`ProcessMemo` (the files stay)."""
     with _lock:
-        _memo.clear()
         memos = [ref() for ref in _process_memos]
         _process_memos[:] = [ref for ref, memo in zip(_process_memos, memos) if memo is not None]
     for memo in memos:

@@ -279,11 +279,11 @@ def test_the_validity_checkers_far_clearance_equals_a_fresh_build(cache_dir, sce
 
 
 def test_the_memo_is_bounded(cache_dir, monkeypatch):
-    monkeypatch.setattr(cache, "MEMO_BYTES", 3000)
+    monkeypatch.setattr(cache._memo, "max_bytes", 3000)
     for i in range(5):
         cache.cached_arrays("test", "v1", i, lambda: {"a": np.zeros(100)})     # 800 bytes each
     assert len(cache._memo) == 3
-    monkeypatch.setattr(cache, "MEMO_BYTES", 10)
+    monkeypatch.setattr(cache._memo, "max_bytes", 10)
     cache.cached_arrays("test", "v1", 99, lambda: {"a": np.zeros(100)})
     assert len(cache._memo) == 1                       # the newest stays, however large
 
