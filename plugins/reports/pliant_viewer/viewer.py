@@ -318,7 +318,8 @@ class Viewer:
         self.view: ViewContent | None = None
         self.robot_drawing: RobotDrawing | None = None
         self.slider = None
-        self.slider_moves = 0                   # how many times the slider's value arrived from the page
+        self.slider_moves = 0                   # slider moves from the page that have been drawn
+        self._slider_lock = threading.Lock()
         self._live: list[np.ndarray] = []
         self.live_steps = 0
         self.live_rate = live_rate              # live updates a second at most (:meth:`flush_live`)
@@ -567,9 +568,13 @@ class Viewer:
         self._now.position = self.view.timeline_xyz[i]
 
     def _on_slider(self, event) -> None:
-        if event.client is not None:
-            self.slider_moves += 1
-        self.set_time(float(event.target.value))
+        # viser runs update callbacks on a thread pool after it has stored the new value: two quick moves may run
+        # at once, so each draws the slider's value as it is when it holds the lock -- the last one drawn is the
+        # last value -- and a move counts once it is drawn
+        with self._slider_lock:
+            self.set_time(float(self.slider.value))
+            if event.client is not None:
+                self.slider_moves += 1
 
     def _on_play(self, event) -> None:
         if not event.target.value:
