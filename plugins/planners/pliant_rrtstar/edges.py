@@ -69,12 +69,13 @@ def state_costs(problem: PlanningProblem, q: np.ndarray) -> np.ndarray:
 
 def evaluate_edges(problem: PlanningProblem, starts: np.ndarray, ends: np.ndarray, step: float,
                    length_weight: float = 0.0, max_cost: float = np.inf,
-                   motions: np.ndarray | None = None) -> Edges:
+                   motions: np.ndarray | None = None, check_motions: bool = True) -> Edges:
     """Discretise the edges ``starts[i] -> ends[i]`` (``(m, d)`` each) at ``step`` and evaluate them in one batch.
 
-    ``motions`` ``(m,)``: the verdicts of the same motions already checked the other way (``ends[i] -> starts[i]``:
-    RRT* checks each near node's edge to the new node when choosing the parent, then the reverse edge when
-    rewiring); a motion is collision-free in either direction or in neither, so they are not checked again."""
+    ``motions`` ``(m,)``: the verdicts of the same motions already checked the other way (``ends[i] -> starts[i]``);
+    a motion is collision-free in either direction or in neither, so they are not checked again.
+    ``check_motions=False`` leaves the motions unchecked: ``valid`` (and a finite ``cost``) then says only that
+    every state passes, and the caller checks the motions it needs (:meth:`PlanningProblem.motions_valid`)."""
     space = problem.space
     starts, ends = np.broadcast_arrays(np.atleast_2d(starts), np.atleast_2d(ends))
     length = np.atleast_1d(np.asarray(space.distance(starts, ends), dtype=np.float64))
@@ -95,6 +96,6 @@ def evaluate_edges(problem: PlanningProblem, starts: np.ndarray, ends: np.ndarra
     valid = np.logical_and.reduceat(ok, offsets[:-1])
     if motions is not None:
         valid &= np.asarray(motions, dtype=bool)
-    elif valid.any():                                     # the motions themselves, at voxel resolution
+    elif check_motions and valid.any():                   # the motions themselves, at voxel resolution
         valid[valid] = problem.motions_valid(starts[valid], ends[valid])
     return Edges(states, offsets, costs, np.where(valid, cost, np.inf), valid, length)

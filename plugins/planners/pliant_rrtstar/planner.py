@@ -49,6 +49,10 @@ from pliant_rrtstar.edges import evaluate_edges, state_costs, state_validity
 from pliant_rrtstar.goal import TaskSpaceGoal
 from pliant_rrtstar.radius import near_radius, rrt_star_gamma
 
+#: an edge's verdict while a node is added: its motion not checked yet, checked and collision-free, or invalid (a
+#: state of the edge or its motion)
+UNCHECKED, VALID, INVALID = 0, 1, -1
+
 
 @dataclass(frozen=True)
 class RRTStarOptions:
@@ -109,10 +113,10 @@ class RRTStarPlanner(Planner):
     Statistics: ``iterations``, ``nodes``, ``time``, ``time_to_first`` (s), ``cost_history``
     (``[[t, best cost], ...]``, strictly decreasing), ``rewires``, ``rewires_refused`` (by puncture
     or cut), ``punctures_refused`` (extensions and rewirings refused by puncture or cut),
-    ``invalid_edges``, ``gamma``, ``radius`` (final), ``goal_states`` (sampled for a task-space
-    target), ``solutions`` (nodes in the goal), ``puncture_check``, ``final_check_refused`` (solutions whose
-    whole path failed the final puncture check; 0 when the per-edge checks and the whole path agree),
-    ``interrupted``.
+    ``invalid_edges`` (found invalid: motions are checked lazily), ``gamma``, ``radius`` (final),
+    ``goal_states`` (sampled for a task-space target), ``solutions`` (nodes in the goal), ``puncture_check``,
+    ``final_check_refused`` (solutions whose whole path failed the final puncture check; 0 when the per-edge checks
+    and the whole path agree), ``interrupted``.
     """
 
     SPECS = PlannerSpecs(anytime=True, work_unit="samples (one tree extension attempt each)")
@@ -279,14 +283,23 @@ class RRTStarPlanner(Planner):
             near = candidates[inside][np.argsort(d_new[inside], kind="stable")]
         if nearest not in near:
             near = np.append(near, nearest)
+        # the motions are checked lazily: only those of the candidates tried as the parent, cheapest first, and
+        # later those rewiring needs -- the same parent and rewires as checking every motion first
         edges = evaluate_edges(problem, tree.configurations[near], q_new, self.check_step, o.length_weight,
-                               o.max_cost)
-        self.stats["invalid_edges"] += int(np.count_nonzero(~edges.valid))
+                               o.max_cost, check_motions=False)
+        verdicts = np.where(edges.valid, UNCHECKED, INVALID).astype(np.int8)
         totals = tree.path_costs[near] + edges.cost
+        order = np.argsort(totals, kind="stable")
+        order = order[np.isfinite(totals[order])]
         parent, topology = -1, None
-        for i in np.argsort(totals, kind="stable"):
-            if not np.isfinite(totals[i]):
-                break
+        for rank, i in enumerate(order):
+            if verdicts[i] == UNCHECKED:       # this candidate's motion, with as many after it as were tried before
+                batch = order[rank:rank + max(1, rank)]
+                batch = batch[verdicts[batch] == UNCHECKED]
+                verdicts[batch] = np.where(problem.motions_valid(tree.configurations[near[batch]], q_new),
+                                           VALID, INVALID)
+            if verdicts[i] == INVALID:
+                continue
             if self.punctures is not None:
                 swept = self.punctures.sweep(edges.of(i), start=tree.configurations[near[i]])
                 topology, ok, _ = self.punctures.extend_swept(self.topology[near[i]], swept)
@@ -296,31 +309,44 @@ class RRTStarPlanner(Planner):
             parent = int(near[i])
             break
         if parent < 0:
+            self.stats["invalid_edges"] += int(np.count_nonzero(verdicts == INVALID))
             return -1
         node = tree.add(q_new, parent, float(c_new[0]), float(totals[i]))
         if self.topology is not None:
             self.topology.append(topology)
             self.swept.append(swept)
         others = near != parent
-        self._rewire(node, near[others], edges.valid[others])
+        self._rewire(node, near[others], verdicts[others])
+        self.stats["invalid_edges"] += int(np.count_nonzero(verdicts == INVALID))
         return node
 
     # --- rewiring ----------------------------------------------------------------------------------
 
-    def _rewire(self, node: int, near: np.ndarray, motions: np.ndarray) -> None:
+    def _rewire(self, node: int, near: np.ndarray, verdicts: np.ndarray) -> None:
         """Re-parent each of ``near`` under ``node`` when that makes its path cheaper (and valid, and no puncture).
 
-        ``motions``: whether each near node's edge to ``node`` was valid when the parent was chosen; a motion is
-        valid both ways or neither, so the reverse edges' motions are not checked again."""
+        ``verdicts`` (int8, updated in place): each near node's edge to ``node`` as the parent choice left it --
+        ``INVALID`` (a state or the motion), ``VALID`` (the motion checked) or ``UNCHECKED``.  A motion is valid
+        both ways or neither, so the rewiring edge ``node -> near`` takes that edge's motion verdict; the unchecked
+        ones are checked (that way round, as the parent choice would have) for the near nodes the new edge would
+        make cheaper, and only for those: a node's cost only drops while rewiring, so no other can come to need
+        one."""
         if len(near) == 0:
             return
         o, tree = self.options, self.tree
         q_node = tree.configurations[node]
         edges = evaluate_edges(self.problem, q_node, tree.configurations[near], self.check_step, o.length_weight,
-                               o.max_cost, motions=motions)
+                               o.max_cost, check_motions=False)
         ancestors = set(tree.branch(node).tolist())
-        for i in np.argsort(edges.cost, kind="stable"):
-            if not edges.valid[i]:
+        valid = edges.valid & (verdicts != INVALID)
+        need = valid & (verdicts == UNCHECKED) & (tree.path_costs[node] + edges.cost < tree.path_costs[near])
+        need &= ~np.isin(near, list(ancestors))
+        if need.any():
+            verdicts[need] = np.where(self.problem.motions_valid(tree.configurations[near[need]], q_node),
+                                      VALID, INVALID)
+            valid &= verdicts != INVALID
+        for i in np.argsort(np.where(valid, edges.cost, np.inf), kind="stable"):
+            if not valid[i]:
                 continue
             x = int(near[i])
             new_cost = float(tree.path_costs[node] + edges.cost[i])
