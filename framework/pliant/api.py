@@ -110,6 +110,7 @@ _NAMES: dict[str, tuple[str, str]] = {
     "load_scene": ("pliant.scene", "load_scene"),
     "matrix_to_quat": ("pliant.geometry.rotations", "matrix_to_quat"),
     "point_runs": ("pliant.geometry.broad_phase", "point_runs"),
+    "spatial_order": ("pliant.geometry.broad_phase", "spatial_order"),
     "PunctureChecker": ("pliant.geometry.topology", "PunctureChecker"),
     "quat_angle": ("pliant.geometry.rotations", "quat_angle"),
     "quat_conjugate": ("pliant.geometry.rotations", "quat_conjugate"),

@@ -1,6 +1,6 @@
 """Runs of a body's points for a broad phase: consecutive points grouped under a bounding box and a radius, so a
 kernel can skip a whole run that cannot touch anything (the kinematic simulator's contacts, the reachable-volume
-metric's clearance queries)."""
+metric's clearance queries); and an order of the points that makes the runs long."""
 
 from __future__ import annotations
 
@@ -32,3 +32,18 @@ def point_runs(local: np.ndarray, max_radius: float, max_points: int
         i = j
     return (np.array(starts + [k], dtype=np.int64), np.ascontiguousarray(np.array(centres).reshape(-1, 3)),
             np.ascontiguousarray(np.array(extents).reshape(-1, 3)), np.array(radii, dtype=np.float64))
+
+
+def spatial_order(points: np.ndarray, radius: float) -> np.ndarray:
+    """A permutation ``(k,)`` (int64) of ``points`` ``(k, 3)`` (m) that keeps near points together: by cubic cells
+    whose half-diagonal is ``radius`` (m), cell after cell in lexicographic order, and within a cell in the points'
+    own order -- so that runs of consecutive points (:func:`point_runs` with that radius) are long.  A body's points
+    in lattice order jump about the body (a box's surface: from one end of a column to the other), which leaves runs
+    of two or three points; a kernel that walks the points in this order and needs results in their own order maps
+    them back through the permutation."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(points) == 0:
+        return np.zeros(0, dtype=np.int64)
+    cell = 2.0 * radius / np.sqrt(3.0)
+    key = np.floor((points - points.min(axis=0)) / cell).astype(np.int64)
+    return np.lexsort((np.arange(len(points)), key[:, 2], key[:, 1], key[:, 0])).astype(np.int64)

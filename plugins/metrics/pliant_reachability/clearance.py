@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from pliant.api import RobotModel, VoxelGrid, point_runs
+from pliant.api import RobotModel, VoxelGrid, point_runs, spatial_order
 
 #: configurations per chunk on the articulated path (bounds memory: chunk x points x 3 floats)
 CHUNK = 256
@@ -123,18 +123,6 @@ def _rigid_clearance(rot, trans, local, index, sdf, occupied, shape, lower, reso
         closest[i] = arg
         colliding[i] = hit
     return clearance, closest, colliding
-
-
-def spatial_order(points: np.ndarray, radius: float) -> np.ndarray:
-    """A permutation ``(k,)`` (int64) of ``points`` ``(k, 3)`` (m) that keeps near points together: by cubic cells
-    whose half-diagonal is ``radius`` (m), cell after cell in lexicographic order, and within a cell in the points'
-    own order -- so that runs of consecutive points (:func:`pliant.api.point_runs` with that radius) are long."""
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    if len(points) == 0:
-        return np.zeros(0, dtype=np.int64)
-    cell = 2.0 * radius / np.sqrt(3.0)
-    key = np.floor((points - points.min(axis=0)) / cell).astype(np.int64)
-    return np.lexsort((np.arange(len(points)), key[:, 2], key[:, 1], key[:, 0])).astype(np.int64)
 
 
 class Clearance:

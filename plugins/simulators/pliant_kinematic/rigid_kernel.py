@@ -69,6 +69,8 @@ OUTER_ITERATIONS = 12
 SEGMENT_RADIUS = 4.0
 #: most points in one broad-phase segment
 SEGMENT_POINTS = 64
+#: at most this many contacts of one pass are put in the body's order by an insertion sort (more: numpy's sort)
+SORT_IN_PLACE = 64
 #: voxels: the broad phase's bounds are reduced by this much, far more than any rounding of a point's position
 BOUND_MARGIN = 1e-6
 
@@ -335,13 +337,19 @@ def _segment_clearance(r_, pos, centre, radius, lower, inv, nx, ny, nz, free_cle
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, exposed, deep_normal,
+def _accumulate(kind, r_, pos, local, faces, index, r0, pos0, lower, res, shape, exposed, deep_normal,
                 deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance, planar, segments, centres, radii,
-                readings, distance, reach, rows, pushes):
+                readings, distance, reach, rows, pushes, hit_index, hit_p, hit_nrm, hit_push, hit_order):
     """Normal equations of one body placed by ``r_`` (3, 3) / ``pos`` (3,); returns the colliding count.
 
     The colliding points' constraint rows ``J_i^T n_i`` and push-outs are written to ``rows`` (k, t)
     and ``pushes`` (k,) too, in the order of the body's points.
+
+    ``local`` / ``faces`` are the body's points in the order the kernel walks them (``pliant.api.spatial_order``,
+    which makes the segments below long) and ``index`` (k,) each one's place in the body's own order.  The
+    colliding points are gathered first (``hit_index`` / ``hit_p`` / ``hit_nrm`` / ``hit_push``, k each;
+    ``hit_order`` (k,) scratch for their order) and added in the body's order, so every sum is taken in the same
+    order, bit for bit, whatever order the points are walked.
 
     ``r0`` / ``pos0`` place the body before the microstep: a colliding point's motion is measured
     from there (computed only for colliding points).
@@ -367,7 +375,7 @@ def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, expose
     b0, b1, b2 = pos[0], pos[1], pos[2]
     lhs[:] = 0.0
     rhs[:] = 0.0
-    hits = 0
+    found = 0
     for s in range(segments.shape[0] - 1):
         reading = readings[s]
         if reading > reach:
@@ -414,7 +422,26 @@ def _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, expose
                 for c in range(3):
                     nrm[c] /= max(depth, 1e-300)
             distance[i] = reach
-            hits = _add_contact(kind, hits, p, pos, nrm, depth + clearance * res, lhs, rhs, rows, pushes)
+            hit_index[found] = index[i]
+            for c in range(3):
+                hit_p[found, c] = p[c]
+                hit_nrm[found, c] = nrm[c]
+            hit_push[found] = depth + clearance * res
+            found += 1
+    if found > SORT_IN_PLACE:
+        order = np.argsort(hit_index[:found])
+    else:                       # few contacts: an insertion sort of their slots, without allocating
+        order = hit_order[:found]
+        for j in range(found):
+            key = hit_index[j]
+            m = j
+            while m > 0 and hit_index[order[m - 1]] > key:
+                order[m] = order[m - 1]
+                m -= 1
+            order[m] = j
+    hits = 0
+    for j in order:
+        hits = _add_contact(kind, hits, hit_p[j], pos, hit_nrm[j], hit_push[j], lhs, rhs, rows, pushes)
     return hits
 
 
@@ -593,8 +620,8 @@ def _motion_bound(kind, delta, radius):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def fused_advance(kind, q, velocity, noise, sub_dt, max_halvings, local, faces, segments, centres, radii, lower, res,
-                  shape, exposed, deep_normal, deep_depth, free_clearance, planar, radius, clearance,
+def fused_advance(kind, q, velocity, noise, sub_dt, max_halvings, local, faces, index, segments, centres, radii, lower,
+                  res, shape, exposed, deep_normal, deep_depth, free_clearance, planar, radius, clearance,
                   max_corrections, damping, solver, group, weight, tol, out, touched):
     """One control step of every particle, microstep by microstep with RESOLVECOLLISIONS (thesis eq. 8.3-8.5), fully
     compiled.
@@ -608,7 +635,9 @@ def fused_advance(kind, q, velocity, noise, sub_dt, max_halvings, local, faces, 
     that still collides is reverted and the particle's ``scale`` halved (adaptive step scaling), to zero after
     ``max_halvings``.  Writes the final configurations to ``out`` (n, d) and to ``touched`` (n,) whether any
     correction was needed.  ``segments`` / ``centres`` / ``radii`` (the broad phase, :func:`_accumulate`) and
-    ``radius`` (m, the farthest point from the reference) only skip points that cannot collide.
+    ``radius`` (m, the farthest point from the reference) only skip points that cannot collide.  ``local`` /
+    ``faces`` are walked in a spatial order, ``index`` (k,) each point's place in the body's own order
+    (:func:`_accumulate`).
 
     Particles are independent, so they are advanced one after the other through all their microsteps: the broad
     phase's readings are per particle (length ``k``, not ``n x k``) and stay in cache.
@@ -633,6 +662,11 @@ def fused_advance(kind, q, velocity, noise, sub_dt, max_halvings, local, faces, 
     pushes = np.empty(local.shape[0])
     distance = np.empty(local.shape[0])
     readings = np.empty(segments.shape[0] - 1)
+    hit_index = np.empty(local.shape[0], dtype=np.int64)
+    hit_p = np.empty((local.shape[0], 3))
+    hit_nrm = np.empty((local.shape[0], 3))
+    hit_push = np.empty(local.shape[0])
+    hit_order = np.empty(local.shape[0], dtype=np.int64)
     dq = np.empty(t)
     for a in range(n):
         for c in range(d):
@@ -653,9 +687,10 @@ def fused_advance(kind, q, velocity, noise, sub_dt, max_halvings, local, faces, 
             reach = odometer + _motion_bound(kind, step, radius)
             for _ in range(max_corrections + 1):
                 _placement(kind, trial, r_, pos)
-                hits = _accumulate(kind, r_, pos, local, faces, r0, pos0, lower, res, shape, exposed,
+                hits = _accumulate(kind, r_, pos, local, faces, index, r0, pos0, lower, res, shape, exposed,
                                    deep_normal, deep_depth, clearance, lhs, rhs, p, motion, nrm, free_clearance,
-                                   planar, segments, centres, radii, readings, distance, reach, rows, pushes)
+                                   planar, segments, centres, radii, readings, distance, reach, rows, pushes,
+                                   hit_index, hit_p, hit_nrm, hit_push, hit_order)
                 if hits == 0:
                     converged = True
                     break

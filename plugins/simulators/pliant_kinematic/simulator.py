@@ -43,6 +43,7 @@ from pliant.api import (
     limit_velocity,
     option,
     report_ignored,
+    spatial_order,
 )
 
 from pliant_kinematic.contact import FACE_NORMALS, ContactModel
@@ -155,7 +156,12 @@ class KinematicSimulator(Simulator):
         if placement is not None:
             self.surface_local = np.ascontiguousarray(placement[2][self.surface])
             self.reach_radius = float(np.max(np.linalg.norm(self.surface_local, axis=1)))
-            self._segments = point_segments(self.surface_local, SEGMENT_RADIUS * self.grid.resolution)
+            # the compiled kernels walk the surface in a spatial order, so that their broad phase's runs are long
+            # (the peg's: 15 points instead of 3); the contact sums are still taken in the surface's own order
+            self._walk = spatial_order(self.surface_local, SEGMENT_RADIUS * self.grid.resolution)
+            self._walked_local = np.ascontiguousarray(self.surface_local[self._walk])
+            self._walked_faces = np.ascontiguousarray(self._face_bits[self._walk])
+            self._segments = point_segments(self._walked_local, SEGMENT_RADIUS * self.grid.resolution)
             # the start check's broad phase: a planar grid's clearance ignores its z faces, which an SE(2) body's
             # points (their height fixed in the body) never cross unless they lie outside the layer from the start
             k, z = len(self.surface_local), self.surface_local[:, 2]
@@ -268,7 +274,7 @@ class KinematicSimulator(Simulator):
         if self.placement_kind is not None:                 # a rigid body: the compiled test first, most are free
             c = self.contact
             suspect = np.empty(len(q), dtype=np.bool_)
-            placed_points_hit(self.placement_kind, np.ascontiguousarray(q), self.surface_local, *self._start_segments,
+            placed_points_hit(self.placement_kind, np.ascontiguousarray(q), self._walked_local, *self._start_segments,
                               c.free_clearance, c.lower, 1.0 / c.res, c._shape, c.occupied_flat, suspect)
             q = q[suspect]
         else:
@@ -448,7 +454,7 @@ class KinematicSimulator(Simulator):
         c = self.contact
         solver = SOLVE_EFFORT if self.options.solver == "effort" else SOLVE_LEAST_SQUARES
         fused_advance(self.kernel_kind, np.ascontiguousarray(q), np.ascontiguousarray(velocity), noise, sub_dt,
-                      self.options.max_halvings, self.surface_local, self._face_bits, *self._segments,
+                      self.options.max_halvings, self._walked_local, self._walked_faces, self._walk, *self._segments,
                       c.lower, c.res, c._shape, c.exposed, c.deep_normal, c.deep_depth, c.free_clearance,
                       c.planar, self.reach_radius, self.options.clearance, self.options.max_corrections,
                       self.options.damping, solver, self.effort_groups, self.effort_weights, self._effort_tol,

@@ -134,20 +134,3 @@ def test_the_broad_phase_changes_no_result_bit_for_bit(seed):
         checked += len(clearance.segments[0]) - 1
     assert checked > 4                                                      # both bodies have several segments
 
-
-@settings(max_examples=30)
-@given(st.integers(0, 2**32 - 1), st.integers(0, 300), st.floats(0.005, 0.2))
-def test_the_spatial_order_is_a_permutation_that_keeps_each_cell_together(seed, k, radius):
-    from pliant_reachability.clearance import spatial_order
-
-    points = np.random.default_rng(seed).uniform(-0.3, 0.3, (k, 3))
-    order = spatial_order(points, radius)
-    assert order.dtype == np.int64 and np.array_equal(np.sort(order), np.arange(k))
-    if k == 0:
-        return
-    cells = np.floor((points - points.min(axis=0)) / (2 * radius / np.sqrt(3))).astype(int)[order]
-    keys = [tuple(c) for c in cells]
-    assert keys == sorted(keys)                                  # cell after cell, so a cell's points are together
-    for key in set(keys):                                        # and within a cell, in the points' own order
-        inside = order[[i for i, c in enumerate(keys) if c == key]]
-        assert np.all(np.diff(inside) > 0)

@@ -1,5 +1,6 @@
-"""The fused kernel's broad phase only skips points that cannot collide: simulations with and without it are
-bit-identical, and the free-voxel clearance it relies on (planar grids included) is a lower bound."""
+"""The fused kernel's broad phase only skips points that cannot collide, and the spatial order it walks the points in
+changes no sum: simulations with both and with neither (every point, in the body's order) are bit-identical; the
+free-voxel clearance it relies on (planar grids included) is a lower bound."""
 
 from __future__ import annotations
 
@@ -27,8 +28,10 @@ def _simulator(scene: str):
 
 def _without_broad_phase(sim) -> None:
     """One segment of unbounded radius and zero clearance in every free voxel (occupied ones stay negative): every
-    point is looked up every pass."""
+    point is looked up every pass, in the body's own order (not the spatial order the broad phase walks)."""
     k = len(sim.surface_local)
+    sim._walk = np.arange(k, dtype=np.int64)
+    sim._walked_local, sim._walked_faces = sim.surface_local, sim._face_bits
     sim._segments = (np.array([0, k], dtype=np.int64), np.zeros((1, 3)), np.array([np.inf]))
     bound = np.minimum(sim.contact.free_clearance, 0)
     bound.flags.writeable = False           # read-only, as the model's own (one compiled signature for both)
