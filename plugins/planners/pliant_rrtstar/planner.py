@@ -316,8 +316,9 @@ class RRTStarPlanner(Planner):
             self.topology.append(topology)
             self.swept.append(swept)
         others = near != parent
-        self._rewire(node, near[others], verdicts[others])
-        self.stats["invalid_edges"] += int(np.count_nonzero(verdicts == INVALID))
+        rest = verdicts[others]                 # a copy: _rewire adds the verdicts it finds
+        self._rewire(node, near[others], rest)
+        self.stats["invalid_edges"] += int(np.count_nonzero(rest == INVALID))
         return node
 
     # --- rewiring ----------------------------------------------------------------------------------

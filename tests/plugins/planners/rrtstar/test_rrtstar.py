@@ -135,6 +135,7 @@ def test_lazy_motion_checks_give_the_tree_of_checking_every_motion_first(scene, 
     assert lazy.status == eager.status and np.array_equal([lazy.cost], [eager.cost], equal_nan=True)
     assert lazy.statistics["rewires"] == eager.statistics["rewires"] > 0
     assert lazy_checked < 0.5 * eager_checked
+    assert 0 < lazy.statistics["invalid_edges"] <= eager.statistics["invalid_edges"]     # those found: fewer looked at
     child = np.nonzero(tree.parents >= 0)[0]
     assert problem.motions_valid(tree.configurations[tree.parents[child]], tree.configurations[child]).all()
 
