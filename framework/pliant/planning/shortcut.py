@@ -49,10 +49,12 @@ def shortcut(problem: PlanningProblem, configurations: np.ndarray, rng: np.rando
         if j - i < 2:
             continue
         bridge = problem.space.discretize(dense[i], dense[j], step)
-        if not problem.is_valid(bridge[1:-1]).all() or not problem.motion_is_valid(dense[i], dense[j]):
+        if not problem.is_valid(bridge[1:-1]).all():
             continue
         bridge_segments = _segment_costs(problem, bridge, length_weight)
-        if not np.sum(bridge_segments) < np.sum(segments[i:j]) - 1e-12:
+        # the motion (the expensive check) only for a bridge that is cheaper: the same path as checking it first
+        if not np.sum(bridge_segments) < np.sum(segments[i:j]) - 1e-12 \
+                or not problem.motion_is_valid(dense[i], dense[j]):
             continue
         candidate = np.vstack([dense[: i + 1], bridge[1:-1], dense[j:]])
         if check is not None and not check(candidate):

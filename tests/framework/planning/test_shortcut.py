@@ -92,3 +92,46 @@ def test_perturbation_never_raises_the_cost_and_a_veto_keeps_the_path(cube_wall)
     assert cost == pytest.approx(cube_wall.path_cost(path, step), rel=1e-9)
     with pytest.raises(DimensionError, match="sigma"):
         perturb(cube_wall, path, np.random.default_rng(0), step=step, spacing=0.05, sigma=0.0)
+
+
+def test_motions_are_checked_only_for_cheaper_bridges_and_the_path_is_that_of_checking_them_first(problem, monkeypatch):
+    """The straight motion of a shortcut (the expensive check) is checked only once its bridge is found cheaper: the
+    same path, bit for bit, as checking every motion first (the loop as it was), with motions barred by their
+    midpoint alone so that the motion check decides some shortcuts."""
+    import dataclasses
+
+    from pliant.planning.shortcut import _segment_costs
+
+    checked = []
+
+    def barred(a, b):
+        checked.append(1)
+        return bool(np.floor((a[0] + b[0]) / 0.013) % 3 != 0)
+
+    barred_problem = dataclasses.replace(problem)
+    monkeypatch.setattr(barred_problem, "motion_is_valid", barred)
+    path, step = zigzag(problem, 15), problem.scene.resolution
+    dense, cost = shortcut(barred_problem, path, np.random.default_rng(4), step=step, iterations=300, length_weight=1.0)
+    lazy_checks, checked[:] = len(checked), []
+
+    rng = np.random.default_rng(4)                  # the loop as it was: every motion checked before the cost
+    ref = problem.densify(path, step)
+    segments = _segment_costs(problem, ref, 1.0)
+    rejected_by_motion = 0
+    for _ in range(300):
+        i, j = np.sort(rng.choice(len(ref), size=2, replace=False))
+        if j - i < 2:
+            continue
+        bridge = problem.space.discretize(ref[i], ref[j], step)
+        if not problem.is_valid(bridge[1:-1]).all():
+            continue
+        if not barred(ref[i], ref[j]):
+            rejected_by_motion += 1
+            continue
+        bridge_segments = _segment_costs(problem, bridge, 1.0)
+        if not np.sum(bridge_segments) < np.sum(segments[i:j]) - 1e-12:
+            continue
+        ref = np.vstack([ref[: i + 1], bridge[1:-1], ref[j:]])
+        segments = np.concatenate([segments[:i], bridge_segments, segments[j:]])
+    assert np.array_equal(dense, ref) and cost == float(np.sum(segments))
+    assert rejected_by_motion > 0 and lazy_checks < len(checked)
