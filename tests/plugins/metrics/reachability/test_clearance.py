@@ -133,4 +133,3 @@ def test_the_broad_phase_changes_no_result_bit_for_bit(seed):
         assert ours[2].any() and (~ours[2]).any()
         checked += len(clearance.segments[0]) - 1
     assert checked > 4                                                      # both bodies have several segments
-
