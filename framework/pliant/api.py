@@ -111,6 +111,7 @@ _NAMES: dict[str, tuple[str, str]] = {
     "matrix_to_quat": ("pliant.geometry.rotations", "matrix_to_quat"),
     "point_runs": ("pliant.geometry.broad_phase", "point_runs"),
     "spatial_order": ("pliant.geometry.broad_phase", "spatial_order"),
+    "spatial_runs": ("pliant.geometry.broad_phase", "spatial_runs"),
     "PunctureChecker": ("pliant.geometry.topology", "PunctureChecker"),
     "quat_angle": ("pliant.geometry.rotations", "quat_angle"),
     "quat_conjugate": ("pliant.geometry.rotations", "quat_conjugate"),

@@ -47,3 +47,12 @@ def spatial_order(points: np.ndarray, radius: float) -> np.ndarray:
     cell = 2.0 * radius / np.sqrt(3.0)
     key = np.floor((points - points.min(axis=0)) / cell).astype(np.int64)
     return np.lexsort((np.arange(len(points)), key[:, 2], key[:, 1], key[:, 0])).astype(np.int64)
+
+
+def spatial_runs(points: np.ndarray, max_radius: float, max_points: int
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`point_runs` of ``points`` ``(k, 3)`` taken in their :func:`spatial_order` (cells of half-diagonal
+    ``max_radius``): ``order`` ``(k,)`` (a kernel walks ``points[order]``; ``order[j]`` is the walked point's place in
+    ``points``), then the runs' ``starts``, ``centres``, ``extents`` and ``radii`` over the walked points."""
+    order = spatial_order(points, max_radius)
+    return (order, *point_runs(np.asarray(points, dtype=np.float64).reshape(-1, 3)[order], max_radius, max_points))

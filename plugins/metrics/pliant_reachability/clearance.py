@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from pliant.api import RobotModel, VoxelGrid, point_runs, spatial_order
+from pliant.api import RobotModel, VoxelGrid, spatial_runs
 
 #: configurations per chunk on the articulated path (bounds memory: chunk x points x 3 floats)
 CHUNK = 256
@@ -144,13 +144,14 @@ class Clearance:
         self.reach = None if self.local is None else \
             (float(np.max(np.linalg.norm(self.local, axis=1))) if len(self.local) else 0.0)
         #: the rigid kernel's broad phase: the surface in a spatial order (``order``: each point's place in
-        #: ``local``) and its runs (``pliant.api.point_runs``).  The surface's own order jumps about the body (the
+        #: ``local``) and its runs (``pliant.api.spatial_runs``).  The surface's own order jumps about the body (the
         #: peg's runs averaged 3 points); grouped by cells a run across, they average 15 on the peg and 13 on the
         #: L-block, and the kernel skips them whole.
-        self.order = None if self.local is None else spatial_order(self.local, SEGMENT_RADIUS * float(grid.resolution))
-        self._walked = None if self.local is None else np.ascontiguousarray(self.local[self.order])
-        self.segments = None if self.local is None else \
-            point_runs(self._walked, SEGMENT_RADIUS * float(grid.resolution), SEGMENT_POINTS)
+        self.order = self._walked = self.segments = None
+        if self.local is not None:
+            self.order, *runs = spatial_runs(self.local, SEGMENT_RADIUS * float(grid.resolution), SEGMENT_POINTS)
+            self._walked = np.ascontiguousarray(self.local[self.order])
+            self.segments = tuple(runs)
 
     def query(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For configurations ``(n, d)``: clearance ``(n,)`` (m; ``-inf`` outside the grid), the index into

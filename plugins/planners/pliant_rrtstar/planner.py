@@ -338,10 +338,11 @@ class RRTStarPlanner(Planner):
         q_node = tree.configurations[node]
         edges = evaluate_edges(self.problem, q_node, tree.configurations[near], self.check_step, o.length_weight,
                                o.max_cost, check_motions=False)
-        ancestors = set(tree.branch(node).tolist())
+        branch = tree.branch(node)
+        ancestors = set(branch.tolist())
         valid = edges.valid & (verdicts != INVALID)
         need = valid & (verdicts == UNCHECKED) & (tree.path_costs[node] + edges.cost < tree.path_costs[near])
-        need &= ~np.isin(near, list(ancestors))
+        need &= ~np.isin(near, branch)
         if need.any():
             verdicts[need] = np.where(self.problem.motions_valid(tree.configurations[near[need]], q_node),
                                       VALID, INVALID)

@@ -54,7 +54,6 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from pliant.api import point_runs
 
 KIND_R3, KIND_SE2, KIND_SE3 = 0, 1, 2
 SOLVE_LEAST_SQUARES, SOLVE_EFFORT = 0, 1
@@ -65,7 +64,7 @@ ROBOT_FACE_COS = 0.5
 OUTER_ITERATIONS = 12
 
 
-#: voxels: the largest radius of a broad-phase segment of surface points (:func:`point_segments`)
+#: voxels: the largest radius of a broad-phase segment of surface points (``pliant.api.spatial_runs``)
 SEGMENT_RADIUS = 4.0
 #: most points in one broad-phase segment
 SEGMENT_POINTS = 64
@@ -73,18 +72,6 @@ SEGMENT_POINTS = 64
 SORT_IN_PLACE = 64
 #: voxels: the broad phase's bounds are reduced by this much, far more than any rounding of a point's position
 BOUND_MARGIN = 1e-6
-
-
-def point_segments(local: np.ndarray, max_radius: float, max_points: int = SEGMENT_POINTS
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The broad phase's segments of a rigid body's surface points ``local`` ``(k, 3)`` (body frame, m): runs of
-    consecutive points, each as long as its bounding box's half-diagonal stays within ``max_radius`` (m) and it has at
-    most ``max_points`` points (``pliant.api.point_runs``).  Returns ``segments`` ``(s + 1,)`` (int64: the first point
-    of each run, then ``k``), ``centres`` ``(s, 3)`` (m: the runs' bounding-box centres) and ``radii`` ``(s,)`` (m: the
-    farthest point of each run from its centre).  The points keep their order, so the contacts a microstep finds come
-    in the same order as without segments (:func:`_accumulate`)."""
-    starts, centres, _, radii = point_runs(local, max_radius, max_points)
-    return starts, centres, radii
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")

@@ -43,7 +43,7 @@ from pliant.api import (
     limit_velocity,
     option,
     report_ignored,
-    spatial_order,
+    spatial_runs,
 )
 
 from pliant_kinematic.contact import FACE_NORMALS, ContactModel
@@ -51,13 +51,13 @@ from pliant_kinematic.rigid_kernel import (
     KIND_R3,
     KIND_SE2,
     KIND_SE3,
+    SEGMENT_POINTS,
     SEGMENT_RADIUS,
     SOLVE_EFFORT,
     SOLVE_LEAST_SQUARES,
     effort_correction,
     fused_advance,
     placed_points_hit,
-    point_segments,
 )
 
 
@@ -158,10 +158,11 @@ class KinematicSimulator(Simulator):
             self.reach_radius = float(np.max(np.linalg.norm(self.surface_local, axis=1)))
             # the compiled kernels walk the surface in a spatial order, so that their broad phase's runs are long
             # (the peg's: 15 points instead of 3); the contact sums are still taken in the surface's own order
-            self._walk = spatial_order(self.surface_local, SEGMENT_RADIUS * self.grid.resolution)
+            self._walk, starts, centres, _, radii = spatial_runs(self.surface_local,
+                                                                SEGMENT_RADIUS * self.grid.resolution, SEGMENT_POINTS)
+            self._segments = (starts, centres, radii)
             self._walked_local = np.ascontiguousarray(self.surface_local[self._walk])
             self._walked_faces = np.ascontiguousarray(self._face_bits[self._walk])
-            self._segments = point_segments(self._walked_local, SEGMENT_RADIUS * self.grid.resolution)
             # the start check's broad phase: a planar grid's clearance ignores its z faces, which an SE(2) body's
             # points (their height fixed in the body) never cross unless they lie outside the layer from the start
             k, z = len(self.surface_local), self.surface_local[:, 2]

@@ -50,3 +50,15 @@ def test_a_box_surface_in_lattice_order_makes_short_runs_and_in_the_spatial_orde
     lattice = len(point_runs(surface, 3 * h, 32)[0]) - 1
     spatial = len(point_runs(surface[spatial_order(surface, 3 * h)], 3 * h, 32)[0]) - 1
     assert len(surface) / lattice < 4 and len(surface) / spatial > 10, (len(surface), lattice, spatial)
+
+
+@settings(max_examples=20)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 200), st.floats(0.01, 0.3), st.integers(1, 40))
+def test_spatial_runs_are_the_runs_of_the_points_in_their_spatial_order(seed, k, radius, most):
+    from pliant.api import spatial_runs
+
+    points = np.random.default_rng(seed).uniform(-0.3, 0.3, (k, 3))
+    order, *runs = spatial_runs(points, radius, most)
+    assert np.array_equal(order, spatial_order(points, radius))
+    for ours, expected in zip(runs, point_runs(points[order], radius, most), strict=True):
+        assert np.array_equal(ours, expected)

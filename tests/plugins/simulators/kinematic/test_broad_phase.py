@@ -9,7 +9,6 @@ import pytest
 from pliant import load_scene, registry
 from pliant.interfaces import Context
 from pliant_kinematic.contact import ContactModel
-from pliant_kinematic.rigid_kernel import point_segments
 
 #: se2-through-passage and se3-peg-tight as the ch. 6 metric's tasks drive them (kp 1, 0.1 m/s, floor noise)
 CASES = {
@@ -79,10 +78,15 @@ def test_planar_free_clearance_is_a_lower_bound_and_not_zero():
         assert b <= nearest + 1e-12
 
 
-def test_segments_keep_the_order_and_bound_their_points():
-    local = _simulator("se3-peg-tight").surface_local
-    segments, centres, radii = point_segments(local, 0.008)
+def test_the_simulators_segments_cover_its_walked_surface_and_bound_their_points():
+    """The simulator's segments (``pliant.api.spatial_runs``) run over the surface in its walk order, a permutation of
+    the surface, and every point of a segment lies within the segment's radius of its centre."""
+    sim = _simulator("se3-peg-tight")
+    local, walk = sim.surface_local, sim._walk
+    segments, centres, radii = sim._segments
+    assert np.array_equal(np.sort(walk), np.arange(len(local))) and np.array_equal(sim._walked_local, local[walk])
     assert segments[0] == 0 and segments[-1] == len(local) and np.all(np.diff(segments) >= 1)
     for s in range(len(radii)):
-        run = local[segments[s]:segments[s + 1]]
+        run = sim._walked_local[segments[s]:segments[s + 1]]
         assert np.all(np.linalg.norm(run - centres[s], axis=1) <= radii[s] + 1e-15)
+    assert len(local) / len(radii) > 10            # walked by cells, the peg's runs are long (3 points in its order)
