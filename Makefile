@@ -60,8 +60,6 @@ $(CHROMIUM_STAMP): $(STAMP)
 	fi
 	touch $(CHROMIUM_STAMP)
 
-install: $(STAMP) $(ROS_STAMP) $(ROS2_STAMP) $(CHROMIUM_STAMP) $(CHECK_STAMP)
-
 # Every component's example run once (pliant plugins --check): the conformance kit on each, and their numba kernels
 # compiled into numba's cache in one process.  Otherwise every process of the first run that needs a kernel compiles
 # it: both test workers, their pools and the commands they start.  A kernel whose source changes later is compiled
@@ -72,6 +70,9 @@ $(CHECK_STAMP): $(STAMP) $(ROS_STAMP) $(ROS2_STAMP)
 	@echo "checking every component and compiling its kernels (pliant plugins --check, about a minute) ..."
 	@$(BIN)/pliant plugins --check > $(VENV)/plugins-check.log 2>&1 || { tail -40 $(VENV)/plugins-check.log; exit 1; }
 	touch $(CHECK_STAMP)
+
+# (after CHECK_STAMP's definition: make expands a rule's prerequisites when it reads the rule)
+install: $(STAMP) $(ROS_STAMP) $(ROS2_STAMP) $(CHROMIUM_STAMP) $(CHECK_STAMP)
 
 demo: $(STAMP) $(ROS_STAMP) $(CHECK_STAMP)
 	$(BIN)/pliant run demo

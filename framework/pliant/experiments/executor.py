@@ -216,7 +216,7 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
                 except Exception:               # the pool is ending: stop reporting
                     return
 
-    if board is not None and _board_cancelled(board):
+    if board is not None and _board_cancelled(board, index):
         # a queued task the cluster started while the run was being cancelled (a CPU freed by a task that had
         # just stopped): it does no work, and the executor drops its result
         return {}, {}, node, time.perf_counter() - t0, __version__
@@ -232,13 +232,13 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
     return record, snapshot(sink), node, time.perf_counter() - t0, __version__
 
 
-def _board_cancelled(board: str) -> bool:
-    """Whether the run whose progress board is named ``board`` was cancelled (a board that cannot be reached: no,
-    the task runs and the executor's cancel still reaches it by Ray)."""
+def _board_cancelled(board: str, index: int) -> bool:
+    """Tell the run's progress board (named ``board``) that task ``index`` starts; returns whether the run was
+    cancelled (a board that cannot be reached: no, the task runs and the executor kills it after its grace)."""
     import ray
 
     try:
-        return bool(ray.get(ray.get_actor(board).is_cancelled.remote(), timeout=5.0))
+        return bool(ray.get(ray.get_actor(board).start.remote(index), timeout=5.0))
     except Exception:
         return False
 
@@ -249,6 +249,7 @@ class ProgressBoard:
 
     def __init__(self) -> None:
         self.running: dict[int, tuple[str, dict]] = {}
+        self.started: set[int] = set()
         self.cancelled = False
 
     def report(self, index: int, node: str, values: dict) -> bool:
@@ -265,8 +266,18 @@ class ProgressBoard:
         self.cancelled = True
 
     def is_cancelled(self) -> bool:
-        """Whether the run was cancelled (a task asks before it starts its work)."""
+        """Whether the run was cancelled."""
         return self.cancelled
+
+    def start(self, index: int) -> bool:
+        """Task ``index`` holds a worker and is about to start its work; returns whether the run was cancelled
+        (then it does no work)."""
+        self.started.add(index)
+        return self.cancelled
+
+    def started_tasks(self) -> set[int]:
+        """The tasks that have held a worker (running, or already returned)."""
+        return set(self.started)
 
 
 def _node() -> str:
@@ -616,7 +627,7 @@ class RayExecutor(Executor):
             while pending:
                 if self._should_stop(stop, finished):
                     self.stopped = True
-                    self._cancel_refs(pending)
+                    self._cancel_refs({ref: refs[ref] for ref in pending})
                     return
                 done, pending = ray.wait(pending, num_returns=1, timeout=POLL)
                 if time.monotonic() - polled >= self.interval:
@@ -650,31 +661,44 @@ class RayExecutor(Executor):
                     finished += 1
                     yield TaskResult(refs[ref], record, progress, node, seconds)
         except BaseException:
-            self._cancel_refs(pending)
+            self._cancel_refs({ref: refs[ref] for ref in pending})
             raise
         finally:
             self.running = {}
             self._board = None                  # the actor ends with its last handle
 
-    def _cancel_refs(self, refs: list) -> None:
-        """Cancel the tasks: a running one's stop conditions terminate (through the progress board) and the queued
-        ones never start; those still running after ``grace`` seconds are killed.  Their results are dropped (a
-        cancelled task's record is not the one a complete run gives)."""
+    def _cancel_refs(self, refs: dict) -> None:
+        """Cancel the tasks ``refs`` (their references and indices) through the progress board: a running task's stop
+        conditions terminate, and a queued one returns without doing any work when it starts.  Tasks still running
+        after ``grace`` seconds are killed (``ray.cancel(force=True)``); their results are dropped (a cancelled
+        task's record is not the one a complete run gives).
+
+        Queued tasks are never cancelled through Ray: in Ray 2.60, cancelling a task while a worker is being handed
+        it races the worker's reply and aborts this process ("Check failed: ... Tried to complete task that was not
+        pending").  Only when the board cannot be reached is every task left after the grace killed through Ray."""
         ray = self._ray
         if not refs:
             return
         try:
             ray.get(self._board.cancel.remote(), timeout=5.0)
+            reached = True
         except (ray.exceptions.RayError, TimeoutError):
-            pass                                # the tasks are still interrupted and, after the grace, killed
-        for ref in refs:                        # queued: never starts; running: a KeyboardInterrupt (Ctrl-C) too
-            ray.cancel(ref, force=False)
-        _, left = ray.wait(refs, num_returns=len(refs), timeout=self.grace)
-        for ref in left:
+            reached = False                     # the tasks run on until the grace ends, then are killed
+        _, left = ray.wait(list(refs), num_returns=len(refs), timeout=self.grace)
+        if not left:
+            return
+        started = None                          # unknown: kill every task left
+        if reached:
             try:
-                ray.cancel(ref, force=True)
-            except (ValueError, TypeError):
+                started = ray.get(self._board.started_tasks.remote(), timeout=5.0)
+            except (ray.exceptions.RayError, TimeoutError):
                 pass
+        for ref in left:
+            if started is None or refs[ref] in started:
+                try:
+                    ray.cancel(ref, force=True)
+                except (ValueError, TypeError):
+                    pass
 
     def close(self) -> None:
         """Disconnect from the cluster if this executor connected (the cluster keeps running)."""
