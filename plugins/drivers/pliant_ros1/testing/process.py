@@ -75,7 +75,9 @@ class PeerProcess:
         from pliant_ros1.node import ensure_node, wait_for
 
         if self._fault_pub is None:
-            ensure_node(self.master_uri)
+            # as patient as the driver: a master busy registering the peer's and the driver's topics on a loaded
+            # machine took more than 0.5 s to answer (a CI run of session 34)
+            ensure_node(self.master_uri, timeout=2.0, attempts=3)
             self._fault_pub = rospy.Publisher(self.fault_topic, String, queue_size=10)
         if not wait_for(lambda: self._fault_pub.get_num_connections() > 0, timeout):
             raise TimeoutError(f"the peer does not listen on {self.fault_topic}")

@@ -34,7 +34,7 @@ def ros_session(tmp_path_factory):
         from pliant_ros1.messages import message_class, message_files
         from pliant_ros1.node import ensure_node
 
-        ensure_node(master.uri)
+        ensure_node(master.uri, timeout=2.0, attempts=3)
         for name in message_files():
             message_class(name)
         try:
