@@ -5,7 +5,8 @@
   included).
 - Every other test runs at the same time on ``--workers`` pytest-xdist processes at the lowest priority
   (``nice 19``), so that they take the CPU the real-time tests leave and never delay a peer's loop or a watchdog:
-  the kernel runs a waking nice-0 thread before a nice-19 one.
+  the kernel runs a waking nice-0 thread before a nice-19 one.  A worker process that dies (a crash in native
+  code) ends this phase at once with the test it was running named, rather than being replaced.
 
 Phase 1 prints as it goes; phase 2 writes ``--log`` and is printed when both are done.  The exit status is 0 only
 if both phases pass (one of them may collect no test when the arguments after ``--`` name some tests, not both).
@@ -47,8 +48,10 @@ def _lowest_priority():
 def main(argv=None) -> int:
     args = _arguments(argv)
     pytest = str(BIN / "pytest")
+    # a worker that dies ends the phase at once, naming the test it ran: pytest-xdist's replacement worker once
+    # left the dead worker's group unscheduled and the phase waiting for ever (session 34)
     first = [pytest, "-q", "-n", str(args.workers), "--dist", "loadgroup", "--no-loadscope-reorder",
-             "-m", "not realtime", *args.pytest_args]
+             "--max-worker-restart", "0", "-m", "not realtime", *args.pytest_args]
     # the cache plugin off in the second run: two sessions must not write .pytest_cache at once
     second = [pytest, "-q", "-m", "realtime", "-p", "no:cacheprovider", *args.pytest_args]
     args.log.parent.mkdir(parents=True, exist_ok=True)
