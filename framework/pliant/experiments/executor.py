@@ -10,8 +10,9 @@ store, resuming and Ctrl-C behave the same whichever executor ran the tasks.
   ``kill -9``); Ctrl-C cancels the queue and ends them within seconds.
 - :class:`RayExecutor`: every task is a Ray task asking for one CPU, submitted at once; the cluster's CPUs decide
   how many run together.  A task whose worker process or node dies is run again elsewhere (``retries`` times).
-  Cancelling interrupts the running tasks (a ``KeyboardInterrupt`` in the task, which an anytime planner turns
-  into ``terminate()``), then kills the ones still running after ``grace`` seconds.
+  Cancelling marks the run's progress board cancelled: every stop condition a running task polls terminates,
+  and a queued task returns without work when it starts; the tasks still running after ``grace`` seconds are
+  killed.
 
 Both run each task inside :func:`pliant.termination.task_progress`, so the progress values the task's planners
 publish (``iterations``, ``best_cost``, ``nodes`` ...) come back with its record (:attr:`TaskResult.progress`),
