@@ -218,8 +218,8 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
                     return
 
     if board is not None and _board_cancelled(board, index):
-        # a queued task the cluster started while the run was being cancelled (a CPU freed by a task that had
-        # just stopped): it does no work, and the executor drops its result
+        # a queued task that starts after the run was cancelled (the executor cancels queued tasks this way, not
+        # through Ray): it does no work, and the executor drops its result
         return {}, {}, node, time.perf_counter() - t0, __version__
     with task_progress(cancel) as sink:
         if board is not None:
