@@ -217,7 +217,7 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
                 except Exception:               # the pool is ending: stop reporting
                     return
 
-    if board is not None and _board_cancelled(board, index):
+    if board is not None and _start_on_board(board, index):
         # a queued task that starts after the run was cancelled (the executor cancels queued tasks this way, not
         # through Ray): it does no work, and the executor drops its result
         return {}, {}, node, time.perf_counter() - t0, __version__
@@ -233,7 +233,7 @@ def call_task(work: Callable[..., dict], args: tuple, board: str | None = None, 
     return record, snapshot(sink), node, time.perf_counter() - t0, __version__
 
 
-def _board_cancelled(board: str, index: int) -> bool:
+def _start_on_board(board: str, index: int) -> bool:
     """Tell the run's progress board (named ``board``) that task ``index`` starts; returns whether the run was
     cancelled (a board that cannot be reached: no, the task runs and the executor kills it after its grace)."""
     import ray

@@ -338,11 +338,12 @@ class RRTStarPlanner(Planner):
         q_node = tree.configurations[node]
         edges = evaluate_edges(self.problem, q_node, tree.configurations[near], self.check_step, o.length_weight,
                                o.max_cost, check_motions=False)
-        branch = tree.branch(node)
-        ancestors = set(branch.tolist())
+        # the near nodes on the new node's own branch: rewiring one would make a cycle (rewiring others under the new
+        # node leaves its branch as it is, so this holds for the whole loop)
+        ancestor = np.isin(near, tree.branch(node))
         valid = edges.valid & (verdicts != INVALID)
         need = valid & (verdicts == UNCHECKED) & (tree.path_costs[node] + edges.cost < tree.path_costs[near])
-        need &= ~np.isin(near, branch)
+        need &= ~ancestor
         if need.any():
             verdicts[need] = np.where(self.problem.motions_valid(tree.configurations[near[need]], q_node),
                                       VALID, INVALID)
@@ -352,7 +353,7 @@ class RRTStarPlanner(Planner):
                 continue
             x = int(near[i])
             new_cost = float(tree.path_costs[node] + edges.cost[i])
-            if not new_cost < tree.path_costs[x] or x in ancestors:   # costs may have dropped by an earlier rewire
+            if not new_cost < tree.path_costs[x] or ancestor[i]:      # costs may have dropped by an earlier rewire
                 continue
             if self.punctures is not None and not self._rewire_topology(node, x, edges.of(i)):
                 self.stats["rewires_refused"] += 1
