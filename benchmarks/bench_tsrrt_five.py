@@ -9,7 +9,9 @@ extensions.  Development set: the first five objects, seeds 2000-2007 (where ``r
 held-out set: the other objects (cup-1, plate-2, fork-2, knife-2, cup-2), seeds 3000-3007; held-out B, drawn after
 the defaults were fixed: the forks, the knives and cup-2 (four boxes), seeds 4000-4007; held-out C, drawn after the
 identical objects' assignment was chosen on B: plate-1, cup-1, plate-2, fork-2, cup-2, seeds 5000-5007; held-out D,
-drawn in session 28 for the strokes experiment: plate-1, knife-1, plate-2, fork-2, knife-2, seeds 6000-6007.  Each
+drawn in session 28 for the strokes experiment: plate-1, knife-1, plate-2, fork-2, knife-2, seeds 6000-6007; held-out
+E (fork-1, knife-1, cup-1, fork-2, knife-2; seeds 7000-7007) and F (plate-1, fork-1, plate-2, knife-2, cup-2; seeds
+8000-8007), drawn in session 35.  Each
 ratio is the plan's final cost over the best reference found for those objects (:func:`reference_optimum` with
 3000 rounds from seed 0, and 1500 rounds from each plan's final arrangement).  Every budget is a count; CPU
 seconds are reported.
@@ -38,11 +40,14 @@ MEANS = np.array([[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], 
 #: chosen (and looked at again when the orders were added); held-out B: drawn after both were fixed (and where the
 #: assignment of identical objects to the optimum's places was tried); held-out C: drawn after that (two plates, two
 #: cups and a fork: three pairs of identical objects); held-out D: drawn in session 28 (two plates, two knives and a
-#: fork)
+#: fork); held-out E and F: drawn in session 35 before refine_optimum_turns was measured anywhere but B and D (E:
+#: both forks, both knives and cup-1; F: both plates, fork-1, knife-2 and cup-2)
 SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 3000),
         "held-out B": ((1, 2, 5, 6, 7), 4000),
         "held-out C": ((0, 3, 4, 5, 7), 5000),
-        "held-out D": ((0, 2, 4, 5, 6), 6000)}
+        "held-out D": ((0, 2, 4, 5, 6), 6000),
+        "held-out E": ((1, 2, 3, 5, 6), 7000),
+        "held-out F": ((0, 1, 4, 6, 7), 8000)}
 
 
 class _Models:
@@ -117,10 +122,13 @@ def main() -> None:
         key, sep, value = item.partition("=")
         if not sep:
             parser.error(f"--set {item!r}: expected KEY=VALUE")
+        if value in ("true", "false"):
+            overrides[key] = value == "true"
+            continue
         try:
             overrides[key] = float(value) if "." in value else int(value)
         except ValueError:
-            parser.error(f"--set {item!r}: the value must be a number")
+            parser.error(f"--set {item!r}: the value must be a number, true or false")
     settings = args.settings.split(",")
     plans = []
     for label in args.sets.split(","):

@@ -64,14 +64,18 @@ def variants(space, s: np.ndarray) -> np.ndarray:
 
 
 def free_descent(space, starts: np.ndarray, rng: np.random.Generator, rounds: int = 300, slack: float = 0.003,
-                 sigma_start: float = 0.02, sigma_end: float = 5e-4, deadline: float | None = None) -> tuple[
-                     np.ndarray, np.ndarray]:
+                 sigma_start: float = 0.02, sigma_end: float = 5e-4, deadline: float | None = None,
+                 snap=None) -> tuple[np.ndarray, np.ndarray]:
     """A batched stochastic descent of the task cost from ``starts`` ``(p, k, 3)`` over collision-free placements
     (margin grown by ``slack`` m): each round moves one random object of every member by a Gaussian step (``sigma``
-    m, ``sigma / r_o`` rad, shrinking geometrically) and keeps cheaper collision-free moves.  Returns the members
-    and their costs (inf for a member that never was collision-free)."""
+    m, ``sigma / r_o`` rad, shrinking geometrically) and keeps cheaper collision-free moves.  ``snap``: a function
+    of arrangements ``(p, k, 3)`` applied to the starts and to every step (:func:`reachable_targets` keeps the
+    boxes' yaws on what their turns reach).  Returns the members and their costs (inf for a member that never was
+    collision-free)."""
     check = replace(space.checker, margin=space.checker.margin + slack)
     pop = np.array(starts, dtype=np.float64)
+    if snap is not None:
+        pop = snap(pop)
     p = len(pop)
     cost = space.cost.cost(pop)
     cost[check.in_collision(pop)] = np.inf
@@ -86,6 +90,8 @@ def free_descent(space, starts: np.ndarray, rng: np.random.Generator, rounds: in
         step = rng.normal(0.0, sigma, (p, 3))
         step[:, 2] /= scale[obj]
         trial[rows, obj] += step
+        if snap is not None:
+            trial = snap(trial)
         c = space.cost.cost(trial)
         better = (c < cost) & ~check.in_collision(trial)
         pop[better], cost[better] = trial[better], c[better]
@@ -253,6 +259,75 @@ def optimum_targets(space, rng: np.random.Generator, rounds: int, orders: int = 
     else:
         chosen = [tuple(int(i) for i in rng.permutation(k)) for _ in range(orders)]
     return table_mirrors(space, best), chosen
+
+
+def yaw_lattice(space, o: int, turns: int, threshold: float = 0.01) -> np.ndarray | None:
+    """The net yaw changes (rad, sorted) that object ``o``'s primitives make in at most ``turns`` of them, counting
+    the primitives that turn it by at least ``threshold`` rad (the models' mean yaw); None for a circle, whose yaw
+    does not matter.  With the hand-made 0.2 rad turns: ``0.2 j`` for ``|j| <= turns``."""
+    if space.scale[o] <= 0:
+        return None
+    yaws = space.means[o, :, 2]
+    steps = np.unique(np.round(yaws[np.abs(yaws) >= threshold], 9))
+    nets, frontier = {0.0}, {0.0}
+    for _ in range(turns):
+        frontier = {round(x + d, 9) for x in frontier for d in steps} - nets
+        if not frontier or len(nets) + len(frontier) > 4096:
+            break
+        nets |= frontier
+    return np.array(sorted(nets))
+
+
+def yaw_snapper(space, state: np.ndarray, turns: int):
+    """A function that moves every box's yaw in arrangements ``(..., k, 3)`` to the nearest (modulo the box's
+    symmetry) of the yaws its turns reach from ``state`` ``(k, 3)`` in at most ``turns`` turns
+    (:func:`yaw_lattice`); positions and circles unchanged."""
+    lattices = [(o, state[o, 2] + lat, float(space.period[o])) for o in range(space.k)
+                if (lat := yaw_lattice(space, o, turns)) is not None and len(lat) > 1]
+
+    def snap(arrangements: np.ndarray) -> np.ndarray:
+        out = np.array(arrangements, dtype=np.float64)
+        for o, allowed, period in lattices:
+            d = (out[..., o, 2][..., None] - allowed + period / 2) % period - period / 2
+            j = np.argmin(np.abs(d), axis=-1)
+            out[..., o, 2] -= np.take_along_axis(d, j[..., None], -1)[..., 0]
+        return out
+    return snap
+
+
+def reachable_targets(space, targets: np.ndarray, states: np.ndarray, rng: np.random.Generator, turns: int,
+                      rounds: int = 1000, copies: int = 4) -> np.ndarray:
+    """``targets`` ``(g, k, 3)`` made reachable in yaw from each of ``states`` ``(s, k, 3)``: every box's yaw moved
+    to the nearest yaw its turns reach from that state in at most ``turns`` turns (:func:`yaw_snapper`), then the
+    positions (and yaws, on those values) descended again (:func:`free_descent`, ``rounds`` rounds, no extra slack)
+    from ``copies`` members per target, its positions spread about their centre by 0, 4, 8, ... % (a turned box
+    may overlap a neighbour, and a member in collision moves only by a step that frees it).  A free-placement
+    optimum asks a box for a yaw its 0.2 rad turns cannot make; pushed toward it, the box ends up to 0.1 rad off
+    square, and the positions chosen for the exact yaw no longer fit.  Returns the cheapest collision-free member
+    per target and state ``(m, k, 3)`` (none for a target already reachable), duplicates removed."""
+    targets = np.asarray(targets, dtype=np.float64).reshape(-1, space.k, 3)
+    snapped: dict[bytes, tuple] = {}            # the same snapped target from two states is descended once
+    for state in np.asarray(states, dtype=np.float64).reshape(-1, space.k, 3):
+        snap = yaw_snapper(space, state, turns)
+        for target, moved in zip(targets, snap(targets)):
+            if not np.allclose(moved, target):
+                snapped.setdefault(np.round(moved, 9).tobytes(), (moved, snap))
+    out = []
+    spread = 1.0 + 0.04 * np.arange(copies)                # a turned box may overlap its neighbours: spread them
+    for moved, snap in snapped.values():
+        members = np.repeat(moved[None], copies, axis=0)
+        centre = moved[:, :2].mean(axis=0)
+        members[:, :, :2] = centre + spread[:, None, None] * (moved[:, :2] - centre)
+        pop, cost = free_descent(space, members, rng, rounds=rounds, slack=0.0, sigma_start=0.01, sigma_end=1e-4,
+                                 snap=snap)
+        i = int(np.argmin(cost))
+        if np.isfinite(cost[i]):
+            out.append(pop[i])
+    if not out:
+        return np.zeros((0, space.k, 3))
+    out = np.array(out)
+    _, first = np.unique(np.round(out, 9).reshape(len(out), -1), axis=0, return_index=True)
+    return out[np.sort(first)]
 
 
 def _extent(fp, o: int, quarter: int) -> tuple[float, float]:
@@ -474,7 +549,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
             branch_points: int = 3, deadline: float | None = None, goals: np.ndarray | None = None,
             randoms: int = 0, sweeps: int = 1, yaw_quota: int = 0, push_cost: float = 0.0,
             enough: float = -np.inf, packed: int = 0, optimum: np.ndarray | None = None,
-            optimum_orders: list | None = None) -> tuple[float, int, list[int], dict]:
+            optimum_orders: list | None = None, optimum_turns: int = 0) -> tuple[float, int, list[int], dict]:
     """The improvement phase on the tree's best path ``path`` ``(m + 1, k, 3)`` (its states, start to best node):
     :func:`targets` from the best node (after the given ``goals`` ``(g, k, 3)`` in the first pass: when replanning
     during execution, the arrangement the first plan ends in), then :func:`connect` to each target from the best
@@ -490,7 +565,9 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     plan is needed, so the shortest connection that gets there wins).  ``optimum`` ``(g, k, 3)`` and
     ``optimum_orders``: more targets (:func:`optimum_targets`) for the first pass, connected to from each branch
     point in the usual orders and each of those, after the others; with them the same targets with identical
-    objects' places reassigned nearest to the start and to the best node (:func:`nearest_assignments`).
+    objects' places reassigned nearest to the start and to the best node (:func:`nearest_assignments`), and with
+    ``optimum_turns`` those targets made reachable in yaw from the start and the best node
+    (:func:`reachable_targets`, at most that many turns per box; on a child stream of ``rng``).
     Returns the cheapest cost reached, how many of the path's actions to keep, the actions to append, and statistics."""
     s = path[-1]
     base = best_cost = float(space.cost.cost(s[None])[0])
@@ -499,6 +576,9 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
         # identical objects may take each other's places in the optimum: from the start and from the tree's best
         # node, the assignment nearest to where the objects are
         optimum = nearest_assignments(space, optimum, path[[0, -1]])
+        if optimum_turns:
+            optimum = np.concatenate([optimum, reachable_targets(space, optimum, path[[0, -1]], rng.spawn(1)[0],
+                                                                 optimum_turns)])
     best_score = plan_score(best_cost, keep, push_cost, enough)
     k = space.k
     orders = list(itertools.permutations(range(k))) if k <= 3 else [tuple(np.roll(np.arange(k), -i)) for i in range(k)]

@@ -370,7 +370,7 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
                                        depth=imp.refine_depth, width=imp.refine_width,
                                        passes=imp.refine_passes, branch_points=imp.refine_branches,
                                        deadline=deadline, goals=goals, optimum=optimum,
-                                       optimum_orders=optimum_orders,
+                                       optimum_orders=optimum_orders, optimum_turns=imp.refine_optimum_turns,
                                        randoms=imp.refine_randoms, packed=imp.refine_patterns,
                                        sweeps=imp.refine_sweeps,
                                        yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,

@@ -21,8 +21,11 @@ from pliant_tsrrt.refine import (
     nearest_assignments,
     push_toward,
     random_free,
+    reachable_targets,
     targets,
     variants,
+    yaw_lattice,
+    yaw_snapper,
 )
 from pliant_tsrrt.search import ObjectSpace, grow, redundant_actions
 
@@ -250,3 +253,43 @@ def test_the_nearest_assignment_swaps_identical_objects_into_the_nearer_places_a
     assert space.cost.cost(out)[0] == space.cost.cost(out)[1]
     # already nearest: nothing new
     assert len(nearest_assignments(space, target[None], target[None])) == 1
+
+
+def test_the_yaw_lattice_is_every_net_turn_within_the_count_and_none_for_a_circle():
+    space = _three()                                  # books turn by +0.19 and -0.2 rad; the can is a circle
+    lattice = yaw_lattice(space, 0, 2)
+    by_hand = sorted({round(a * 0.19 - b * 0.2, 9) for a in range(3) for b in range(3) if a + b <= 2})
+    assert np.allclose(lattice, by_hand)              # 0, +-one turn, two of a sense, one of each (-0.01)
+    assert yaw_lattice(space, 2, 2) is None
+    assert np.allclose(yaw_lattice(space, 0, 0), [0.0])
+
+
+def test_the_snapper_moves_each_box_to_its_nearest_reachable_yaw_modulo_its_symmetry():
+    space = _three()
+    start = np.array([[0.3, 0.3, 0.1], [0.6, 0.5, 0.0], [0.7, 0.2, 1.0]])
+    snap = yaw_snapper(space, start, 3)
+    allowed0 = 0.1 + yaw_lattice(space, 0, 3)
+    allowed1 = yaw_lattice(space, 1, 3)
+    wanted = np.array([[0.5, 0.4, 0.0], [0.2, 0.2, 0.5 * np.pi + 0.05], [0.1, 0.1, 2.0]])
+    got = snap(wanted[None])[0]
+    assert np.array_equal(got[:, :2], wanted[:, :2]) and got[2, 2] == 2.0      # positions and the can unchanged
+    def gap(a, to, period):
+        return np.abs((a - to + period / 2) % period - period / 2)
+
+    for o, allowed, period in ((0, allowed0, np.pi), (1, allowed1, 0.5 * np.pi)):     # box 1 is a square
+        assert np.min(gap(allowed, got[o, 2], period)) < 1e-9            # a reachable yaw, modulo the symmetry,
+        assert np.isclose(gap(got[o, 2], wanted[o, 2], period), np.min(gap(allowed, wanted[o, 2], period)))  # nearest
+
+
+def test_reachable_targets_put_every_box_on_a_reachable_yaw_collision_free():
+    space = _three()
+    start = np.array([[0.2, 0.2, 0.1], [0.8, 0.6, 0.05], [0.8, 0.2, 0.0]])
+    target = np.array([[0.45, 0.4, 0.0], [0.62, 0.4, 0.0], [0.5, 0.55, 0.0]])     # square: not reachable from start
+    out = reachable_targets(space, target[None], start[None], np.random.default_rng(0), turns=10, rounds=200)
+    assert len(out) == 1
+    assert not space.checker.in_collision(out)[0]
+    for o in (0, 1):
+        assert np.any(np.isclose((out[0, o, 2] - start[o, 2]) % space.period[o],
+                                 yaw_lattice(space, o, 10) % space.period[o]))
+    already = yaw_snapper(space, start, 10)(target[None])      # a target whose yaws are reachable is not repeated
+    assert len(reachable_targets(space, already, start[None], np.random.default_rng(0), turns=10, rounds=50)) == 0
