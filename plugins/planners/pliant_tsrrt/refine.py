@@ -281,7 +281,7 @@ def yaw_lattice(space, o: int, turns: int, threshold: float = 0.01) -> np.ndarra
 def yaw_snapper(space, state: np.ndarray, turns: int):
     """A function that moves every box's yaw in arrangements ``(..., k, 3)`` to the nearest (modulo the box's
     symmetry) of the yaws its turns reach from ``state`` ``(k, 3)`` in at most ``turns`` turns
-    (:func:`yaw_lattice`); positions and circles unchanged."""
+    (:func:`yaw_lattice`); positions, circles and boxes that no primitive turns unchanged."""
     lattices = [(o, state[o, 2] + lat, float(space.period[o])) for o in range(space.k)
                 if (lat := yaw_lattice(space, o, turns)) is not None and len(lat) > 1]
 
@@ -296,7 +296,7 @@ def yaw_snapper(space, state: np.ndarray, turns: int):
 
 
 def reachable_targets(space, targets: np.ndarray, states: np.ndarray, rng: np.random.Generator, turns: int,
-                      rounds: int = 1000, copies: int = 4) -> np.ndarray:
+                      rounds: int = 1000, copies: int = 4, deadline: float | None = None) -> np.ndarray:
     """``targets`` ``(g, k, 3)`` made reachable in yaw from each of ``states`` ``(s, k, 3)``: every box's yaw moved
     to the nearest yaw its turns reach from that state in at most ``turns`` turns (:func:`yaw_snapper`), then the
     positions (and yaws, on those values) descended again (:func:`free_descent`, ``rounds`` rounds, no extra slack)
@@ -304,7 +304,8 @@ def reachable_targets(space, targets: np.ndarray, states: np.ndarray, rng: np.ra
     may overlap a neighbour, and a member in collision moves only by a step that frees it).  A free-placement
     optimum asks a box for a yaw its 0.2 rad turns cannot make; pushed toward it, the box ends up to 0.1 rad off
     square, and the positions chosen for the exact yaw no longer fit.  Returns the cheapest collision-free member
-    per target and state ``(m, k, 3)`` (none for a target already reachable), duplicates removed."""
+    per target and state ``(m, k, 3)`` (none for a target already reachable), duplicates removed.  ``deadline``:
+    the descents stop there (a time budget)."""
     targets = np.asarray(targets, dtype=np.float64).reshape(-1, space.k, 3)
     snapped: dict[bytes, tuple] = {}            # the same snapped target from two states is descended once
     for state in np.asarray(states, dtype=np.float64).reshape(-1, space.k, 3):
@@ -319,7 +320,7 @@ def reachable_targets(space, targets: np.ndarray, states: np.ndarray, rng: np.ra
         centre = moved[:, :2].mean(axis=0)
         members[:, :, :2] = centre + spread[:, None, None] * (moved[:, :2] - centre)
         pop, cost = free_descent(space, members, rng, rounds=rounds, slack=0.0, sigma_start=0.01, sigma_end=1e-4,
-                                 snap=snap)
+                                 deadline=deadline, snap=snap)
         i = int(np.argmin(cost))
         if np.isfinite(cost[i]):
             out.append(pop[i])
@@ -578,7 +579,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
         optimum = nearest_assignments(space, optimum, path[[0, -1]])
         if optimum_turns:
             optimum = np.concatenate([optimum, reachable_targets(space, optimum, path[[0, -1]], rng.spawn(1)[0],
-                                                                 optimum_turns)])
+                                                                 optimum_turns, deadline=deadline)])
     best_score = plan_score(best_cost, keep, push_cost, enough)
     k = space.k
     orders = list(itertools.permutations(range(k))) if k <= 3 else [tuple(np.roll(np.arange(k), -i)) for i in range(k)]
