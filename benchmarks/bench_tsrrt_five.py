@@ -117,18 +117,15 @@ def main() -> None:
         parser.error(f"--strokes {args.strokes!r}: expected comma-separated numbers")
     if strokes[0] != 1.0 or not all(0.0 < f <= 1.0 for f in strokes) or len(set(strokes)) != len(strokes):
         parser.error(f"--strokes {args.strokes!r}: distinct fractions in (0, 1], the whole stroke (1) first")
+    from pliant.api import PliantError, parse_override
+
     overrides = {}
     for item in args.set:
-        key, sep, value = item.partition("=")
-        if not sep:
-            parser.error(f"--set {item!r}: expected KEY=VALUE")
-        if value in ("true", "false"):
-            overrides[key] = value == "true"
-            continue
         try:
-            overrides[key] = float(value) if "." in value else int(value)
-        except ValueError:
-            parser.error(f"--set {item!r}: the value must be a number, true or false")
+            key, value = parse_override(item, "<command line>")
+        except PliantError as exc:
+            parser.error(str(exc))
+        overrides[key] = value
     settings = args.settings.split(",")
     plans = []
     for label in args.sets.split(","):

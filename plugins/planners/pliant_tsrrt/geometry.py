@@ -51,9 +51,10 @@ class Footprints:
         return Footprints(self.kind[index], self.half[index])
 
 
-def wrap(angle):
-    """Angles wrapped to ``[-pi, pi)``."""
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+def wrap(angle, period=2 * np.pi):
+    """Angles wrapped to ``[-period / 2, period / 2)`` (default ``[-pi, pi)``; a box's yaw error modulo its
+    symmetry with ``period`` pi, or pi / 2 for a square)."""
+    return (np.asarray(angle) + period / 2) % period - period / 2
 
 
 def box_corners(poses: np.ndarray, half: np.ndarray) -> np.ndarray:

@@ -35,6 +35,7 @@ import numpy as np
 from pliant.api import PlanningError
 
 from pliant_tsrrt import kernels
+from pliant_tsrrt.geometry import wrap
 from pliant_tsrrt.models import compose
 
 
@@ -211,6 +212,14 @@ def interchangeable(space) -> list[list[int]]:
     return [g for g in groups if len(g) > 1]
 
 
+def _distinct(arrangements: np.ndarray) -> np.ndarray:
+    """``arrangements`` ``(m, k, 3)`` without exact repeats, in the order of their first occurrence."""
+    if not len(arrangements):
+        return arrangements
+    _, first = np.unique(arrangements.reshape(len(arrangements), -1), axis=0, return_index=True)
+    return arrangements[np.sort(first)]
+
+
 def nearest_assignments(space, targets: np.ndarray, states: np.ndarray) -> np.ndarray:
     """``targets`` ``(g, k, 3)`` and, for each target and each state of ``states`` ``(s, k, 3)``, the target with the
     poses of interchangeable objects (:func:`interchangeable`) reassigned to minimise the summed pose error from that
@@ -231,9 +240,7 @@ def nearest_assignments(space, targets: np.ndarray, states: np.ndarray) -> np.nd
                 rows, cols = linear_sum_assignment(errors)
                 moved[np.asarray(g)[rows]] = target[np.asarray(g)[cols]]
             out.append(moved)
-    out = np.array(out)
-    _, first = np.unique(out.reshape(len(out), -1), axis=0, return_index=True)
-    return out[np.sort(first)]
+    return _distinct(np.array(out))
 
 
 def optimum_targets(space, rng: np.random.Generator, rounds: int, orders: int = 0,
@@ -288,7 +295,7 @@ def yaw_snapper(space, state: np.ndarray, turns: int):
     def snap(arrangements: np.ndarray) -> np.ndarray:
         out = np.array(arrangements, dtype=np.float64)
         for o, allowed, period in lattices:
-            d = (out[..., o, 2][..., None] - allowed + period / 2) % period - period / 2
+            d = wrap(out[..., o, 2][..., None] - allowed, period)
             j = np.argmin(np.abs(d), axis=-1)
             out[..., o, 2] -= np.take_along_axis(d, j[..., None], -1)[..., 0]
         return out
@@ -324,11 +331,7 @@ def reachable_targets(space, targets: np.ndarray, states: np.ndarray, rng: np.ra
         i = int(np.argmin(cost))
         if np.isfinite(cost[i]):
             out.append(pop[i])
-    if not out:
-        return np.zeros((0, space.k, 3))
-    out = np.array(out)
-    _, first = np.unique(np.round(out, 9).reshape(len(out), -1), axis=0, return_index=True)
-    return out[np.sort(first)]
+    return _distinct(np.array(out).reshape(-1, space.k, 3))
 
 
 def _extent(fp, o: int, quarter: int) -> tuple[float, float]:
@@ -418,8 +421,7 @@ def targets(space, s: np.ndarray, rng: np.random.Generator, count: int = 2, roun
 
 def _pose_error(space, o: int, poses: np.ndarray, target: np.ndarray) -> np.ndarray:
     d = poses - target
-    period = space.period[o]
-    dtheta = (d[..., 2] + period / 2) % period - period / 2
+    dtheta = wrap(d[..., 2], space.period[o])
     return np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2 + (space.scale[o] * dtheta) ** 2)
 
 

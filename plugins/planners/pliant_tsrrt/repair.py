@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pliant_tsrrt.models import wrap
+from pliant_tsrrt.geometry import wrap
 from pliant_tsrrt.refine import _pose_error, connect, push_toward
 
 
@@ -40,7 +40,7 @@ def pose_errors(space, observed: np.ndarray, expected: np.ndarray) -> tuple[np.n
     arrangement ``observed`` against ``expected`` (both ``(k, 3)``): what execution monitors."""
     err_t = np.linalg.norm(observed[:, :2] - expected[:, :2], axis=1)
     dth = wrap(observed[:, 2] - expected[:, 2])
-    dth = np.abs((dth + space.period / 2) % space.period - space.period / 2)
+    dth = np.abs(wrap(dth, space.period))
     return err_t, np.where(space.scale > 0, dth, 0.0)
 
 

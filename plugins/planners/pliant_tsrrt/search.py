@@ -54,7 +54,7 @@ from pliant.api import Condition, Termination
 
 from pliant_tsrrt import kernels
 from pliant_tsrrt.cost import TaskCost
-from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corners
+from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corners, wrap
 from pliant_tsrrt.models import compose
 from pliant_tsrrt.options import PlanningOptions, TSRRTOptions
 from pliant_tsrrt.pushing import PushSettings, contact_frames, paddle_sweep_rows
@@ -154,7 +154,7 @@ class ObjectSpace:
     def rho(self, states: np.ndarray, target: np.ndarray) -> np.ndarray:
         """The distance ``(n,)`` of arrangements ``(n, k, 3)`` from ``target`` ``(k, 3)`` (m)."""
         d = states - target
-        dtheta = (d[..., 2] + self.period / 2) % self.period - self.period / 2
+        dtheta = wrap(d[..., 2], self.period)
         return np.sqrt(np.sum(d[..., 0] ** 2 + d[..., 1] ** 2 + (self.scale * dtheta) ** 2, axis=-1))
 
     def valid_actions(self, s: np.ndarray, outcomes: np.ndarray, actions: np.ndarray | None = None) -> np.ndarray:

@@ -293,3 +293,21 @@ def test_reachable_targets_put_every_box_on_a_reachable_yaw_collision_free():
                                  yaw_lattice(space, o, 10) % space.period[o]))
     already = yaw_snapper(space, start, 10)(target[None])      # a target whose yaws are reachable is not repeated
     assert len(reachable_targets(space, already, start[None], np.random.default_rng(0), turns=10, rounds=50)) == 0
+
+
+def test_improve_adds_the_optimums_reachable_versions_as_targets_and_stays_valid():
+    space = _three()
+    start = np.array([[0.2, 0.2, 0.1], [0.8, 0.6, 0.05], [0.8, 0.2, 0.0]])
+    optimum = np.array([[[0.45, 0.4, 0.0], [0.62, 0.4, 0.0], [0.5, 0.55, 0.0]]])   # square: the turns cannot make it
+    runs = {}
+    for turns in (0, 10):
+        runs[turns] = improve(space, start[None], np.random.default_rng(2), rounds=100, depth=12, width=16, passes=1,
+                              max_orders=2, optimum=optimum, optimum_orders=[], optimum_turns=turns)
+    reachable = reachable_targets(space, optimum, start[None], np.random.default_rng(0), turns=10, rounds=100)
+    # the optimum group gains one target per distinct reachable version (the start is the path's both ends here)
+    assert len(runs[10][3]["refine_targets"]) == len(runs[0][3]["refine_targets"]) + len(reachable) == \
+        len(runs[0][3]["refine_targets"]) + 1
+    cost, _, actions, _ = runs[10]
+    states, ok = space.rollout(start, actions)
+    assert ok and np.isclose(space.cost.cost(states[-1][None])[0], cost)
+    assert cost <= space.cost.cost(start[None])[0]
