@@ -47,21 +47,20 @@ SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 30
         "held-out C": ((0, 3, 4, 5, 7), 5000),
         "held-out D": ((0, 2, 4, 5, 6), 6000),
         "held-out E": ((1, 2, 3, 5, 6), 7000),
-        "held-out F": ((0, 1, 4, 6, 7), 8000)}
+        "held-out F": ((0, 1, 4, 6, 7), 8000),
+        "held-out G": ((0, 2, 3, 6, 7), 9000),
+        "held-out H": ((0, 1, 2, 5, 6), 10000)}
 
 
 class _Models:
-    """The hand-made models, each followed by the same scaled by every fraction of ``strokes`` after the first."""
-
-    def __init__(self, strokes: tuple[float, ...] = (1.0,)) -> None:
-        self.table = np.concatenate([f * MEANS for f in strokes])
+    """The hand-made models (whole strokes; ``planning.strokes`` adds their fractions)."""
 
     def means(self, classes):
-        return np.repeat(self.table[None], len(classes), 0)
+        return np.repeat(MEANS[None], len(classes), 0)
 
 
 def run_set(label: str, indices, base: int, seeds: int, settings: list[str], iterations: int,
-            overrides: dict | None = None, strokes: tuple[float, ...] = (1.0,)) -> list[dict]:
+            overrides: dict | None = None) -> list[dict]:
     from pliant import api
     from pliant.api import Termination, build_options
     from pliant_tsrrt.planner import TSRRTOptions, build_space
@@ -79,7 +78,7 @@ def run_set(label: str, indices, base: int, seeds: int, settings: list[str], ite
                                                    "improvement.refine_optimum_orders": int(orders or 0),
                                                    **(overrides or {})})
             if space is None:
-                space = build_space(scene, options, _Models(strokes), names)
+                space = build_space(scene, options, _Models(), names)
                 space.warm_up()
                 ref = reference_optimum(space, np.random.default_rng(0), rounds=3000)[1]
             rng = np.random.default_rng(seed)
@@ -108,16 +107,11 @@ def main() -> None:
     parser.add_argument("--sets", default="development,held-out,held-out B")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="another TS-RRT option for every plan (e.g. improvement.refine_width=128)")
-    parser.add_argument("--strokes", default="1", help="fractions of a stroke the tree and the beams may push with, "
-                        "comma-separated, the whole stroke first (e.g. 1,0.5,0.25): planning only, no plan is executed")
+    parser.add_argument("--strokes", default=None, help="fractions of a stroke the plans may push with, "
+                        "comma-separated, the whole stroke first (e.g. 1,0.5,0.25): planning.strokes")
     args = parser.parse_args()
-    try:
-        strokes = tuple(float(f) for f in args.strokes.split(","))
-    except ValueError:
-        parser.error(f"--strokes {args.strokes!r}: expected comma-separated numbers")
-    if strokes[0] != 1.0 or not all(0.0 < f <= 1.0 for f in strokes) or len(set(strokes)) != len(strokes):
-        parser.error(f"--strokes {args.strokes!r}: distinct fractions in (0, 1], the whole stroke (1) first")
-    from pliant.api import PliantError, parse_override
+    from pliant.api import PliantError, build_options, parse_override
+    from pliant_tsrrt.options import TSRRTOptions
 
     overrides = {}
     for item in args.set:
@@ -126,11 +120,20 @@ def main() -> None:
         except PliantError as exc:
             parser.error(str(exc))
         overrides[key] = value
+    if args.strokes is not None:
+        try:
+            overrides["planning.strokes"] = tuple(float(f) for f in args.strokes.split(","))
+        except ValueError:
+            parser.error(f"--strokes {args.strokes!r}: expected comma-separated numbers")
+    try:
+        strokes = build_options(TSRRTOptions, overrides, source="<command line>").planning.strokes
+    except PliantError as exc:
+        parser.error(str(exc))
     settings = args.settings.split(",")
     plans = []
     for label in args.sets.split(","):
         indices, base = SETS[label]
-        plans += run_set(label, indices, base, args.seeds, settings, args.iterations, overrides, strokes)
+        plans += run_set(label, indices, base, args.seeds, settings, args.iterations, overrides)
     rows = []
     for label in args.sets.split(","):
         for setting in settings:

@@ -95,9 +95,9 @@ def _room_for(space: ObjectSpace, observed: np.ndarray) -> ObjectSpace:
 def _adapt(space: ObjectSpace, models, names: list[str], before: np.ndarray, after: np.ndarray, obj: int,
            prim: int) -> None:
     """``execution.adapt_models``: add the displacement of object ``obj`` by primitive ``prim`` observed from
-    ``before`` to ``after`` (``(k, 3)``) to its class's model, and the new mean to ``space`` (every object of the
-    class), unless another object moved by more than :data:`ADAPT_STILL` (then the push touched it, and the
-    displacement is not the model's)."""
+    ``before`` to ``after`` (``(k, 3)``; a whole stroke) to its class's model, and the new mean to ``space`` (every
+    object of the class, every stroke), unless another object moved by more than :data:`ADAPT_STILL` (then the push
+    touched it, and the displacement is not the model's)."""
     others = np.arange(len(names)) != obj
     if np.any(np.linalg.norm(after[others, :2] - before[others, :2], axis=1) > ADAPT_STILL):
         return
@@ -106,7 +106,8 @@ def _adapt(space: ObjectSpace, models, names: list[str], before: np.ndarray, aft
     model.update(relative(before[obj], after[obj]))
     for i, n in enumerate(names):
         if object_class(n) == cls:
-            space.means[i, prim] = model.mean
+            for s, f in enumerate(space.strokes):       # and the same primitive's fractions of a stroke
+                space.means[i, 6 * s + prim] = f * model.mean
 
 
 def _replanned(adaptations: list[dict]) -> int:
@@ -156,7 +157,9 @@ class PushPlanStrategy(ScriptedStrategy):
 
     def script(self, rng):
         plan, scene = self.plan, self.scene
+        # the plan's own strokes decode its actions (a plan saved before plans carried strokes has whole ones only)
         o = options_from_dict(plan.options)
+        o = replace(o, planning=replace(o.planning, strokes=plan.strokes))
         if self.noise is not None:
             o = replace(o, push=replace(o.push, placement_noise=self.noise))
         e, imp = o.execution, o.improvement
@@ -211,7 +214,7 @@ class PushPlanStrategy(ScriptedStrategy):
                         steps_left -= 1
                         replans.append({"after_action": len(records), "reason": "finish step", "repair": True,
                                         "cost_before": cost_now, "planned_cost": predicted_cost, "actions": 1,
-                                        "repair_pushes": 1, "objects": [plan.names[action // 6]],
+                                        "repair_pushes": 1, "objects": [plan.names[space.decode(action)[0]]],
                                         "stroke": stroke})
                         actions, expected, j, stepping = [action], [observed, after], 0, True
                         continue
@@ -246,16 +249,19 @@ class PushPlanStrategy(ScriptedStrategy):
                     outcome = ExecutionOutcome.ACTION_LIMIT
                     break
                 a = actions[j]
-                obj, prim = divmod(a, 6)
+                obj, prim, fraction = space.decode(a)
                 predicted = expected[j + 1] if stepping else space.step(observed, a)
-                made = push if not stepping or stroke == 1.0 else \
-                    replace(push, push_depth=stroke * push.push_depth, turn_depth=stroke * push.turn_depth)
+                if stepping:
+                    fraction *= stroke
+                made = push if fraction == 1.0 else \
+                    replace(push, push_depth=fraction * push.push_depth, turn_depth=fraction * push.turn_depth)
                 try:
                     poses = yield from push_action(all_names, fp_all, all_names.index(plan.names[obj]), prim, made, rng,
                                                    self.last)
                 except SimulationError as exc:     # e.g. the noisy paddle placement lands in a wall: skip it, replan
                     blocked += 1
-                    records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "skipped": str(exc)})
+                    records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "stroke": fraction,
+                                "skipped": str(exc)})
                     if _replanned(replans) >= e.max_replans:
                         outcome = ExecutionOutcome.FAILURE
                         break
@@ -271,13 +277,14 @@ class PushPlanStrategy(ScriptedStrategy):
                     actions, expected, j = found.actions, found.states, 0
                     continue
                 before, observed = observed, np.array([poses[n] for n in plan.names])
-                if e.adapt_models:
+                if e.adapt_models and fraction == 1.0:      # the models are of whole strokes
                     _adapt(space, models, plan.names, before, observed, obj, prim)
                 j += 1
                 err_t, dth = pose_errors(space, observed, expected[j])
                 step_t, step_th = pose_errors(space, observed, predicted)
                 replan = bool(np.any(err_t > e.replan_threshold) or np.any(dth > e.replan_angle)) and not stepping
-                records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "predicted": predicted,
+                records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "stroke": fraction,
+                                "predicted": predicted,
                                 "observed": observed.copy(), "step_error": float(step_t.max()),
                                 "step_angle_error": float(step_th.max()), "plan_error": float(err_t.max()),
                                 "plan_angle_error": float(dth.max()),
@@ -286,7 +293,7 @@ class PushPlanStrategy(ScriptedStrategy):
                     continue
                 if not replan and e.repair and e.repair_placed and repairs < e.max_repairs \
                         and placed[obj] < PLACE_TRIES \
-                        and obj not in [a // 6 for a in actions[j:]]:
+                        and obj not in [a // space.n_prims for a in actions[j:]]:
                     # the object's last push of the plan: is it where the plan leaves it (tighter thresholds)?
                     if err_t[obj] > e.place_threshold or dth[obj] > e.place_angle:
                         placed[obj] += 1

@@ -73,7 +73,7 @@ def draw_plan(path: Path, scene, plan, executed: np.ndarray | None = None, execu
     for j, s in enumerate(plan.states):
         draw_arrangement(axes[1], s, fp, colors, alpha=0.15 + 0.6 * j / max(1, m - 1), fill=False)
     for j, a in enumerate(plan.actions):
-        o = a // 6
+        o = a // plan.n_prims
         p0, p1 = plan.states[j][o, :2], plan.states[j + 1][o, :2]
         axes[1].annotate("", p1, p0, arrowprops={"arrowstyle": "->", "color": colors[o], "lw": 0.8})
     title = f"final: planned cost {plan.cost:.3f}"

@@ -96,6 +96,15 @@ class PlanningOptions:
     gd_noise: float = option(0.7, "standard deviation of a Gaussian added to DIRECTGD's sample, in mean push lengths "
                              "(a stochastic descent)", minimum=0.0)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
+    strokes: tuple[float, ...] = option((1.0,), "the strokes a planned push may use, as fractions of its primitive's "
+                                        "depth, the whole stroke first (e.g. [1, 0.5, 0.25]): finer placing")
+
+    def validate(self) -> None:
+        s = self.strokes
+        if not s or not all(isinstance(f, (int, float)) and not isinstance(f, bool) and 0 < f <= 1 for f in s) \
+                or float(s[0]) != 1.0 or len(set(s)) != len(s):
+            raise ConfigError("must be distinct fractions in (0, 1], the whole stroke (1) first", field="strokes",
+                              value=list(s))
 
 
 @dataclass(frozen=True)

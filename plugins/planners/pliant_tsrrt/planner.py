@@ -125,7 +125,7 @@ class TSRRTPlanner(Planner):
         stats = dict(found.statistics, learn_time=learn_time,
                      start_cost=float(space.cost.cost(s0[None])[0]), total_time=time.perf_counter() - t0)
         policy = PushPlan(names=names, start=s0, actions=found.actions, states=found.states, cost=found.cost,
-                          options=options, models=models)
+                          options=options, models=models, strokes=space.strokes)
         return PlanResult(Status.SOLVED, path=paddle_path(space, problem, found.states, found.actions), policy=policy,
                           cost=found.cost, statistics=stats, planner=self.name,
                           options=options, message=f"{len(found.actions)} pushes to an arrangement of cost "
@@ -175,7 +175,7 @@ def paddle_path(space: ObjectSpace, problem: PlanningProblem, states: np.ndarray
     """The robot's side of a plan: the paddle's pose before each push, from the scene's start to its goal (SE(2))."""
     poses = [np.asarray(problem.start, dtype=np.float64)]
     for j, a in enumerate(actions):
-        o, p = divmod(int(a), 6)
+        o, p, _ = space.decode(a)
         start, _, _ = paddle_sweeps(states[j][None], space.fp, space.push)
         q = start[0, o, p].copy()
         q[2] = float(wrap(q[2]))
@@ -211,21 +211,28 @@ def build_space(scene, o: TSRRTOptions, models: PushModels, names: list[str]) ->
     c = o.cost
     cost = domain.task_cost(fp, table, (c.w_orth, c.w_area, c.w_edge, c.w_setting), relations, c.setting_scale)
     check = domain.checker(fp, obs_fp, obs_poses, table, o.planning.margin)
-    means = models.means([object_class(n) for n in names])
-    return ObjectSpace(fp, means, check, cost, domain.push_settings(o, scene), domain.bounds_rect(scene))
+    whole = np.asarray(models.means([object_class(n) for n in names]), dtype=np.float64)
+    # a fraction of a stroke moves the object by the model's mean times the fraction, to first order: after the
+    # guarded approach the paddle's travel is what moves it (execution.finish_scales measures the same assumption)
+    strokes = tuple(float(f) for f in o.planning.strokes)
+    means = np.concatenate([f * whole for f in strokes], axis=1)
+    return ObjectSpace(fp, means, check, cost, domain.push_settings(o, scene), domain.bounds_rect(scene), strokes)
 
 
 class PushPlan(Policy):
     """A TS-RRT plan: the planned objects' ``names``, the ``start`` arrangement ``(k, 3)``, the ``actions``
-    (``6 o + p``: object ``o``, primitive ``p`` of :data:`~pliant_tsrrt.pushing.PRIMITIVES`), the predicted
-    ``states`` ``(m + 1, k, 3)`` and final ``cost``; with the planner's ``options`` and the ``models`` so that
-    execution can replan after a round trip through JSON."""
+    (``P o + p``, ``P = 6 len(strokes)``: object ``o``, primitive ``p % 6`` of
+    :data:`~pliant_tsrrt.pushing.PRIMITIVES` with the stroke ``strokes[p // 6]``, a fraction of the primitive's
+    depth), the predicted ``states`` ``(m + 1, k, 3)`` and final ``cost``; with the planner's ``options`` and the
+    ``models`` so that execution can replan after a round trip through JSON.  A plan saved without ``strokes``
+    (before plans carried them) pushes whole strokes only."""
 
     kind = "tsrrt-push-plan"
     #: executed by the core's one execution loop with :class:`pliant_tsrrt.execution.PushPlanStrategy`
     follower = "pliant_tsrrt.execution:follow_plan"
 
-    def __init__(self, names, start, actions, states, cost, options, models: PushModels) -> None:
+    def __init__(self, names, start, actions, states, cost, options, models: PushModels,
+                 strokes: tuple[float, ...] = (1.0,)) -> None:
         self.names = list(names)
         self.start = np.asarray(start, dtype=np.float64)
         self.actions = [int(a) for a in actions]
@@ -233,14 +240,39 @@ class PushPlan(Policy):
         self.cost = float(cost)
         self.options = dict(options)
         self.models = models
+        self.strokes = tuple(float(f) for f in strokes)
+        if not self.strokes or self.strokes[0] != 1.0 or not all(0 < f <= 1 for f in self.strokes):
+            raise ConfigError("must be fractions in (0, 1], the whole stroke (1) first", field="policy.strokes",
+                              value=list(self.strokes))
+        n = len(self.names) * 6 * len(self.strokes)
+        bad = [a for a in self.actions if not 0 <= a < n]
+        if bad:
+            raise ConfigError(f"an action must be in [0, {n}) for {len(self.names)} objects and "
+                              f"{len(self.strokes)} strokes", field="policy.actions", value=bad[0])
+
+    @property
+    def n_prims(self) -> int:
+        """Actions per object: six primitives per stroke."""
+        return 6 * len(self.strokes)
+
+    def decode(self, action: int) -> tuple[int, int, float]:
+        """Action ``a`` as ``(object, primitive of PRIMITIVES, stroke)`` (:meth:`ObjectSpace.decode`)."""
+        o, p = divmod(int(action), self.n_prims)
+        return o, p % 6, self.strokes[p // 6]
 
     def describe(self) -> list[str]:
-        """The actions as ``object primitive`` strings."""
-        return [f"{self.names[a // 6]} {PRIMITIVES[a % 6]}" for a in self.actions]
+        """The actions as ``object primitive`` strings, with the stroke when it is a fraction (``fork-1 +x (0.25
+        stroke)``)."""
+        out = []
+        for a in self.actions:
+            o, p, f = self.decode(a)
+            out.append(f"{self.names[o]} {PRIMITIVES[p]}" + ("" if f == 1.0 else f" ({f:g} stroke)"))
+        return out
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "names": self.names, "start": self.start.tolist(), "actions": self.actions,
-                "steps": self.describe(), "states": self.states.tolist(), "cost": self.cost,
+                "strokes": list(self.strokes), "steps": self.describe(), "states": self.states.tolist(),
+                "cost": self.cost,
                 "options": {k: list(v) if isinstance(v, tuple) else v for k, v in self.options.items()},
                 "models": self.models.to_dict()}
 
@@ -248,7 +280,7 @@ class PushPlan(Policy):
     def from_dict(cls, data: dict) -> PushPlan:
         try:
             return cls(data["names"], data["start"], data["actions"], data["states"], data["cost"], data["options"],
-                       PushModels.from_dict(data["models"]))
+                       PushModels.from_dict(data["models"]), strokes=data.get("strokes", (1.0,)))
         except KeyError as exc:
             raise ConfigError("a TS-RRT plan needs names, start, actions, states, cost, options and models",
                               field=f"policy.{exc.args[0]}") from None

@@ -689,10 +689,12 @@ def finishing_push(space, s: np.ndarray, scales: tuple[float, ...] = (1.0,)) -> 
     moves the object).  Returns ``(predicted cost, action, fraction, predicted arrangement)``, or ``None`` when no
     valid push is predicted to lower the cost by 0.1 %.  The closed-loop finishing of an execution
     (``execution.finish_steps``): fractions of a stroke make corrections finer than a whole push (a turn of 0.2 rad
-    cannot take out a yaw error of 0.1 rad; a third of one can)."""
-    n_actions = space.k * space.n_prims
-    acts = np.tile(np.arange(n_actions), len(scales))
-    scale = np.repeat(np.asarray(scales, dtype=np.float64), n_actions)
+    cannot take out a yaw error of 0.1 rad; a third of one can).  Only the whole strokes of ``space``'s actions are
+    scaled (a space that plans with fractions, ``planning.strokes``, has them as well): the action returned is a
+    whole stroke's, the stroke to push with is the fraction."""
+    whole = (np.arange(space.k)[:, None] * space.n_prims + np.arange(6)).ravel()   # the whole strokes' actions
+    acts = np.tile(whole, len(scales))
+    scale = np.repeat(np.asarray(scales, dtype=np.float64), len(whole))
     objs, prims = acts // space.n_prims, acts % space.n_prims
     before = np.repeat(s[None], len(acts), axis=0)
     after = before.copy()

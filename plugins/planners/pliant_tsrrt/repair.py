@@ -118,7 +118,7 @@ def retarget(space, observed: np.ndarray, expected: np.ndarray, rest: list[int],
     candidates = []
     starts = [0]
     if len(objects) == 1:
-        first = next((i for i, a in enumerate(rest) if a // 6 == objects[0]), None)
+        first = next((i for i, a in enumerate(rest) if a // space.n_prims == objects[0]), None)
         if first:
             starts.insert(0, first)                    # where the plan would have moved the object next
     for at in starts:
@@ -131,7 +131,7 @@ def retarget(space, observed: np.ndarray, expected: np.ndarray, rest: list[int],
             added += seq
         if set(objects) & set(_displaced(space, s, final, threshold / 2, angle / 2)):
             continue
-        plan = head + added + [a for a in rest[at:] if a // 6 not in objects]
+        plan = head + added + [a for a in rest[at:] if a // space.n_prims not in objects]
         states, ok = loose.rollout(observed, plan)
         if not ok or (at_most is not None and float(space.cost.cost(states[-1][None])[0]) > at_most):
             continue

@@ -74,11 +74,11 @@ class ObjectSpace:
     the collision checker, the task cost, the push settings and the scene bounds ``(x0, y0, x1, y1)`` (m) that the
     paddle must stay inside.
 
-    ``P`` is the models' six primitives (``P = 6``, what the planner builds) or a multiple of six: primitive ``p``
-    then moves the object as its ``means`` say and is checked as primitive ``p % 6``, with that primitive's whole
-    stroke's paddle sweep, which contains a shorter stroke's.  An action is ``a = P o + p``.  The benchmark of
-    fractions of a stroke in planning (``bench_tsrrt_five.py --strokes``) builds such a space; plans with ``P > 6``
-    cannot be executed yet (the plan's format has no stroke)."""
+    ``P`` is six primitives per stroke of ``strokes`` (fractions of a primitive's depth, the whole stroke first:
+    ``planning.strokes``): primitive ``p`` is the models' primitive ``p % 6`` pushed with the stroke
+    ``strokes[p // 6]``; it moves the object as its ``means`` say (the model's mean times the fraction, built by
+    :func:`pliant_tsrrt.planner.build_space`) and is checked with primitive ``p % 6``'s whole stroke's paddle sweep,
+    which contains a shorter stroke's.  An action is ``a = P o + p`` (:meth:`decode`)."""
 
     fp: Footprints
     means: np.ndarray
@@ -86,15 +86,18 @@ class ObjectSpace:
     cost: TaskCost
     push: PushSettings
     bounds: tuple[float, float, float, float]
+    strokes: tuple[float, ...] = (1.0,)
     scale: np.ndarray = field(init=False)
     period: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
         self.means = np.ascontiguousarray(self.means, dtype=np.float64)
         self.k = len(self.fp)
-        if self.means.ndim != 3 or self.means.shape[0] != self.k or self.means.shape[1] % N_PRIMITIVES \
-                or self.means.shape[1] == 0 or self.means.shape[2] != 3:
-            raise ValueError(f"means must be (k, 6 n, 3) for the {self.k} objects, got {self.means.shape}")
+        self.strokes = tuple(float(f) for f in self.strokes)
+        if self.means.ndim != 3 or self.means.shape[0] != self.k \
+                or self.means.shape[1] != N_PRIMITIVES * len(self.strokes) or self.means.shape[2] != 3:
+            raise ValueError(f"means must be (k, 6 x {len(self.strokes)} strokes, 3) for the {self.k} objects, got "
+                             f"{self.means.shape}")
         self.scale = np.where(self.fp.kind == CIRCLE, 0.0, self.fp.radius)
         square = np.abs(self.fp.half[:, 0] - self.fp.half[:, 1]) < 1e-9
         self.period = np.where(square, np.pi / 2, np.pi)
@@ -123,6 +126,12 @@ class ObjectSpace:
         self.valid_steps(s[None], s[None], np.zeros(1, dtype=np.int64), valid_before=True)
         self.rollout(s, [0])
         kernels.beam_expand(s[:1].copy(), self.means[0].copy(), s[0].copy(), 0.1, np.pi, 0.01)
+
+    def decode(self, action: int) -> tuple[int, int, float]:
+        """Action ``a = P o + p`` as ``(object o, primitive p % 6 of PRIMITIVES, stroke: a fraction of its
+        depth)``."""
+        o, p = divmod(int(action), self.n_prims)
+        return o, p % N_PRIMITIVES, self.strokes[p // N_PRIMITIVES]
 
     # --- MODEL, rho, IN_COLLISION ------------------------------------------------------------------------------
 

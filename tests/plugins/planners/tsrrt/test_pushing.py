@@ -54,6 +54,28 @@ def test_a_push_moves_the_object_along_its_own_axis():
     assert np.allclose(after["book-1"], before["book-1"]) and np.allclose(after["can-1"], before["can-1"])
 
 
+@pytest.mark.parametrize("primitive", ["push+x", "turn+"])
+def test_a_fraction_of_a_stroke_moves_the_object_about_that_fraction_of_a_whole_push(primitive):
+    # what planning with fractions (planning.strokes) assumes to first order: after the guarded approach the paddle's
+    # travel is what moves the object, so half the depth moves it about half as far (or turns it half as much)
+    from dataclasses import replace
+
+    scene, ctx = _world()
+    names = [o.name for o in scene.objects if o.movable]
+    fp = footprints_from_scene(scene, names)
+    sim, whole = ctx.simulator, PushSettings()
+    moved = {}
+    for fraction in (1.0, 0.5):
+        sim.set_object_poses({"block-1": np.array([0.5, 0.4, 0.0])})
+        made = replace(whole, push_depth=fraction * whole.push_depth, turn_depth=fraction * whole.turn_depth)
+        after = apply_action(sim, names, fp, names.index("block-1"), PRIMITIVES.index(primitive), made,
+                             np.random.default_rng(0))
+        d = after["block-1"] - np.array([0.5, 0.4, 0.0])
+        moved[fraction] = d[0] if primitive == "push+x" else d[2]
+    assert abs(moved[1.0]) > (0.03 if primitive == "push+x" else 0.05)
+    assert 0.35 < moved[0.5] / moved[1.0] < 0.65
+
+
 def _push_lengths(guard: float, seeds=range(6)) -> np.ndarray:
     """How far push+x moves the block (m) from one pose, with a 4 mm paddle placement error, per seed."""
     scene, ctx = _world()

@@ -16,8 +16,8 @@ from pliant.errors import ConfigError
 from pliant.execution.strategy import Place
 from pliant.interfaces import Context
 from pliant_tsrrt.execution import execute_plan
-from pliant_tsrrt.models import Displacement, PushModels, footprints_from_scene, object_class, scene_pose
-from pliant_tsrrt.options import CostOptions, ExecutionOptions, TSRRTOptions
+from pliant_tsrrt.models import Displacement, PushModels, compose, footprints_from_scene, object_class, scene_pose
+from pliant_tsrrt.options import CostOptions, ExecutionOptions, PlanningOptions, TSRRTOptions
 from pliant_tsrrt.planner import PushPlan, build_space
 from pliant_tsrrt.search import SearchResult
 
@@ -68,9 +68,11 @@ def _script(monkeypatch, space, kick, replans, stuck_from=None):
         now = {n: np.asarray(p, float) for n, p in seen.objects.items()}
         s = np.array([now[n] for n in NAMES])
         if stuck_from is None or calls["pushes"] < stuck_from:
-            moved = space.step(s, 6 * NAMES.index(names[index]) + primitive)
-            # a shorter stroke (a closed-loop finishing push) moves the object that fraction of the model's push
+            moved = space.step(s, space.n_prims * NAMES.index(names[index]) + primitive)
+            # a shorter stroke (a finishing push, or a planned fraction) moves the object that fraction of the model's
             stroke = settings.push_depth / space.push.push_depth
+            assert settings.turn_depth == pytest.approx(stroke * space.push.turn_depth)
+            calls.setdefault("strokes", []).append(stroke)
             s = s + stroke * (moved - s)
         if calls["pushes"] == kick[0]:
             if np.ndim(kick[2]):
@@ -294,3 +296,87 @@ def test_adapt_models_adds_an_observed_push_to_its_class_unless_it_moved_another
     moved[0, 0] += 0.01                               # the book moved too: the push touched it
     _adapt(space, models, NAMES, before, moved, can, 3)
     assert model.n == n0 + 1
+
+
+def _stroke_setup():
+    """The scripted set-up with plans that may push whole strokes, halves and quarters (``planning.strokes``)."""
+    scene, world, models, _, _ = _setup()
+    options = TSRRTOptions(planning=PlanningOptions(strokes=(1.0, 0.5, 0.25)),
+                           execution=ExecutionOptions(repair=False, replan_threshold=0.02, finish_steps=0,
+                                                      adapt_models=False))
+    return scene, world, models, options, build_space(scene, options, models, NAMES)
+
+
+def test_a_space_with_strokes_has_each_primitive_again_scaled_by_each_fraction():
+    space = _stroke_setup()[-1]
+    assert space.n_prims == 18 and space.strokes == (1.0, 0.5, 0.25)
+    np.testing.assert_allclose(space.means[:, 6:12], 0.5 * space.means[:, :6])
+    np.testing.assert_allclose(space.means[:, 12:], 0.25 * space.means[:, :6])
+    np.testing.assert_allclose(space.means[0, 4], MEANS[4])
+    # action 18 o + 6 s + p: object o, primitive p, stroke s
+    assert space.decode(10) == (0, 4, 0.5) and space.decode(2 * 18 + 15) == (2, 3, 0.25) and space.decode(18) == \
+        (1, 0, 1.0)
+
+
+def test_a_plan_with_fractions_of_a_stroke_pushes_each_action_with_its_stroke(monkeypatch):
+    # the book turns + by half a stroke (0.1 rad), the can goes -y by a quarter (1.125 cm), the block +x by a whole
+    # push (4.5 cm); the scripted world moves each object by that fraction of its model's push, so the execution
+    # follows the plan exactly when each push is made with its own stroke
+    scene, world, models, options, space = _stroke_setup()
+    s0 = np.array([scene_pose(scene, n) for n in NAMES])
+    actions = [0 * 18 + 6 + 4, 2 * 18 + 12 + 3, 1 * 18 + 0]
+    first = _result(space, s0, actions)
+    expected = [compose(s0[0], 0.5 * np.array(MEANS[4])), compose(s0[1], np.array(MEANS[0])),
+                compose(s0[2], 0.25 * np.array(MEANS[3]))]
+    np.testing.assert_allclose(first.states[-1], expected, atol=1e-12)
+    assert first.states[-1][0, 2] - s0[0, 2] == pytest.approx(0.1)
+    calls = _script(monkeypatch, space, (99, 0, 0.0), [])
+    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, asdict(options), models,
+                    strokes=space.strokes)
+    record = execute_plan(plan, world, scene, np.random.default_rng(0))
+    assert calls["strokes"] == pytest.approx([0.5, 0.25, 1.0])
+    assert [a["stroke"] for a in record.details.actions] == [0.5, 0.25, 1.0]
+    assert [a["primitive"] for a in record.details.actions] == ["turn+", "push-y", "push+x"]
+    assert not record.details.adaptations and not calls["grow"]
+    np.testing.assert_allclose(record.details.final_state, first.states[-1], atol=1e-9)
+    assert record.outcome == "success"
+
+
+def test_a_plan_carries_its_strokes_through_json_and_an_old_plan_has_whole_strokes_only():
+    scene, _, models, options, space = _stroke_setup()
+    s0 = np.array([scene_pose(scene, n) for n in NAMES])
+    first = _result(space, s0, [10, 51])
+    plan = PushPlan(NAMES, s0, first.actions, first.states, first.cost, asdict(options), models,
+                    strokes=space.strokes)
+    assert plan.describe() == ["book-1 turn+ (0.5 stroke)", "can-1 push-y (0.25 stroke)"]
+    data = plan.to_dict()
+    again = PushPlan.from_dict(data)
+    assert again.strokes == (1.0, 0.5, 0.25) and again.decode(51) == (2, 3, 0.25)
+    old = {k: v for k, v in data.items() if k != "strokes"}
+    old["actions"] = [4, 15]
+    assert PushPlan.from_dict(old).strokes == (1.0,)
+    assert PushPlan.from_dict(old).describe() == ["book-1 turn+", "can-1 push-y"]
+    with pytest.raises(ConfigError, match=r"policy\.actions.*54"):
+        PushPlan.from_dict({**data, "actions": [10, 54]})       # 3 objects x 18 actions: 54 is out of range
+    with pytest.raises(ConfigError, match=r"policy\.strokes"):
+        PushPlan.from_dict({**data, "strokes": [0.5, 1.0]})
+
+
+def test_planning_strokes_must_start_with_the_whole_stroke_and_be_distinct_fractions():
+    for bad in ((), (0.5,), (0.5, 1.0), (1.0, 1.0), (1.0, 0.0), (1.0, 1.5)):
+        with pytest.raises(ConfigError, match="strokes"):
+            PlanningOptions(strokes=bad).validate()
+    PlanningOptions(strokes=(1.0, 0.5)).validate()
+
+
+def test_adapt_models_updates_a_primitives_fractions_with_its_whole_stroke():
+    from pliant_tsrrt.execution import _adapt
+
+    _, _, models, _, space = _stroke_setup()
+    can = NAMES.index("can-1")
+    before = np.array([[0.2, 0.6, 0.5], [0.8, 0.2, 0.0], [0.7, 0.6, 0.0]])
+    after = before.copy()
+    after[can] = (0.7, 0.6 - 0.03, 0.0)
+    _adapt(space, models, NAMES, before, after, can, 3)
+    mean = models.models[object_class("can-1")][3].mean
+    np.testing.assert_allclose(space.means[can, [3, 9, 15]], [mean, 0.5 * mean, 0.25 * mean])

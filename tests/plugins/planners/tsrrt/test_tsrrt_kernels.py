@@ -86,8 +86,8 @@ def test_a_space_with_fractions_of_a_stroke_moves_and_checks_them_as_the_numpy_c
     k = 3
     space = _space(k, OBSTACLES, 0.0)
     halves = ObjectSpace(space.fp, np.array([MODEL + [[0.5 * v for v in m] for m in MODEL]] * k, dtype=float),
-                         space.checker, space.cost, PushSettings(), BOUNDS)
-    assert halves.n_prims == 12
+                         space.checker, space.cost, PushSettings(), BOUNDS, strokes=(1.0, 0.5))
+    assert halves.n_prims == 12 and halves.decode(12 * 2 + 6 + 3) == (2, 3, 0.5)
     rng = np.random.default_rng(12)
     s = space.random_config(rng)
     outcomes = halves.outcomes(s)
@@ -110,7 +110,9 @@ def test_a_space_with_fractions_of_a_stroke_moves_and_checks_them_as_the_numpy_c
     assert len(to) == 12
 
 
-def test_means_that_are_not_whole_sets_of_six_primitives_are_refused():
+def test_means_that_are_not_six_primitives_per_stroke_are_refused():
     space = _space(2, OBSTACLES, 0.0)
     with pytest.raises(ValueError, match="means must be"):
         ObjectSpace(space.fp, np.zeros((2, 7, 3)), space.checker, space.cost, PushSettings(), BOUNDS)
+    with pytest.raises(ValueError, match="6 x 1 strokes"):       # twelve primitives need two strokes declared
+        ObjectSpace(space.fp, np.zeros((2, 12, 3)), space.checker, space.cost, PushSettings(), BOUNDS)
