@@ -224,15 +224,15 @@ class PushPlan(Policy):
     (``P o + p``, ``P = 6 len(strokes)``: object ``o``, primitive ``p % 6`` of
     :data:`~pliant_tsrrt.pushing.PRIMITIVES` with the stroke ``strokes[p // 6]``, a fraction of the primitive's
     depth), the predicted ``states`` ``(m + 1, k, 3)`` and final ``cost``; with the planner's ``options`` and the
-    ``models`` so that execution can replan after a round trip through JSON.  A plan saved without ``strokes``
-    (before plans carried them) pushes whole strokes only."""
+    ``models`` so that execution can replan after a round trip through JSON.  ``strokes`` defaults to the options'
+    ``planning.strokes``; a plan saved before plans carried strokes pushes whole strokes only."""
 
     kind = "tsrrt-push-plan"
     #: executed by the core's one execution loop with :class:`pliant_tsrrt.execution.PushPlanStrategy`
     follower = "pliant_tsrrt.execution:follow_plan"
 
     def __init__(self, names, start, actions, states, cost, options, models: PushModels,
-                 strokes: tuple[float, ...] = (1.0,)) -> None:
+                 strokes: tuple[float, ...] | None = None) -> None:
         self.names = list(names)
         self.start = np.asarray(start, dtype=np.float64)
         self.actions = [int(a) for a in actions]
@@ -240,6 +240,9 @@ class PushPlan(Policy):
         self.cost = float(cost)
         self.options = dict(options)
         self.models = models
+        if strokes is None:
+            planning = self.options.get("planning")
+            strokes = planning.get("strokes", (1.0,)) if isinstance(planning, dict) else (1.0,)
         self.strokes = tuple(float(f) for f in strokes)
         if not self.strokes or self.strokes[0] != 1.0 or not all(0 < f <= 1 for f in self.strokes):
             raise ConfigError("must be fractions in (0, 1], the whole stroke (1) first", field="policy.strokes",
@@ -280,7 +283,7 @@ class PushPlan(Policy):
     def from_dict(cls, data: dict) -> PushPlan:
         try:
             return cls(data["names"], data["start"], data["actions"], data["states"], data["cost"], data["options"],
-                       PushModels.from_dict(data["models"]), strokes=data.get("strokes", (1.0,)))
+                       PushModels.from_dict(data["models"]), strokes=data.get("strokes"))
         except KeyError as exc:
             raise ConfigError("a TS-RRT plan needs names, start, actions, states, cost, options and models",
                               field=f"policy.{exc.args[0]}") from None

@@ -352,8 +352,11 @@ def test_a_plan_carries_its_strokes_through_json_and_an_old_plan_has_whole_strok
     data = plan.to_dict()
     again = PushPlan.from_dict(data)
     assert again.strokes == (1.0, 0.5, 0.25) and again.decode(51) == (2, 3, 0.25)
+    assert PushPlan(NAMES, s0, first.actions, first.states, first.cost, asdict(options), models).strokes == \
+        (1.0, 0.5, 0.25)                            # from the options' planning.strokes
     old = {k: v for k, v in data.items() if k != "strokes"}
     old["actions"] = [4, 15]
+    old["options"] = {k: v for k, v in data["options"].items() if k != "planning"}
     assert PushPlan.from_dict(old).strokes == (1.0,)
     assert PushPlan.from_dict(old).describe() == ["book-1 turn+", "can-1 push-y"]
     with pytest.raises(ConfigError, match=r"policy\.actions.*54"):
