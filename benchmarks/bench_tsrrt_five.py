@@ -108,7 +108,8 @@ def main() -> None:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="another TS-RRT option for every plan (e.g. improvement.refine_width=128)")
     parser.add_argument("--strokes", default=None, help="fractions of a stroke the plans may push with, "
-                        "comma-separated, the whole stroke first (e.g. 1,0.5,0.25): planning.strokes")
+                        "comma-separated, the whole stroke first (1: whole pushes only): planning.strokes, default "
+                        "the option's")
     args = parser.parse_args()
     from pliant.api import PliantError, build_options, parse_override
     from pliant_tsrrt.options import TSRRTOptions

@@ -96,8 +96,9 @@ class PlanningOptions:
     gd_noise: float = option(0.7, "standard deviation of a Gaussian added to DIRECTGD's sample, in mean push lengths "
                              "(a stochastic descent)", minimum=0.0)
     margin: float = option(0.01, "clearance kept around every footprint in planning (m)", minimum=0.0)
-    strokes: tuple[float, ...] = option((1.0,), "the strokes a planned push may use, as fractions of its primitive's "
-                                        "depth, the whole stroke first (e.g. [1, 0.5, 0.25]): finer placing")
+    strokes: tuple[float, ...] = option((1.0, 0.5, 0.25, 0.125, 0.0625), "the strokes a planned push may use, as "
+                                        "fractions of its primitive's depth, the whole stroke first ([1]: whole "
+                                        "pushes only)")
 
     def validate(self) -> None:
         s = self.strokes

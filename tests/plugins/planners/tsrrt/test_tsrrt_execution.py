@@ -45,7 +45,9 @@ def _setup(repair: bool = False, finish_tolerance: float = 0.05, **more):
     more.setdefault("replan_threshold", 0.02)
     more.setdefault("finish_steps", 0)          # the finishing repairs and replannings; closed-loop steps: own test
     more.setdefault("adapt_models", False)      # the scripted kicks are disturbances, not what a push does
-    options = TSRRTOptions(execution=ExecutionOptions(finish_tolerance=finish_tolerance, repair=repair, **more))
+    # whole strokes only: the scripted plans below are written as actions 6 o + p
+    options = TSRRTOptions(planning=PlanningOptions(strokes=(1.0,)),
+                           execution=ExecutionOptions(finish_tolerance=finish_tolerance, repair=repair, **more))
     space = build_space(scene, options, models, NAMES)
     return scene, world, models, options, space
 
@@ -255,6 +257,7 @@ def test_closed_loop_finishing_takes_a_fraction_of_a_stroke_where_a_whole_push_w
     # own cost): the finishing takes one half-stroke turn and is done
     scene, world, models, _, _ = _setup()
     options = TSRRTOptions(cost=CostOptions(w_orth=1.0, w_area=0.0, w_edge=0.0),
+                           planning=PlanningOptions(strokes=(1.0,)),
                            execution=ExecutionOptions(repair=False, replan_threshold=1.0, finish_steps=10,
                                                       finish_scales=(0.25, 0.5, 1.0), adapt_models=False))
     space = build_space(scene, options, models, NAMES)
