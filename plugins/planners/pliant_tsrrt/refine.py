@@ -268,36 +268,59 @@ def optimum_targets(space, rng: np.random.Generator, rounds: int, orders: int = 
     return table_mirrors(space, best), chosen
 
 
+#: yaw resolution of :func:`yaw_lattice` (rad): net turns closer than this are one (a sixteenth of a degree, a
+#: quarter of the beams' yaw bins); with learned turns of irregular sizes, or fractions of a stroke, the exact set
+#: of net turns grows with every turn, and merging them keeps it to the few thousand values that matter
+YAW_RESOLUTION = math.radians(0.25) / 4
+
+
 def yaw_lattice(space, o: int, turns: int, threshold: float = 0.01) -> np.ndarray | None:
     """The net yaw changes (rad, sorted) that object ``o``'s primitives make in at most ``turns`` of them, counting
-    the primitives that turn it by at least ``threshold`` rad (the models' mean yaw); None for a circle, whose yaw
-    does not matter.  With the hand-made 0.2 rad turns: ``0.2 j`` for ``|j| <= turns``."""
+    the primitives that turn it by at least ``threshold`` rad (the models' mean yaw), net turns within
+    :data:`YAW_RESOLUTION` of one another merged (each kept value is an exact sum of turns); None for a circle,
+    whose yaw does not matter.  With the hand-made 0.2 rad turns: ``0.2 j`` for ``|j| <= turns``."""
     if space.scale[o] <= 0:
         return None
     yaws = space.means[o, :, 2]
     steps = np.unique(np.round(yaws[np.abs(yaws) >= threshold], 9))
-    nets, frontier = {0.0}, {0.0}
+    nets = frontier = np.zeros(1)
+    seen = np.zeros(1, dtype=np.int64)                      # the merged values' bins
     for _ in range(turns):
-        frontier = {round(x + d, 9) for x in frontier for d in steps} - nets
-        if not frontier or len(nets) + len(frontier) > 4096:
+        if not len(steps):
             break
-        nets |= frontier
-    return np.array(sorted(nets))
+        reached = np.round((frontier[:, None] + steps[None, :]).ravel(), 9)
+        bins = np.round(reached / YAW_RESOLUTION).astype(np.int64)
+        bins, first = np.unique(bins, return_index=True)
+        new = ~np.isin(bins, seen)
+        if not new.any():
+            break
+        frontier = reached[first[new]]
+        nets, seen = np.concatenate([nets, frontier]), np.concatenate([seen, bins[new]])
+    return np.sort(nets)
 
 
 def yaw_snapper(space, state: np.ndarray, turns: int):
     """A function that moves every box's yaw in arrangements ``(..., k, 3)`` to the nearest (modulo the box's
     symmetry) of the yaws its turns reach from ``state`` ``(k, 3)`` in at most ``turns`` turns
     (:func:`yaw_lattice`); positions, circles and boxes that no primitive turns unchanged."""
-    lattices = [(o, state[o, 2] + lat, float(space.period[o])) for o in range(space.k)
-                if (lat := yaw_lattice(space, o, turns)) is not None and len(lat) > 1]
+    lattices = []
+    for o in range(space.k):
+        lat = yaw_lattice(space, o, turns)
+        if lat is not None and len(lat) > 1:
+            period = float(space.period[o])
+            allowed = np.unique(np.mod(state[o, 2] + lat, period))       # sorted, in [0, period)
+            lattices.append((o, allowed, period))
 
     def snap(arrangements: np.ndarray) -> np.ndarray:
         out = np.array(arrangements, dtype=np.float64)
         for o, allowed, period in lattices:
-            d = wrap(out[..., o, 2][..., None] - allowed, period)
-            j = np.argmin(np.abs(d), axis=-1)
-            out[..., o, 2] -= np.take_along_axis(d, j[..., None], -1)[..., 0]
+            yaw = out[..., o, 2]
+            x = np.mod(yaw, period)
+            i = np.searchsorted(allowed, x)
+            below = allowed[(i - 1) % len(allowed)]            # the neighbours on the circle of the symmetry
+            above = allowed[i % len(allowed)]
+            d_below, d_above = wrap(x - below, period), wrap(x - above, period)
+            out[..., o, 2] = yaw - np.where(np.abs(d_below) <= np.abs(d_above), d_below, d_above)
         return out
     return snap
 

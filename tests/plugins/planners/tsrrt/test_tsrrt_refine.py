@@ -264,6 +264,33 @@ def test_the_yaw_lattice_is_every_net_turn_within_the_count_and_none_for_a_circl
     assert np.allclose(yaw_lattice(space, 0, 0), [0.0])
 
 
+def test_a_lattice_of_irregular_turns_and_their_fractions_stays_complete_within_its_resolution():
+    # learned turns of irregular sizes and their fractions of a stroke (planning.strokes): the exact set of net turns
+    # grows with every turn; merged within YAW_RESOLUTION it stays small, still reaches the extremes, and is within
+    # the merges' error of every exact net turn (brute force over every sequence of up to three turns)
+    import itertools
+
+    from pliant_tsrrt.refine import YAW_RESOLUTION
+
+    model = np.array(BOOK_MODEL, dtype=float)
+    model[4, 2], model[5, 2] = 0.1187, -0.1641
+    fractions = (1.0, 0.5, 0.25, 0.125, 0.0625)
+    means = np.concatenate([f * model for f in fractions])
+    fp = Footprints([BOX], [[0.12, 0.08]])
+    whole = _space(fp, [BOOK_MODEL], (1.0, 1.0, 1.0, 0.0))
+    space = ObjectSpace(fp, means[None], whole.checker, whole.cost, PushSettings(), BOUNDS, strokes=fractions)
+    steps = [d for d in means[:, 2] if abs(d) >= 0.01]
+    exact = {0.0} | {sum(c) for n in (1, 2, 3) for c in itertools.product(steps, repeat=n)}
+    exact = np.array(sorted(exact))
+    lattice = yaw_lattice(space, 0, 3)
+    assert len(lattice) < len(exact)
+    assert np.max(np.min(np.abs(exact[:, None] - lattice[None]), axis=1)) <= 3 * YAW_RESOLUTION
+    assert np.max(np.min(np.abs(lattice[:, None] - exact[None]), axis=1)) <= 3 * YAW_RESOLUTION
+    ten = yaw_lattice(space, 0, 10)
+    assert np.isclose(ten.max(), 10 * 0.1187) and np.isclose(ten.min(), -10 * 0.1641)    # not cut short
+    assert len(ten) < 2 * (10 * (0.1187 + 0.1641)) / YAW_RESOLUTION
+
+
 def test_the_snapper_moves_each_box_to_its_nearest_reachable_yaw_modulo_its_symmetry():
     space = _three()
     start = np.array([[0.3, 0.3, 0.1], [0.6, 0.5, 0.0], [0.7, 0.2, 1.0]])
