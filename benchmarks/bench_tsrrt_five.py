@@ -11,13 +11,15 @@ the defaults were fixed: the forks, the knives and cup-2 (four boxes), seeds 400
 identical objects' assignment was chosen on B: plate-1, cup-1, plate-2, fork-2, cup-2, seeds 5000-5007; held-out D,
 drawn in session 28 for the strokes experiment: plate-1, knife-1, plate-2, fork-2, knife-2, seeds 6000-6007; held-out
 E (fork-1, knife-1, cup-1, fork-2, knife-2; seeds 7000-7007) and F (plate-1, fork-1, plate-2, knife-2, cup-2; seeds
-8000-8007), drawn in session 35.  Each
+8000-8007), drawn in session 35; held-out G (plate-1, knife-1, cup-1, knife-2, cup-2; seeds 9000-9007) and H (plate-1,
+fork-1, knife-1, fork-2, knife-2; seeds 10000-10007), drawn in session 36 before plans with fractions of a stroke
+were run anywhere.  Plans use the option's ``planning.strokes`` (``--strokes 1``: whole pushes only).  Each
 ratio is the plan's final cost over the best reference found for those objects (:func:`reference_optimum` with
 3000 rounds from seed 0, and 1500 rounds from each plan's final arrangement).  Every budget is a count; CPU
 seconds are reported.
 
     pliant bench tsrrt_five [-- --settings 0,3000 --seeds 8]
-    pliant bench tsrrt_five -- --settings 3000:120 --sets "held-out B" --strokes 1,0.5,0.25,0.125,0.0625
+    pliant bench tsrrt_five -- --settings 3000:120 --sets "held-out G,held-out H" --strokes 1
 """
 
 from __future__ import annotations
@@ -41,7 +43,9 @@ MEANS = np.array([[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], 
 #: assignment of identical objects to the optimum's places was tried); held-out C: drawn after that (two plates, two
 #: cups and a fork: three pairs of identical objects); held-out D: drawn in session 28 (two plates, two knives and a
 #: fork); held-out E and F: drawn in session 35 before refine_optimum_turns was measured anywhere but B and D (E:
-#: both forks, both knives and cup-1; F: both plates, fork-1, knife-2 and cup-2)
+#: both forks, both knives and cup-1; F: both plates, fork-1, knife-2 and cup-2); held-out G and H: drawn in session 36
+#: before planning.strokes was measured anywhere (G: plate-1, knife-1, both cups, knife-2; H: plate-1, both forks and
+#: both knives, with cup-1 fixed in the middle)
 SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 3000),
         "held-out B": ((1, 2, 5, 6, 7), 4000),
         "held-out C": ((0, 3, 4, 5, 7), 5000),
