@@ -53,7 +53,7 @@ from pliant_tsrrt.repair import pose_errors
 from pliant_tsrrt.repair import restore as repair_restore
 from pliant_tsrrt.repair import retarget as repair_retarget
 from pliant_tsrrt.repair import toward_goal as repair_toward_goal
-from pliant_tsrrt.search import ObjectSpace, grow
+from pliant_tsrrt.search import N_PRIMITIVES, ObjectSpace, grow
 
 #: most repairs of one object after its last push of the plan (``repair_placed``) in one execution: a noisy turn
 #: may need a second one, but not a lottery of them
@@ -107,7 +107,7 @@ def _adapt(space: ObjectSpace, models, names: list[str], before: np.ndarray, aft
     for i, n in enumerate(names):
         if object_class(n) == cls:
             for s, f in enumerate(space.strokes):       # and the same primitive's fractions of a stroke
-                space.means[i, 6 * s + prim] = f * model.mean
+                space.means[i, N_PRIMITIVES * s + prim] = f * model.mean
 
 
 def _replanned(adaptations: list[dict]) -> int:
@@ -261,7 +261,7 @@ class PushPlanStrategy(ScriptedStrategy):
                 except SimulationError as exc:     # e.g. the noisy paddle placement lands in a wall: skip it, replan
                     blocked += 1
                     records.append({"object": plan.names[obj], "primitive": PRIMITIVES[prim], "stroke": fraction,
-                                "skipped": str(exc)})
+                                    "skipped": str(exc)})
                     if _replanned(replans) >= e.max_replans:
                         outcome = ExecutionOutcome.FAILURE
                         break

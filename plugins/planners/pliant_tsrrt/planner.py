@@ -45,7 +45,7 @@ from pliant_tsrrt.models import PushModels, footprints_from_scene, object_class,
 from pliant_tsrrt.options import PushOptions, TSRRTOptions
 from pliant_tsrrt.pushing import PRIMITIVES, paddle_sweeps
 from pliant_tsrrt.reference import random_arrangements
-from pliant_tsrrt.search import ObjectSpace, grow
+from pliant_tsrrt.search import N_PRIMITIVES, ObjectSpace, grow
 
 
 class TSRRTPlanner(Planner):
@@ -247,7 +247,7 @@ class PushPlan(Policy):
         if not self.strokes or self.strokes[0] != 1.0 or not all(0 < f <= 1 for f in self.strokes):
             raise ConfigError("must be fractions in (0, 1], the whole stroke (1) first", field="policy.strokes",
                               value=list(self.strokes))
-        n = len(self.names) * 6 * len(self.strokes)
+        n = len(self.names) * self.n_prims
         bad = [a for a in self.actions if not 0 <= a < n]
         if bad:
             raise ConfigError(f"an action must be in [0, {n}) for {len(self.names)} objects and "
@@ -255,16 +255,16 @@ class PushPlan(Policy):
 
     @property
     def n_prims(self) -> int:
-        """Actions per object: six primitives per stroke."""
-        return 6 * len(self.strokes)
+        """Actions per object: the six primitives per stroke."""
+        return N_PRIMITIVES * len(self.strokes)
 
     def decode(self, action: int) -> tuple[int, int, float]:
         """Action ``a`` as ``(object, primitive of PRIMITIVES, stroke)`` (:meth:`ObjectSpace.decode`)."""
         o, p = divmod(int(action), self.n_prims)
-        return o, p % 6, self.strokes[p // 6]
+        return o, p % N_PRIMITIVES, self.strokes[p // N_PRIMITIVES]
 
     def describe(self) -> list[str]:
-        """The actions as ``object primitive`` strings, with the stroke when it is a fraction (``fork-1 +x (0.25
+        """The actions as ``object primitive`` strings, with the stroke when it is a fraction (``fork-1 turn+ (0.25
         stroke)``)."""
         out = []
         for a in self.actions:
