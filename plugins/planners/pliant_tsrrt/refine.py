@@ -535,10 +535,28 @@ def plan_score(cost, pushes, push_cost: float = 0.0, enough: float = -np.inf):
     return np.maximum(cost, enough) + push_cost * pushes
 
 
+def turned_first(space, s: np.ndarray, o: int, target: np.ndarray, hit: tuple, depth: int, width: int,
+                 deadline: float | None, stop: str, yaw_quota: int) -> tuple[float, list[int], np.ndarray]:
+    """Box ``o`` of ``s`` turned to ``target``'s yaw where it is, then pushed to ``target`` (two
+    :func:`push_toward` searches), instead of the direct search's result ``hit`` when that leaves its yaw more than
+    5 mm off at its half diagonal and the turned-first one ends closer to the target.  A thin box pushed straight to
+    a place among others arrives there unturned, with no room left to turn (``improvement.refine_turn_first``)."""
+    pose = hit[2][o]
+    if abs(float(wrap(pose[2] - target[2], space.period[o]))) * space.scale[o] < 5e-3:
+        return hit
+    mid = s[o].copy()
+    mid[2] = target[2]
+    _, seq1, s1 = push_toward(space, s, o, mid, depth, width, deadline, stop, yaw_quota)
+    c2, seq2, s2 = push_toward(space, s1, o, target, depth, width, deadline, stop, yaw_quota)
+    if _pose_error(space, o, s2[o], target) < _pose_error(space, o, pose, target) - 1e-4:
+        return c2, seq1 + seq2, s2
+    return hit
+
+
 def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, width: int = 64,
             deadline: float | None = None, sweeps: int = 1, cache: dict | None = None,
             stop: str = "closest", yaw_quota: int = 0, push_cost: float = 0.0,
-            enough: float = -np.inf) -> tuple[float, list[int]]:
+            enough: float = -np.inf, turn_first: bool = False) -> tuple[float, list[int]]:
     """The objects pushed toward ``target`` ``(k, 3)`` one after another in ``order`` (:func:`push_toward`),
     ``sweeps`` times over (a later sweep moves the objects an earlier one left blocked by objects that have moved
     since, while one is more than 5 mm off); returns the final cost and the actions, cut after the push of lowest
@@ -546,7 +564,8 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
     task cost plus ``push_cost`` times the pushes so far, so that a tail of pushes that each gain less than
     ``push_cost`` is left off (``enough``: a task cost below which lower costs count as ``enough``, so the sequence
     stops where it first reaches it).  ``cache``: a dict that keeps :func:`push_toward`'s results across calls
-    (orders that begin alike share their first searches)."""
+    (orders that begin alike share their first searches).  ``turn_first``: a box left turned off its target's yaw is
+    also tried turned where it is first (:func:`turned_first`)."""
     actions: list[int] = []
     start = s
     cost = float(space.cost.cost(s[None])[0])
@@ -560,6 +579,8 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
                 hit = push_toward(space, s, int(o), target[int(o)], depth, width, deadline, stop, yaw_quota)
                 if cache is not None and not _late(deadline):        # a search cut short is not kept
                     cache[key] = hit
+            if turn_first and space.scale[int(o)] > 0:
+                hit = turned_first(space, s, int(o), target[int(o)], hit, depth, width, deadline, stop, yaw_quota)
             cost, seq, s = hit
             actions += seq
     if stop == "closest" and actions:              # the way there may cost more than the start: cut at the cheapest
@@ -575,7 +596,8 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
             branch_points: int = 3, deadline: float | None = None, goals: np.ndarray | None = None,
             randoms: int = 0, sweeps: int = 1, yaw_quota: int = 0, push_cost: float = 0.0,
             enough: float = -np.inf, packed: int = 0, optimum: np.ndarray | None = None,
-            optimum_orders: list | None = None, optimum_turns: int = 0) -> tuple[float, int, list[int], dict]:
+            optimum_orders: list | None = None, optimum_turns: int = 0,
+            turn_first: bool = False) -> tuple[float, int, list[int], dict]:
     """The improvement phase on the tree's best path ``path`` ``(m + 1, k, 3)`` (its states, start to best node):
     :func:`targets` from the best node (after the given ``goals`` ``(g, k, 3)`` in the first pass: when replanning
     during execution, the arrangement the first plan ends in), then :func:`connect` to each target from the best
@@ -593,7 +615,8 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     point in the usual orders and each of those, after the others; with them the same targets with identical
     objects' places reassigned nearest to the start and to the best node (:func:`nearest_assignments`), and with
     ``optimum_turns`` those targets made reachable in yaw from the start and the best node
-    (:func:`reachable_targets`, at most that many turns per box; on a child stream of ``rng``).
+    (:func:`reachable_targets`, at most that many turns per box; on a child stream of ``rng``).  ``turn_first``:
+    see :func:`connect`.
     Returns the cheapest cost reached, how many of the path's actions to keep, the actions to append, and statistics."""
     s = path[-1]
     base = best_cost = float(space.cost.cost(s[None])[0])
@@ -638,7 +661,8 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
                 break
             tried += 1
             cost, actions = connect(space, s if b is None else path[b], goal, order, depth, w, deadline, sweeps,
-                                    cache, yaw_quota=yaw_quota, push_cost=push_cost, enough=enough)
+                                    cache, yaw_quota=yaw_quota, push_cost=push_cost, enough=enough,
+                                    turn_first=turn_first)
             score = plan_score(cost, (keep + len(best_actions) if b is None else b) + len(actions), push_cost,
                                enough)
             if score < best_score - 1e-12:

@@ -381,7 +381,7 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
                                        deadline=deadline, goals=goals, optimum=optimum,
                                        optimum_orders=optimum_orders, optimum_turns=imp.refine_optimum_turns,
                                        randoms=imp.refine_randoms, packed=imp.refine_patterns,
-                                       sweeps=imp.refine_sweeps,
+                                       sweeps=imp.refine_sweeps, turn_first=imp.refine_turn_first,
                                        yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,
                                        enough=floor)
         stats.update(more, refine_pushes=len(extra))

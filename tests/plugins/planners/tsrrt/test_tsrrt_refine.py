@@ -23,6 +23,7 @@ from pliant_tsrrt.refine import (
     random_free,
     reachable_targets,
     targets,
+    turned_first,
     variants,
     yaw_lattice,
     yaw_snapper,
@@ -338,3 +339,26 @@ def test_improve_adds_the_optimums_reachable_versions_as_targets_and_stays_valid
     states, ok = space.rollout(start, actions)
     assert ok and np.isclose(space.cost.cost(states[-1][None])[0], cost)
     assert cost <= space.cost.cost(start[None])[0]
+
+
+def test_a_knife_turned_where_it_is_first_slides_into_a_slot_the_direct_search_reaches_unturned():
+    # a knife lying across (yaw -1.515) to the right of a slot between two parallel knives 12 cm apart (centres): the
+    # direct search brings it to the slot's mouth unturned, with no room left to turn (9.9 cm of pose error); turned
+    # where it lies first and then pushed, it ends within 1.2 cm of its place (connect's turn_first)
+    from pliant_tsrrt.refine import _pose_error
+
+    knife = [[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], [0, 0.002, 0.2], [0, -0.002, -0.2]]
+    fp = Footprints([BOX, BOX, BOX], [[0.1, 0.012]] * 3)
+    space = _space(fp, [knife] * 3, (1.0, 1.0, 1.0, 0.0))
+    s = np.array([[0.78, 0.437, -1.515], [0.5, 0.326, 0.0], [0.5, 0.446, 0.0]])
+    target = np.array([0.5, 0.386, 0.0])
+    direct = push_toward(space, s, 0, target, 40, 32, None, "closest", 4)
+    turned = turned_first(space, s, 0, target, direct, 40, 32, None, "closest", 4)
+    assert _pose_error(space, 0, direct[2][0], target) > 0.09
+    assert _pose_error(space, 0, turned[2][0], target) < 0.012
+    states, ok = space.rollout(s, turned[1])
+    assert ok and np.allclose(states[-1], turned[2]) and np.array_equal(turned[2][1:], s[1:])
+    aligned = s.copy()
+    aligned[0, 2] = 0.0                               # already at its target's yaw: the direct result stands
+    direct = push_toward(space, aligned, 0, target, 40, 32, None, "closest", 4)
+    assert turned_first(space, aligned, 0, target, direct, 40, 32, None, "closest", 4) is direct
