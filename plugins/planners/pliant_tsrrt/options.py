@@ -140,7 +140,7 @@ class ImprovementOptions:
     refine_optimum_turns: int = option(10, "refine_optimum's targets are also re-solved with each box's yaw on what "
                                        "its turns reach from the start and the best node in at most this many "
                                        "turns (0: off)", minimum=0)
-    refine_turn_first: bool = option(False, "a box that a connection leaves turned off its target's yaw is also "
+    refine_turn_first: bool = option(True, "a box that a connection leaves turned off its target's yaw is also "
                                      "tried turned where it is first, then pushed there; the closer wins")
     refine_sweeps: int = option(2, "sweeps over the objects when pushing them toward a target (a later sweep moves "
                                 "objects that others blocked)", minimum=1)

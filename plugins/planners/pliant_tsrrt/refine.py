@@ -573,14 +573,15 @@ def connect(space, s: np.ndarray, target: np.ndarray, order, depth: int = 20, wi
         if sweep and max(float(_pose_error(space, int(o), s[int(o)], target[int(o)])) for o in order) < 5e-3:
             break
         for o in order:
-            key = (s.tobytes(), int(o), target.tobytes(), depth, width, stop, yaw_quota)
+            key = (s.tobytes(), int(o), target.tobytes(), depth, width, stop, yaw_quota, turn_first)
             hit = cache.get(key) if cache is not None else None
             if hit is None:
                 hit = push_toward(space, s, int(o), target[int(o)], depth, width, deadline, stop, yaw_quota)
+                if turn_first and space.scale[int(o)] > 0:
+                    hit = turned_first(space, s, int(o), target[int(o)], hit, depth, width, deadline, stop,
+                                       yaw_quota)
                 if cache is not None and not _late(deadline):        # a search cut short is not kept
                     cache[key] = hit
-            if turn_first and space.scale[int(o)] > 0:
-                hit = turned_first(space, s, int(o), target[int(o)], hit, depth, width, deadline, stop, yaw_quota)
             cost, seq, s = hit
             actions += seq
     if stop == "closest" and actions:              # the way there may cost more than the start: cut at the cheapest
