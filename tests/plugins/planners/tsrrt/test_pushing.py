@@ -160,6 +160,13 @@ def test_pipeline_runs_end_to_end(tmp_path):
 
     again = PlanResult.load(tmp_path / "result.json")
     assert again.policy.actions == plan.actions and np.allclose(again.policy.states, plan.states)
+    # the default plans with fractions of a stroke: the plan carries them, and each push is executed with its own
+    assert plan.strokes == again.policy.strokes == TSRRTOptions().planning.strokes
+    planned = [plan.decode(a)[2] for a in plan.actions]
+    details = record.execution.details
+    first = min([a["after_action"] for a in details.adaptations], default=len(planned))   # until a repair or replan
+    assert first > 0 and min(planned[:first]) < 1.0
+    assert [a["stroke"] for a in details.actions[:first]] == planned[:first]
 
 
 def test_planner_options_are_checked():
