@@ -46,14 +46,14 @@ from pliant.api import (
 from pliant_tsrrt import domain
 from pliant_tsrrt.models import footprints_from_scene, object_class, relative
 from pliant_tsrrt.planner import PushPlan, build_space, options_from_dict, replan_settings
-from pliant_tsrrt.pushing import PRIMITIVES
+from pliant_tsrrt.pushing import N_PRIMITIVES, PRIMITIVES
 from pliant_tsrrt.pushing import push_steps as push_action
 from pliant_tsrrt.refine import finishing_push
 from pliant_tsrrt.repair import pose_errors
 from pliant_tsrrt.repair import restore as repair_restore
 from pliant_tsrrt.repair import retarget as repair_retarget
 from pliant_tsrrt.repair import toward_goal as repair_toward_goal
-from pliant_tsrrt.search import N_PRIMITIVES, ObjectSpace, grow
+from pliant_tsrrt.search import ObjectSpace, grow
 
 #: most repairs of one object after its last push of the plan (``repair_placed``) in one execution: a noisy turn
 #: may need a second one, but not a lottery of them

@@ -101,11 +101,18 @@ class PlanningOptions:
                                         "pushes only)")
 
     def validate(self) -> None:
-        s = self.strokes
-        if not s or not all(isinstance(f, (int, float)) and not isinstance(f, bool) and 0 < f <= 1 for f in s) \
-                or float(s[0]) != 1.0 or len(set(s)) != len(s):
-            raise ConfigError("must be distinct fractions in (0, 1], the whole stroke (1) first", field="strokes",
-                              value=list(s))
+        check_strokes(self.strokes, "strokes")
+
+
+def check_strokes(strokes, name: str) -> tuple[float, ...]:
+    """``strokes`` as floats when they are distinct fractions in (0, 1], the whole stroke (1) first (the planner's
+    ``planning.strokes`` and a plan's own); else a :class:`ConfigError` naming ``name``."""
+    s = tuple(strokes)
+    if not s or not all(isinstance(f, (int, float)) and not isinstance(f, bool) and 0 < f <= 1 for f in s) \
+            or float(s[0]) != 1.0 or len(set(s)) != len(s):
+        raise ConfigError("must be distinct fractions in (0, 1], the whole stroke (1) first", field=name,
+                          value=list(s))
+    return tuple(float(f) for f in s)
 
 
 @dataclass(frozen=True)
@@ -245,4 +252,4 @@ class TSRRTOptions(PushOptions):
 
 
 __all__ = ["CostOptions", "ExecutionOptions", "ImprovementOptions", "LearningOptions", "PlanningOptions",
-           "PushOptions", "PushSettings", "PushingOptions", "TSRRTOptions"]
+           "PushOptions", "PushSettings", "PushingOptions", "TSRRTOptions", "check_strokes"]

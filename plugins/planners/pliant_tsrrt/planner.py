@@ -42,10 +42,10 @@ from pliant.api import (
 from pliant_tsrrt import domain
 from pliant_tsrrt.learning import LearningArena, learn_models
 from pliant_tsrrt.models import PushModels, footprints_from_scene, object_class, scene_pose, wrap
-from pliant_tsrrt.options import PushOptions, TSRRTOptions
-from pliant_tsrrt.pushing import PRIMITIVES, paddle_sweeps
+from pliant_tsrrt.options import PushOptions, TSRRTOptions, check_strokes
+from pliant_tsrrt.pushing import N_PRIMITIVES, PRIMITIVES, decode_action, paddle_sweeps
 from pliant_tsrrt.reference import random_arrangements
-from pliant_tsrrt.search import N_PRIMITIVES, ObjectSpace, grow
+from pliant_tsrrt.search import ObjectSpace, grow
 
 
 class TSRRTPlanner(Planner):
@@ -243,10 +243,7 @@ class PushPlan(Policy):
         if strokes is None:
             planning = self.options.get("planning")
             strokes = planning.get("strokes", (1.0,)) if isinstance(planning, dict) else (1.0,)
-        self.strokes = tuple(float(f) for f in strokes)
-        if not self.strokes or self.strokes[0] != 1.0 or not all(0 < f <= 1 for f in self.strokes):
-            raise ConfigError("must be fractions in (0, 1], the whole stroke (1) first", field="policy.strokes",
-                              value=list(self.strokes))
+        self.strokes = check_strokes(strokes, "policy.strokes")
         n = len(self.names) * self.n_prims
         bad = [a for a in self.actions if not 0 <= a < n]
         if bad:
@@ -259,9 +256,8 @@ class PushPlan(Policy):
         return N_PRIMITIVES * len(self.strokes)
 
     def decode(self, action: int) -> tuple[int, int, float]:
-        """Action ``a`` as ``(object, primitive of PRIMITIVES, stroke)`` (:meth:`ObjectSpace.decode`)."""
-        o, p = divmod(int(action), self.n_prims)
-        return o, p % N_PRIMITIVES, self.strokes[p // N_PRIMITIVES]
+        """Action ``a`` as ``(object, primitive of PRIMITIVES, stroke)`` (:func:`decode_action`)."""
+        return decode_action(action, self.strokes)
 
     def describe(self) -> list[str]:
         """The actions as ``object primitive`` strings, with the stroke when it is a fraction (``fork-1 turn+ (0.25

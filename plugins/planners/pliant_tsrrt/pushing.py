@@ -30,6 +30,16 @@ from pliant_tsrrt.options import PushSettings
 
 PRIMITIVES = ("push+x", "push-x", "push+y", "push-y", "turn+", "turn-")
 
+#: the primitives of one stroke: pushes along +x, -x, +y, -y of the object's frame and turns +, - (the models' order)
+N_PRIMITIVES = len(PRIMITIVES)
+
+
+def decode_action(action: int, strokes: tuple[float, ...]) -> tuple[int, int, float]:
+    """Action ``a = P o + p`` of a plan pushing with ``strokes`` (``P = 6 len(strokes)``; ``planning.strokes``) as
+    ``(object o, primitive p % 6 of PRIMITIVES, stroke strokes[p // 6]: a fraction of the primitive's depth)``."""
+    o, p = divmod(int(action), N_PRIMITIVES * len(strokes))
+    return o, p % N_PRIMITIVES, strokes[p // N_PRIMITIVES]
+
 
 def contact_frames(fp: Footprints, turn_offset: float) -> tuple[np.ndarray, np.ndarray]:
     """Contact points ``c`` ``(k, 6, 2)`` and unit push directions ``u`` ``(k, 6, 2)`` of the six primitives in each

@@ -37,6 +37,7 @@ from pliant.api import PlanningError
 from pliant_tsrrt import kernels
 from pliant_tsrrt.geometry import wrap
 from pliant_tsrrt.models import compose
+from pliant_tsrrt.pushing import N_PRIMITIVES
 
 
 def _late(deadline: float | None) -> bool:
@@ -740,7 +741,7 @@ def finishing_push(space, s: np.ndarray, scales: tuple[float, ...] = (1.0,)) -> 
     cannot take out a yaw error of 0.1 rad; a third of one can).  Only the whole strokes of ``space``'s actions are
     scaled (a space that plans with fractions, ``planning.strokes``, has them as well): the action returned is a
     whole stroke's, the stroke to push with is the fraction."""
-    whole = (np.arange(space.k)[:, None] * space.n_prims + np.arange(6)).ravel()   # the whole strokes' actions
+    whole = (np.arange(space.k)[:, None] * space.n_prims + np.arange(N_PRIMITIVES)).ravel()   # whole strokes
     acts = np.tile(whole, len(scales))
     scale = np.repeat(np.asarray(scales, dtype=np.float64), len(whole))
     objs, prims = acts // space.n_prims, acts % space.n_prims

@@ -39,8 +39,7 @@ def pose_errors(space, observed: np.ndarray, expected: np.ndarray) -> tuple[np.n
     """Per object: position error (m) and yaw error (rad, modulo the footprint's symmetry; 0 for circles) of
     arrangement ``observed`` against ``expected`` (both ``(k, 3)``): what execution monitors."""
     err_t = np.linalg.norm(observed[:, :2] - expected[:, :2], axis=1)
-    dth = wrap(observed[:, 2] - expected[:, 2])
-    dth = np.abs(wrap(dth, space.period))
+    dth = np.abs(wrap(observed[:, 2] - expected[:, 2], space.period))
     return err_t, np.where(space.scale > 0, dth, 0.0)
 
 

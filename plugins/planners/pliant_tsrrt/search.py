@@ -57,12 +57,8 @@ from pliant_tsrrt.cost import TaskCost
 from pliant_tsrrt.geometry import CIRCLE, CollisionChecker, Footprints, box_corners, wrap
 from pliant_tsrrt.models import compose
 from pliant_tsrrt.options import PlanningOptions, TSRRTOptions
-from pliant_tsrrt.pushing import PushSettings, contact_frames, paddle_sweep_rows
+from pliant_tsrrt.pushing import N_PRIMITIVES, PushSettings, contact_frames, decode_action, paddle_sweep_rows
 from pliant_tsrrt.refine import final_beam, improve, optimum_targets, plan_score
-
-#: the primitives of one stroke: pushes along +x, -x, +y, -y of the object's frame and turns +, - (the models' order)
-N_PRIMITIVES = 6
-
 
 #: rho (m) below which a new state counts as an existing node
 DUPLICATE = 1e-3
@@ -128,10 +124,8 @@ class ObjectSpace:
         kernels.beam_expand(s[:1].copy(), self.means[0].copy(), s[0].copy(), 0.1, np.pi, 0.01)
 
     def decode(self, action: int) -> tuple[int, int, float]:
-        """Action ``a = P o + p`` as ``(object o, primitive p % 6 of PRIMITIVES, stroke: a fraction of its
-        depth)``."""
-        o, p = divmod(int(action), self.n_prims)
-        return o, p % N_PRIMITIVES, self.strokes[p // N_PRIMITIVES]
+        """Action ``a = P o + p`` as ``(object o, primitive p % 6 of PRIMITIVES, stroke)`` (:func:`decode_action`)."""
+        return decode_action(action, self.strokes)
 
     # --- MODEL, rho, IN_COLLISION ------------------------------------------------------------------------------
 
