@@ -13,10 +13,14 @@ drawn in session 28 for the strokes experiment: plate-1, knife-1, plate-2, fork-
 E (fork-1, knife-1, cup-1, fork-2, knife-2; seeds 7000-7007) and F (plate-1, fork-1, plate-2, knife-2, cup-2; seeds
 8000-8007), drawn in session 35; held-out G (plate-1, knife-1, cup-1, knife-2, cup-2; seeds 9000-9007) and H (plate-1,
 fork-1, knife-1, fork-2, knife-2; seeds 10000-10007), drawn in session 36 before plans with fractions of a stroke
-were run anywhere.  Plans use the option's ``planning.strokes`` (``--strokes 1``: whole pushes only).  Each
-ratio is the plan's final cost over the best reference found for those objects (:func:`reference_optimum` with
-3000 rounds from seed 0, and 1500 rounds from each plan's final arrangement).  Every budget is a count; CPU
-seconds are reported.
+were run anywhere; held-out I and J (session 36, for turning first); held-out K (plate-1, fork-1, cup-1, plate-2,
+knife-2; seeds 13000-) and L (plate-1, knife-1, fork-2, knife-2, cup-2; 14000-), drawn in session 37 before a larger
+optimiser population was run anywhere, and M (plate-1, fork-1, knife-1, plate-2, cup-2; 15000-) and N (fork-1,
+cup-1, plate-2, knife-2, cup-2; 16000-), drawn before its three basins were.  Plans use the option's
+``planning.strokes`` (``--strokes 1``: whole pushes only).  Each ratio is the plan's final cost over the best
+reference found for those objects (:func:`reference_optimum` with 3000 rounds and 512 members per pool from seed 0,
+and 1500 rounds from each plan's final arrangement).  Every budget is a count (``--time``: a time budget instead,
+and the plans then depend on the machine and its load); CPU seconds are reported.
 
     pliant bench tsrrt_five [-- --settings 0,3000 --seeds 8]
     pliant bench tsrrt_five -- --settings 3000:120 --sets "held-out G,held-out H" --strokes 1
@@ -45,7 +49,8 @@ MEANS = np.array([[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], 
 #: fork); held-out E and F: drawn in session 35 before refine_optimum_turns was measured anywhere but B and D (E:
 #: both forks, both knives and cup-1; F: both plates, fork-1, knife-2 and cup-2); held-out G and H: drawn in session 36
 #: before planning.strokes was measured anywhere (G: plate-1, knife-1, both cups, knife-2; H: plate-1, both forks and
-#: both knives, with cup-1 fixed in the middle)
+#: both knives, with cup-1 fixed in the middle); I and J: drawn in session 36 for turning first; K and L: drawn in
+#: session 37 before refine_optimum_population 512 was run; M and N: before refine_optimum_basins 3 was
 SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 3000),
         "held-out B": ((1, 2, 5, 6, 7), 4000),
         "held-out C": ((0, 3, 4, 5, 7), 5000),
@@ -55,7 +60,11 @@ SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 30
         "held-out G": ((0, 2, 3, 6, 7), 9000),
         "held-out H": ((0, 1, 2, 5, 6), 10000),
         "held-out I": ((1, 2, 4, 5, 6), 11000),
-        "held-out J": ((1, 2, 4, 6, 7), 12000)}
+        "held-out J": ((1, 2, 4, 6, 7), 12000),
+        "held-out K": ((0, 1, 3, 4, 6), 13000),
+        "held-out L": ((0, 2, 5, 6, 7), 14000),
+        "held-out M": ((0, 1, 2, 4, 7), 15000),
+        "held-out N": ((1, 3, 4, 6, 7), 16000)}
 
 
 class _Models:
@@ -66,7 +75,7 @@ class _Models:
 
 
 def run_set(label: str, indices, base: int, seeds: int, settings: list[str], iterations: int,
-            overrides: dict | None = None) -> list[dict]:
+            overrides: dict | None = None, seconds: float | None = None) -> list[dict]:
     from pliant import api
     from pliant.api import Termination, build_options
     from pliant_tsrrt.planner import TSRRTOptions, build_space
@@ -86,18 +95,22 @@ def run_set(label: str, indices, base: int, seeds: int, settings: list[str], ite
             if space is None:
                 space = build_space(scene, options, _Models(), names)
                 space.warm_up()
-                ref = reference_optimum(space, np.random.default_rng(0), rounds=3000)[1]
+                ref = reference_optimum(space, np.random.default_rng(0), rounds=3000, population=512)[1]
             rng = np.random.default_rng(seed)
             start = random_arrangements(space, rng, 1, clearance=0.02)[0]
             t = time.process_time()
-            found = grow(space, start, rng, options, Termination(max_iterations=iterations))
+            budget = Termination(max_iterations=iterations) if seconds is None else Termination(max_time=seconds)
+            found = grow(space, start, rng, options, budget)
             cpu = time.process_time() - t
             ref = min(ref, reference_optimum(space, np.random.default_rng(seed), rounds=1500,
                                              starts=found.states[-1][None])[1])
             plans.append({"set": label, "objects": names, "seed": seed, "refine_optimum": setting,
-                          "cost": float(found.cost), "cpu_s": cpu, "pushes": len(found.actions)})
+                          "cost": float(found.cost), "cpu_s": cpu, "pushes": len(found.actions),
+                          "iterations": int(found.statistics["iterations"]),
+                          "refine_runs": int(found.statistics.get("refine_runs", 0))})
             print(f"{label} seed {seed} refine_optimum {setting}: cost {found.cost:.4f}, {len(found.actions)} pushes, "
-                  f"{cpu:.1f} s CPU", flush=True)
+                  f"{cpu:.1f} s CPU, {plans[-1]['iterations']} tree extensions, {plans[-1]['refine_runs']} "
+                  f"improvement runs", flush=True)
     for plan in plans:
         plan["reference"] = float(ref)
         plan["ratio"] = plan["cost"] / ref
@@ -110,6 +123,9 @@ def main() -> None:
                         "refine_optimum rounds, with ':N' refine_optimum_orders N (without: 0)")
     parser.add_argument("--seeds", type=int, default=8, help="starts per set")
     parser.add_argument("--iterations", type=int, default=600, help="tree extensions per plan")
+    parser.add_argument("--time", type=float, default=None, metavar="SECONDS",
+                        help="a time budget per plan instead of --iterations: the plans then depend on the machine "
+                             "and its load")
     parser.add_argument("--sets", default="development,held-out,held-out B")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="another TS-RRT option for every plan (e.g. improvement.refine_width=128)")
@@ -136,11 +152,16 @@ def main() -> None:
         strokes = build_options(TSRRTOptions, overrides, source="<command line>").planning.strokes
     except PliantError as exc:
         parser.error(str(exc))
+    if args.time is not None and not args.time > 0:
+        parser.error(f"--time {args.time}: must be a positive number of seconds")
     settings = args.settings.split(",")
+    unknown = [label for label in args.sets.split(",") if label not in SETS]
+    if unknown:
+        parser.error(f"--sets: unknown set {unknown[0]!r} (known: {', '.join(SETS)})")
     plans = []
     for label in args.sets.split(","):
         indices, base = SETS[label]
-        plans += run_set(label, indices, base, args.seeds, settings, args.iterations, overrides)
+        plans += run_set(label, indices, base, args.seeds, settings, args.iterations, overrides, args.time)
     rows = []
     for label in args.sets.split(","):
         for setting in settings:
@@ -151,7 +172,8 @@ def main() -> None:
                          f"{mine[0]['reference']:.4f}"))
     print_table("TS-RRT, 5 objects: plan / reference optimum (target: median <= 1.1)",
                 ("set", "refine_optimum", "median", "within 10%", "ratios", "CPU s (median)", "reference"), rows)
-    write_json("tsrrt_five", {"settings": settings, "iterations": args.iterations, "strokes": list(strokes),
+    write_json("tsrrt_five", {"settings": settings, "iterations": args.iterations, "time": args.time,
+                              "strokes": list(strokes),
                               "plans": plans})
 
 

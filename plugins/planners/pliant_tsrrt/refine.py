@@ -132,17 +132,64 @@ def random_arrangements(space, rng: np.random.Generator, count: int, tries: int 
     return np.array(out)
 
 
+#: arrangements closer than this (m, per object: centre, or a box's corner through its yaw) are one basin
+BASIN_DISTANCE = 0.02
+
+
 def reference_optimum(space, rng: np.random.Generator, rounds: int = 4000, population: int = 64,
                       starts: np.ndarray | None = None, pattern_count: int = 512,
                       restarts: int = 2, deadline: float | None = None) -> tuple[np.ndarray, float]:
     """The reference optimum of the task cost over collision-free free placements (the figure of merit's
-    denominator): the cheapest of several multi-start descents.  Starts: random collision-free arrangements (each
-    box's yaw either uniform or snapped to a multiple of 90 degrees: multi-start over orientations), the
-    ``population`` cheapest of ``pattern_count`` packed :func:`patterns` (rows, columns, shelves), and ``starts``
-    (e.g. the planner's result).  Each of ``restarts`` rounds descends (:func:`free_descent`, ``rounds`` rounds) from
-    a wide step and then polishes the best members with a narrow one.  A work budget (rounds, members), so the same
-    answer under a seed on any machine -- unless ``deadline`` (a ``time.perf_counter()`` value) cuts the descents
-    short."""
+    denominator): the cheapest of several multi-start descents (:func:`optimum_basins`, the same arguments).  A work
+    budget (rounds, members), so the same answer under a seed on any machine -- unless ``deadline`` (a
+    ``time.perf_counter()`` value) cuts the descents short."""
+    members, cost = _multistart(space, rng, rounds, population, starts, pattern_count, restarts, deadline)
+    if not len(members) or not np.isfinite(cost.min()):
+        return None, np.inf
+    i = int(np.argmin(cost))
+    return members[i].copy(), float(cost[i])
+
+
+def optimum_basins(space, rng: np.random.Generator, count: int, rounds: int = 4000, population: int = 64,
+                   starts: np.ndarray | None = None, pattern_count: int = 512, restarts: int = 2,
+                   deadline: float | None = None, distance: float = BASIN_DISTANCE) -> tuple[np.ndarray, np.ndarray]:
+    """Up to ``count`` minima of the multi-start optimisation in different basins, cheapest first ``(m, k, 3)``, and
+    their costs: the cheapest member, then each next-cheapest member whose arrangement differs from every one kept by
+    more than ``distance`` (m: some object's centre, or a box's corner through its yaw modulo a half turn).  The
+    first is :func:`reference_optimum`'s answer.  A stronger optimiser finds tighter packings that pushing may not
+    reach from a given start; the runners-up give the connections a second and third way.
+
+    Starts: random collision-free arrangements (each box's yaw either uniform or snapped to a multiple of 90
+    degrees: multi-start over orientations), the ``population`` cheapest of ``pattern_count`` packed
+    :func:`patterns` (rows, columns, shelves), and ``starts`` (e.g. the planner's result).  Each of ``restarts``
+    rounds descends (:func:`free_descent`, ``rounds`` rounds) from a wide step and then polishes the best members with
+    a narrow one; the polished members of every round are the candidates."""
+    members, cost = _multistart(space, rng, rounds, population, starts, pattern_count, restarts, deadline)
+    order = np.argsort(cost, kind="stable")
+    order = order[np.isfinite(cost[order])]
+    box = space.scale > 0
+    reach = np.where(box, space.scale, 0.0)
+    kept: list[int] = []
+    for i in order:
+        if len(kept) >= count:
+            break
+        if all(_arrangement_distance(members[i], members[j], box, reach) > distance for j in kept):
+            kept.append(int(i))
+    return members[kept].copy(), cost[kept].copy()
+
+
+def _arrangement_distance(a: np.ndarray, b: np.ndarray, box: np.ndarray, reach: np.ndarray) -> float:
+    """The largest per-object distance between arrangements ``a`` and ``b`` ``(k, 3)`` (m): centres, and for boxes
+    the yaw difference modulo a half turn (a box is symmetric) times the box's half diagonal."""
+    d = np.linalg.norm(a[:, :2] - b[:, :2], axis=1)
+    turn = np.abs((a[:, 2] - b[:, 2] + 0.5 * np.pi) % np.pi - 0.5 * np.pi)
+    return float(np.max(np.where(box, np.maximum(d, turn * reach), d)))
+
+
+def _multistart(space, rng: np.random.Generator, rounds: int, population: int, starts: np.ndarray | None,
+                pattern_count: int, restarts: int, deadline: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """The polished members of every round of the multi-start optimisation (:func:`optimum_basins`) and their
+    costs (inf: never collision-free)."""
     k = space.k
     rand = random_arrangements(space, rng, population)
     snapped = rand.copy()
@@ -158,18 +205,17 @@ def reference_optimum(space, rng: np.random.Generator, rounds: int = 4000, popul
         s = np.asarray(starts, dtype=np.float64).reshape(-1, k, 3)
         pools.append(s[~space.checker.in_collision(s)])
     pop = np.concatenate([p for p in pools if len(p)])
-    best, best_cost = None, np.inf
+    found, found_cost = [], []
     for _ in range(restarts):
         desc, cost = free_descent(space, pop, rng, rounds=rounds, slack=0.0, sigma_start=0.05, sigma_end=5e-4,
                                   deadline=deadline)
         top = desc[np.argsort(cost)[: max(8, population // 4)]]
         fine, fcost = free_descent(space, np.repeat(top, 2, axis=0), rng, rounds=rounds, slack=0.0,
                                    sigma_start=0.005, sigma_end=1e-5, deadline=deadline)
-        i = int(np.argmin(fcost))
-        if fcost[i] < best_cost:
-            best, best_cost = fine[i].copy(), float(fcost[i])
+        found.append(fine)
+        found_cost.append(fcost)
         pop = np.concatenate([fine[np.argsort(fcost)[: len(pop) // 2]], pop[: len(pop) - len(pop) // 2]])
-    return best, best_cost
+    return np.concatenate(found), np.concatenate(found_cost)
 
 
 def table_mirrors(space, s: np.ndarray) -> np.ndarray:
@@ -245,20 +291,21 @@ def nearest_assignments(space, targets: np.ndarray, states: np.ndarray) -> np.nd
 
 
 def optimum_targets(space, rng: np.random.Generator, rounds: int, orders: int = 0,
-                    deadline: float | None = None) -> tuple[np.ndarray, list]:
-    """Targets from the multi-start free-placement optimum (:func:`reference_optimum` with ``rounds`` rounds): the
-    optimum and its mirror images (:func:`table_mirrors`), ``(m, k, 3)``, none when the table is too crowded to place
-    random starts; and the orders of the objects to connect to them in: every permutation when there are at most
+                    deadline: float | None = None, population: int = 64, basins: int = 1) -> tuple[np.ndarray, list]:
+    """Targets from the multi-start free-placement optimum (:func:`optimum_basins` with ``rounds`` rounds and
+    ``population`` members per pool of starts): its ``basins`` cheapest minima in different basins, each with its
+    mirror images (:func:`table_mirrors`), ``(m, k, 3)``, none when the table is too crowded to place random starts;
+    and the orders of the objects to connect to them in: every permutation when there are at most
     ``orders`` of them (120 for five objects), else ``orders`` drawn at random.  In a compact arrangement an object
     pushed into place early can block the paddle's way to the next, so which order works depends on the start: of
     five objects' 120 orders, the rotations of the identity alone reached the optimum within 6 % from two of four
     starts, all 120 from three (docs/plugins/tsrrt.md).  ``deadline``: the descents stop there (a time budget)."""
     k = space.k
     try:
-        best, _ = reference_optimum(space, rng, rounds=rounds, deadline=deadline)
+        minima, _ = optimum_basins(space, rng, basins, rounds=rounds, population=population, deadline=deadline)
     except PlanningError:
         return np.zeros((0, k, 3)), []
-    if best is None:
+    if not len(minima):
         return np.zeros((0, k, 3)), []
     if orders <= 0:
         chosen: list = []
@@ -266,7 +313,7 @@ def optimum_targets(space, rng: np.random.Generator, rounds: int, orders: int = 
         chosen = list(itertools.permutations(range(k)))
     else:
         chosen = [tuple(int(i) for i in rng.permutation(k)) for _ in range(orders)]
-    return table_mirrors(space, best), chosen
+    return np.concatenate([table_mirrors(space, m) for m in minima]), chosen
 
 
 #: yaw resolution of :func:`yaw_lattice` (rad): net turns closer than this are one (a sixteenth of a degree, a
@@ -639,6 +686,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
     tried, goal_costs = 0, []
     cache: dict = {}
     w = width
+    gains: list[bool] = []
     for p in range(passes):
         if _late(deadline):
             break
@@ -669,6 +717,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
                                enough)
             if score < best_score - 1e-12:
                 best_cost, best_score, found = cost, score, (b, actions)
+        gains.append(found is not None)
         if found is None:
             if p == 0 or w >= 4 * width:
                 break
@@ -682,7 +731,7 @@ def improve(space, path: np.ndarray, rng: np.random.Generator, *, count: int = 2
             best_actions = best_actions + actions
             s = space.rollout(s, actions)[0][-1]
     stats = {"refine_targets": goal_costs, "refine_connects": tried, "refine_gain": base - best_cost,
-             "refine_branch": keep}
+             "refine_branch": keep, "refine_pass_gains": gains, "refine_last_width": w}
     return best_cost, keep, best_actions, stats
 
 

@@ -217,8 +217,9 @@ class ObjectSpace:
 
 @dataclass
 class SearchResult:
-    """A plan: ``actions`` (``6 o + p`` each), predicted ``states`` ``(m + 1, k, 3)``, their ``cost`` (the final
-    state's), the tree's ``states`` / ``parents`` / ``costs`` and statistics."""
+    """A plan: ``actions`` (``P o + p`` each, ``P`` the space's ``n_prims``), predicted ``states``
+    ``(m + 1, k, 3)``, their ``cost`` (the final state's), the tree's ``states`` / ``parents`` / ``costs`` and
+    statistics."""
 
     actions: list[int]
     states: np.ndarray
@@ -227,6 +228,60 @@ class SearchResult:
     tree_parents: np.ndarray
     tree_costs: np.ndarray
     statistics: dict
+
+
+def _improvement_phase(space: ObjectSpace, s0: np.ndarray, plan: list[int], rng: np.random.Generator, imp,
+                       stats: dict, *, goal: np.ndarray | None, deadline: float | None, anytime: bool,
+                       floor: float) -> list[int]:
+    """The improvement phase (:func:`~pliant_tsrrt.refine.improve`) on ``plan`` from ``s0``, run ``refine_restarts``
+    times, each from the plan the previous run left and with the targets of a new multi-start optimum (its own
+    child stream of ``rng``): the optimiser's best basin varies from one stream to the next by several per cent on
+    five objects.  ``anytime`` (a time budget without a work budget): the runs go on until ``deadline``, so that a
+    longer budget buys more of them.  A replanning (``goal`` given) runs once.  Returns the plan; ``stats`` gets the
+    runs' statistics (``refine_runs``, ``refine_run_gains``; the last run's targets and branch point;
+    ``refine_pushes``, ``refine_connects`` and ``refine_gain`` summed)."""
+    k = space.k
+    goals = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(-1, k, 3)
+    runs, appended, connects, gains = 0, 0, 0, []
+    while True:
+        path, _ = space.rollout(s0, plan)
+        optimum, optimum_orders = None, None
+        if imp.refine_optimum and goal is None:      # a replanning's goal (the first plan's end) is target enough
+            # its own child stream: the draws after it are those of a run without it.  Under a time budget it takes
+            # at most half of the improvement phase's time left, so that connecting to its targets gets the rest
+            # (with a work budget the deadline is only the cap's)
+            cut = deadline if deadline is None or not anytime else \
+                time.perf_counter() + 0.5 * max(0.0, deadline - time.perf_counter())
+            optimum, optimum_orders = optimum_targets(space, rng.spawn(1)[0], imp.refine_optimum,
+                                                      imp.refine_optimum_orders, deadline=cut,
+                                                      population=imp.refine_optimum_population,
+                                                      basins=imp.refine_optimum_basins)
+        _, keep, extra, more = improve(space, path, rng, count=imp.refine_targets,
+                                       rounds=imp.refine_rounds, slack=imp.refine_slack,
+                                       depth=imp.refine_depth, width=imp.refine_width,
+                                       passes=imp.refine_passes, branch_points=imp.refine_branches,
+                                       deadline=deadline, goals=goals, optimum=optimum,
+                                       optimum_orders=optimum_orders, optimum_turns=imp.refine_optimum_turns,
+                                       randoms=imp.refine_randoms, packed=imp.refine_patterns,
+                                       sweeps=imp.refine_sweeps, turn_first=imp.refine_turn_first,
+                                       yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,
+                                       enough=floor)
+        runs += 1
+        appended += len(extra)
+        connects += int(more["refine_connects"])
+        gains.append(float(more["refine_gain"]))
+        stats.update(more)
+        plan = plan[:keep] + extra
+        if goal is not None or not imp.refine_optimum:
+            break                                   # nothing new to draw: a second run would repeat the first
+        if anytime:
+            if deadline is None or time.perf_counter() >= deadline:
+                break
+        elif runs >= imp.refine_restarts:
+            break
+    stats.update(refine_runs=runs, refine_run_gains=gains, refine_pushes=appended, refine_connects=connects,
+                 refine_gain=float(sum(gains)))
+    return plan
 
 
 def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings: TSRRTOptions,
@@ -357,29 +412,8 @@ def grow(space: ObjectSpace, s0: np.ndarray, rng: np.random.Generator, settings:
     floor = -np.inf if enough is None else float(enough)
     plan, polished = descend(space, s0, plan, push_cost=imp.push_cost, enough=floor)
     if imp.refine and not interrupted:
-        path, _ = space.rollout(s0, plan)
-        goals = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(-1, k, 3)
-        optimum, optimum_orders = None, None
-        if imp.refine_optimum and goal is None:      # a replanning's goal (the first plan's end) is target enough
-            # its own child stream: the draws after it are those of a run without it.  Under a time budget it takes
-            # at most half of the improvement phase's time left, so that connecting to its targets gets the rest
-            # (with a work budget the deadline is only the cap's)
-            cut = deadline if deadline is None or work else \
-                time.perf_counter() + 0.5 * max(0.0, deadline - time.perf_counter())
-            optimum, optimum_orders = optimum_targets(space, rng.spawn(1)[0], imp.refine_optimum,
-                                                      imp.refine_optimum_orders, deadline=cut)
-        _, keep, extra, more = improve(space, path, rng, count=imp.refine_targets,
-                                       rounds=imp.refine_rounds, slack=imp.refine_slack,
-                                       depth=imp.refine_depth, width=imp.refine_width,
-                                       passes=imp.refine_passes, branch_points=imp.refine_branches,
-                                       deadline=deadline, goals=goals, optimum=optimum,
-                                       optimum_orders=optimum_orders, optimum_turns=imp.refine_optimum_turns,
-                                       randoms=imp.refine_randoms, packed=imp.refine_patterns,
-                                       sweeps=imp.refine_sweeps, turn_first=imp.refine_turn_first,
-                                       yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,
-                                       enough=floor)
-        stats.update(more, refine_pushes=len(extra))
-        plan = plan[:keep] + extra
+        plan = _improvement_phase(space, s0, plan, rng, imp, stats, goal=goal, deadline=deadline,
+                                  anytime=budget is not None and not work, floor=floor)
     if imp.refine and imp.beam_depth > 0 and not interrupted:
         end = space.rollout(s0, plan)[0][-1]
         _, extra = final_beam(space, end, depth=imp.beam_depth, width=imp.beam_width, deadline=deadline,

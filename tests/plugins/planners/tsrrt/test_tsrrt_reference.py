@@ -170,3 +170,50 @@ def test_a_deadline_cuts_the_optimums_descents_short_without_losing_the_starts()
     assert not space.checker.in_collision(pose[None])[0] and full < cut < np.inf
     pose_again, again = reference_optimum(space, np.random.default_rng(0), rounds=200, deadline=past)
     assert again == cut and np.array_equal(pose, pose_again)
+
+
+def test_the_basins_are_the_reference_optimum_then_cheaper_minima_apart_from_every_one_kept():
+    from pliant_tsrrt.refine import BASIN_DISTANCE, _arrangement_distance, optimum_basins
+
+    fp = Footprints(np.array([BOX, CIRCLE, CIRCLE]), np.array([(0.06, 0.03), (0.04, 0.04), (0.03, 0.03)]))
+    space = _space(fp)
+    space.warm_up()
+    minima, costs = optimum_basins(space, np.random.default_rng(0), 4, rounds=200)
+    best, best_cost = reference_optimum(space, np.random.default_rng(0), rounds=200)
+    assert np.array_equal(minima[0], best) and costs[0] == best_cost          # the first is the reference's answer
+    assert 2 <= len(minima) <= 4 and np.all(np.diff(costs) >= 0)
+    assert np.allclose(space.cost.cost(minima), costs) and not space.checker.in_collision(minima).any()
+    box, reach = space.scale > 0, np.where(space.scale > 0, space.scale, 0.0)
+    for i in range(len(minima)):
+        for j in range(i):
+            assert _arrangement_distance(minima[i], minima[j], box, reach) > BASIN_DISTANCE
+
+
+def test_the_distance_between_arrangements_counts_a_box_turned_a_half_turn_as_unmoved():
+    from pliant_tsrrt.refine import _arrangement_distance
+
+    box, reach = np.array([True, False]), np.array([0.1, 0.0])
+    a = np.array([[0.3, 0.2, 0.1], [0.5, 0.5, 0.0]])
+    b = a.copy()
+    b[0, 2] += np.pi                                  # a box is symmetric under a half turn
+    b[1, 2] += 1.0                                    # a circle's yaw does not matter
+    assert _arrangement_distance(a, b, box, reach) < 1e-12
+    b[0, 2] += 0.3                                    # its corner moves 0.3 rad x 0.1 m
+    b[1, :2] += (0.03, 0.04)                          # 5 cm
+    assert np.isclose(_arrangement_distance(a, b, box, reach), 0.05)
+    b[1, :2] -= (0.03, 0.04)
+    assert np.isclose(_arrangement_distance(a, b, box, reach), 0.03)
+
+
+def test_more_basins_give_each_minimum_and_its_images_as_targets():
+    from pliant_tsrrt.refine import optimum_basins, optimum_targets, table_mirrors
+
+    fp = Footprints(np.array([BOX, CIRCLE, CIRCLE]), np.array([(0.06, 0.03), (0.04, 0.04), (0.03, 0.03)]))
+    space = _space(fp)
+    space.warm_up()
+    targets, _ = optimum_targets(space, np.random.default_rng(0), rounds=200, basins=3)
+    minima, _ = optimum_basins(space, np.random.default_rng(0), 3, rounds=200)
+    expected = np.concatenate([table_mirrors(space, m) for m in minima])
+    assert len(minima) >= 2 and np.array_equal(targets, expected)
+    one, _ = optimum_targets(space, np.random.default_rng(0), rounds=200, basins=1)
+    assert np.array_equal(one, table_mirrors(space, minima[0]))

@@ -165,3 +165,66 @@ def test_enough_counts_every_cost_below_it_as_equal_so_the_shorter_plan_wins():
     found = grow(space, s0, np.random.default_rng(1), _options(max_nodes=2000),
                  Termination(max_iterations=2000), enough=0.2)
     assert found.actions == [5] and np.isclose(found.cost, np.sin(0.4) ** 2)
+
+
+def _three_objects():
+    fp = Footprints([BOX, CIRCLE, CIRCLE], [[0.06, 0.03], [0.05, 0.05], [0.04, 0.04]])
+    space = _space(fp, [BOOK_MODEL, CAN_MODEL, CAN_MODEL], (1.0, 1.0, 1.0, 0.0), margin=0.005)
+    s0 = np.array([[0.2, 0.2, 0.4], [0.8, 0.6, 0.0], [0.3, 0.65, 0.0]])
+    return space, s0
+
+
+def test_restarts_run_the_improvement_phase_again_from_its_own_plan_with_a_new_optimum():
+    space, s0 = _three_objects()
+    runs = {}
+    for restarts in (1, 3):
+        options = _options(max_nodes=400, refine_restarts=restarts, refine_optimum=200, refine_passes=1,
+                           refine_randoms=0)
+        runs[restarts] = grow(space, s0, np.random.default_rng(4), options, Termination(max_iterations=150))
+    once, thrice = runs[1].statistics, runs[3].statistics
+    assert once["refine_runs"] == 1 and thrice["refine_runs"] == 3 and len(thrice["refine_run_gains"]) == 3
+    assert thrice["refine_run_gains"][0] == once["refine_run_gains"][0]       # the first run is the same
+    assert all(g >= 0.0 for g in thrice["refine_run_gains"])                  # a run never makes the plan worse
+    _, ok = space.rollout(s0, runs[3].actions)
+    assert ok and not space.checker.in_collision(runs[3].states).any()
+    # without an optimum to draw again, or when replanning toward a goal, one run is all there is
+    options = _options(max_nodes=400, refine_restarts=3, refine_optimum=0, refine_passes=1, refine_randoms=0)
+    assert grow(space, s0, np.random.default_rng(4), options,
+                Termination(max_iterations=150)).statistics["refine_runs"] == 1
+    options = _options(max_nodes=400, refine_restarts=3, refine_optimum=200, refine_passes=1, refine_randoms=0)
+    assert grow(space, s0, np.random.default_rng(4), options, Termination(max_iterations=150),
+                goal=runs[1].states[-1]).statistics["refine_runs"] == 1
+
+
+class _Clock:
+    """A stand-in for the ``time`` module whose clock advances 1 ms per reading: a time budget without wall time."""
+
+    def __init__(self):
+        self.now = 0.0
+
+    def perf_counter(self):
+        self.now += 1e-3
+        return self.now
+
+
+def test_under_a_time_budget_alone_the_improvement_phase_runs_until_its_deadline(monkeypatch):
+    import pliant_tsrrt.refine as refine
+    import pliant_tsrrt.search as search
+
+    space, s0 = _three_objects()
+    options = _options(max_nodes=400, refine_restarts=1, refine_optimum=200, refine_passes=1, refine_randoms=0)
+    plan = grow(space, s0, np.random.default_rng(4), options, Termination(max_iterations=100)).actions
+    clock = _Clock()
+    monkeypatch.setattr(search, "time", clock)
+    monkeypatch.setattr(refine, "time", clock)
+    def phase(deadline, anytime):
+        clock.now, stats = 0.0, {}
+        search._improvement_phase(space, s0, list(plan), np.random.default_rng(5), options.improvement, stats,
+                                  goal=None, deadline=deadline, anytime=anytime, floor=-np.inf)
+        return stats["refine_runs"], clock.now
+
+    runs, one_run = phase(1e9, False)           # a work budget: refine_restarts runs, the deadline only a cap
+    assert runs == 1
+    runs, end = phase(3 * one_run, True)        # a time budget alone: runs until the clock passes the deadline
+    assert runs >= 2 and end >= 3 * one_run
+    assert phase(0.0, True)[0] == 1             # a deadline already passed: the one run, cut short
