@@ -230,6 +230,10 @@ class SearchResult:
     statistics: dict
 
 
+#: members per pool of starts of the first improvement run's optimum under a time budget alone
+LIGHT_POPULATION = 64
+
+
 def _improvement_phase(space: ObjectSpace, s0: np.ndarray, plan: list[int], rng: np.random.Generator, imp,
                        stats: dict, *, goal: np.ndarray | None, deadline: float | None, anytime: bool,
                        floor: float) -> list[int]:
@@ -237,9 +241,11 @@ def _improvement_phase(space: ObjectSpace, s0: np.ndarray, plan: list[int], rng:
     times, each from the plan the previous run left and with the targets of a new multi-start optimum (its own
     child stream of ``rng``): the optimiser's best basin varies from one stream to the next by several per cent on
     five objects.  ``anytime`` (a time budget without a work budget): the runs go on until ``deadline``, so that a
-    longer budget buys more of them.  A replanning (``goal`` given) runs once.  Returns the plan; ``stats`` gets the
-    runs' statistics (``refine_runs``, ``refine_run_gains``; the last run's targets and branch point;
-    ``refine_pushes``, ``refine_connects`` and ``refine_gain`` summed)."""
+    longer budget buys more of them, and the first uses a light optimum (:data:`LIGHT_POPULATION` members, one basin:
+    with three objects and 5 s the full one left two plans of ten without a connection).  A replanning (``goal``
+    given) runs once.  Returns the plan; ``stats`` gets the runs' statistics (``refine_runs``,
+    ``refine_run_gains``; the last run's targets and branch point; ``refine_pushes``, ``refine_connects`` and
+    ``refine_gain`` summed)."""
     k = space.k
     goals = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(-1, k, 3)
     runs, appended, connects, gains = 0, 0, 0, []
@@ -252,10 +258,13 @@ def _improvement_phase(space: ObjectSpace, s0: np.ndarray, plan: list[int], rng:
             # (with a work budget the deadline is only the cap's)
             cut = deadline if deadline is None or not anytime else \
                 time.perf_counter() + 0.5 * max(0.0, deadline - time.perf_counter())
-            optimum, optimum_orders = optimum_targets(space, rng.spawn(1)[0], imp.refine_optimum,
-                                                      imp.refine_optimum_orders, deadline=cut,
-                                                      population=imp.refine_optimum_population,
-                                                      basins=imp.refine_optimum_basins)
+            # on the clock, a first run with the light optimum of before (64 members, one basin) makes sure of a
+            # connection within a short budget; the runs the rest of the time buys use the full one
+            light = anytime and runs == 0
+            optimum, optimum_orders = optimum_targets(
+                space, rng.spawn(1)[0], imp.refine_optimum, imp.refine_optimum_orders, deadline=cut,
+                population=min(LIGHT_POPULATION, imp.refine_optimum_population) if light else
+                imp.refine_optimum_population, basins=1 if light else imp.refine_optimum_basins)
         _, keep, extra, more = improve(space, path, rng, count=imp.refine_targets,
                                        rounds=imp.refine_rounds, slack=imp.refine_slack,
                                        depth=imp.refine_depth, width=imp.refine_width,
