@@ -244,11 +244,11 @@ def _improvement_phase(space: ObjectSpace, s0: np.ndarray, plan: list[int], rng:
     longer budget buys more of them, and the first uses a light optimum (:data:`LIGHT_POPULATION` members, one basin:
     with three objects and 5 s the full one left two plans of ten without a connection).  A replanning (``goal``
     given) runs once.  Returns the plan; ``stats`` gets the runs' statistics (``refine_runs``,
-    ``refine_run_gains``; the last run's targets and branch point; ``refine_pushes``, ``refine_connects`` and
-    ``refine_gain`` summed)."""
+    ``refine_run_gains``; the last run's targets; ``refine_branch``, how many of the tree's pushes the result kept,
+    and ``refine_pushes``, how many follow them; ``refine_connects`` and ``refine_gain`` summed)."""
     k = space.k
     goals = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(-1, k, 3)
-    runs, appended, connects, gains = 0, 0, 0, []
+    runs, connects, gains, kept = 0, 0, [], len(plan)
     while True:
         path, _ = space.rollout(s0, plan)
         optimum, optimum_orders = None, None
@@ -276,7 +276,7 @@ def _improvement_phase(space: ObjectSpace, s0: np.ndarray, plan: list[int], rng:
                                        yaw_quota=imp.refine_yaw_quota, push_cost=imp.push_cost,
                                        enough=floor)
         runs += 1
-        appended += len(extra)
+        kept = min(kept, keep)                      # how much of the tree's own plan is still in the result
         connects += int(more["refine_connects"])
         gains.append(float(more["refine_gain"]))
         stats.update(more)
@@ -288,8 +288,8 @@ def _improvement_phase(space: ObjectSpace, s0: np.ndarray, plan: list[int], rng:
                 break
         elif runs >= imp.refine_restarts:
             break
-    stats.update(refine_runs=runs, refine_run_gains=gains, refine_pushes=appended, refine_connects=connects,
-                 refine_gain=float(sum(gains)))
+    stats.update(refine_runs=runs, refine_run_gains=gains, refine_branch=kept, refine_pushes=len(plan) - kept,
+                 refine_connects=connects, refine_gain=float(sum(gains)))
     return plan
 
 
