@@ -50,7 +50,8 @@ MEANS = np.array([[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], 
 #: both forks, both knives and cup-1; F: both plates, fork-1, knife-2 and cup-2); held-out G and H: drawn in session 36
 #: before planning.strokes was measured anywhere (G: plate-1, knife-1, both cups, knife-2; H: plate-1, both forks and
 #: both knives, with cup-1 fixed in the middle); I and J: drawn in session 36 for turning first; K and L: drawn in
-#: session 37 before refine_optimum_population 512 was run; M and N: before refine_optimum_basins 3 was
+#: session 37 before refine_optimum_population 512 was run; M and N: before refine_optimum_basins 3 was; O and P:
+#: session 38, before a second improvement run under a work budget (refine_restarts 2) was run anywhere
 SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 3000),
         "held-out B": ((1, 2, 5, 6, 7), 4000),
         "held-out C": ((0, 3, 4, 5, 7), 5000),
@@ -64,7 +65,9 @@ SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 30
         "held-out K": ((0, 1, 3, 4, 6), 13000),
         "held-out L": ((0, 2, 5, 6, 7), 14000),
         "held-out M": ((0, 1, 2, 4, 7), 15000),
-        "held-out N": ((1, 3, 4, 6, 7), 16000)}
+        "held-out N": ((1, 3, 4, 6, 7), 16000),
+        "held-out O": ((0, 1, 3, 5, 7), 17000),
+        "held-out P": ((2, 3, 4, 5, 7), 18000)}
 
 
 class _Models:
@@ -107,7 +110,8 @@ def run_set(label: str, indices, base: int, seeds: int, settings: list[str], ite
             plans.append({"set": label, "objects": names, "seed": seed, "refine_optimum": setting,
                           "cost": float(found.cost), "cpu_s": cpu, "pushes": len(found.actions),
                           "iterations": int(found.statistics["iterations"]),
-                          "refine_runs": int(found.statistics.get("refine_runs", 0))})
+                          "refine_runs": int(found.statistics.get("refine_runs", 0)),
+                          "refine_run_gains": [float(g) for g in found.statistics.get("refine_run_gains", [])]})
             print(f"{label} seed {seed} refine_optimum {setting}: cost {found.cost:.4f}, {len(found.actions)} pushes, "
                   f"{cpu:.1f} s CPU, {plans[-1]['iterations']} tree extensions, {plans[-1]['refine_runs']} "
                   f"improvement runs", flush=True)

@@ -91,14 +91,7 @@ class SimulatedExpert:
 
     def path(self, task: DemonstrationTask, tilt, frame) -> np.ndarray:
         """``[start, pre-insertion, final]`` for tilts ``(alpha, beta)`` (rad) in the funnel ``frame``."""
-        axis, across, along = frame
-        d = axis + np.tan(tilt[0]) * across + np.tan(tilt[1]) * along
-        d /= np.linalg.norm(d)
-        q = rotation_onto(d)
-        offset = _rotate(q, self.tip)
-        final = np.r_[task.target - offset, q]
-        pre = np.r_[task.target + d * self.options.insertion - offset, q]
-        return np.array([task.start, pre, final])
+        return straight_insertion(task, tilt, frame, self.tip, self.options.insertion)
 
     def valid(self, task: DemonstrationTask, paths) -> np.ndarray:
         """Whether every measured configuration of each path keeps the probe inside the task's planes."""
@@ -106,6 +99,29 @@ class SimulatedExpert:
         for k, p in enumerate(paths):
             out[k] = bool(task.allows(self.features.outline(self.features.states(p))).all())
         return out
+
+
+def straight_insertion(task: DemonstrationTask, tilt, frame, tip: np.ndarray, insertion: float) -> np.ndarray:
+    """The straight insertion ``[start, pre-insertion, final]`` along the funnel ``frame``'s axis tilted by
+    ``(alpha, beta)`` (rad) across the gap and along the edge: the probe's body z axis along the direction ``d``,
+    its ``tip`` (body frame, m) on the target at the end and ``insertion`` metres further out along ``d`` before."""
+    axis, across, along = frame
+    d = axis + np.tan(tilt[0]) * across + np.tan(tilt[1]) * along
+    d /= np.linalg.norm(d)
+    q = rotation_onto(d)
+    offset = _rotate(q, tip)
+    final = np.r_[task.target - offset, q]
+    pre = np.r_[task.target + d * insertion - offset, q]
+    return np.array([task.start, pre, final])
+
+
+def tilt_of(direction: np.ndarray, frame) -> np.ndarray:
+    """The tilts ``(alpha, beta)`` (rad) in the funnel ``frame`` of an insertion ``direction`` (the probe's body z
+    axis, pointing out of the environment): the inverse of :func:`straight_insertion`'s direction for a direction on
+    the funnel's side (``direction . axis > 0``)."""
+    axis, across, along = frame
+    d = np.asarray(direction, dtype=np.float64)
+    return np.array([np.arctan2(d @ across, d @ axis), np.arctan2(d @ along, d @ axis)])
 
 
 def funnel_frame(task: DemonstrationTask) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

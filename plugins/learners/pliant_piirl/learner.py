@@ -1,8 +1,9 @@
 """The learner components ``piirl`` and ``active-piirl`` (thesis ch. 4).
 
 ``piirl``: ``fit(demonstrations)`` improves each demonstration with the local optimiser, draws sample paths
-around it, reads every path's per-object deformation and recovers the sensitivities (:mod:`pliant_piirl.piirl`:
-by default a ranking of each demonstration against its samples; eq. 4.1 and the PIIRL likelihood are options).
+around it and the straight insertions of its task (:mod:`pliant_piirl.alternatives`), reads every path's
+per-object deformation and recovers the sensitivities (:mod:`pliant_piirl.piirl`: by default a ranking of each
+demonstration against its samples and those alternatives; eq. 4.1 and the PIIRL likelihood are options).
 
 ``active-piirl``: ``fit(None)`` runs the whole loop unattended: Algorithm 2 chooses the object pairs, Algorithm 3
 generates a task for each, the simulated expert (who alone reads the scene's sensitivities, as the ground truth)
@@ -23,6 +24,7 @@ import time
 import numpy as np
 from pliant.api import ConfigError, Learner, option
 
+from pliant_piirl.alternatives import straight_alternatives
 from pliant_piirl.demonstration import Demonstration, check_demonstrations, load_demonstrations
 from pliant_piirl.expert import ExpertOptions, SimulatedExpert, funnel_frame
 from pliant_piirl.piirl import RecoveryOptions, recover
@@ -76,9 +78,9 @@ class PiirlLearner(Learner):
     ``sensitivities`` ``{object: S}`` (dimensionless, within [lower, upper]: only ratios are meaningful),
     ``objective``, ``used`` (demonstrations that carried information), ``replaced`` (local optimiser
     replacements per demonstration), ``demonstrations`` (the improved ones, as dicts of the file format) and
-    ``features`` (their per-object deformation).  Wall times of the last fit are in :attr:`timing` (s): ``seconds``
-(all of it), ``samples_seconds`` (local optimiser, sample paths and their features) and ``recovery_seconds``
-(the recovery's solve).
+    ``features`` (their per-object deformation).  Wall times of the last fit are in :attr:`timing` (s):
+    ``seconds`` (all of it), ``samples_seconds`` (local optimiser, sample paths, alternatives and their features)
+    and ``recovery_seconds`` (the recovery's solve).
     """
 
     Options = PiirlOptions
@@ -102,12 +104,16 @@ class PiirlLearner(Learner):
                               f"({reach:.4g} m)", field="learner.tip", value=list(self.options.tip))
         self.features = DeformationFeatures(self.scene)
         self.sampler = PathSampler(self.features, self.options.tip, _part(self.options, SampleOptions))
+        # the funnel openings and insertion length the alternatives span: the simulated expert's (its options, where
+        # the learner has them)
+        self.funnel = ExpertOptions(**{f.name: getattr(self.options, f.name) for f in dataclasses.fields(ExpertOptions)
+                                       if hasattr(self.options, f.name)})
 
     def fit(self, data, rng: np.random.Generator) -> dict:
         """See the class docstring; ``data`` None reads the ``demonstrations`` option's file."""
         started = time.perf_counter()
         demonstrations = self._demonstrations(data)
-        improved, replaced, demo_features, sample_features = [], [], [], []
+        improved, replaced, demo_features, sample_features, alternatives = [], [], [], [], []
         for demonstration in demonstrations:
             # the local optimiser's last round drew its samples around the demonstration it returns: they are the
             # fit's samples (a fresh draw only when it stopped otherwise), so each path is measured once
@@ -118,9 +124,11 @@ class PiirlLearner(Learner):
             replaced.append(count)
             demo_features.append(mine)
             sample_features.append(drawn_features)
+            alternatives.append(straight_alternatives(self.sampler, demonstration, self.options.alternatives,
+                                                      self.funnel))
         fitted_at = time.perf_counter()
         result = recover(np.array(demo_features).reshape(len(demonstrations), -1), sample_features,
-                         _part(self.options, RecoveryOptions), rng)
+                         _part(self.options, RecoveryOptions), rng, alternatives)
         names = self.features.names
         self.timing = {"seconds": time.perf_counter() - started, "samples_seconds": fitted_at - started,
                        "recovery_seconds": time.perf_counter() - fitted_at}

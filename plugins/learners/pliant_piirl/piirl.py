@@ -21,6 +21,13 @@ overshoot (high / low 31.8 where the demonstrations allow at most 16.8); measure
 which grows along it too, every margin stays below ``max_l c_kl / cbar_k - 1``, and the recovery stops where the
 comparisons balance.  docs/plugins/piirl.md gives the measurements, on development and held-out sets.
 
+**Alternatives** (the learner's default since session 38): each demonstration is also compared with the straight
+insertions of its own task (:mod:`pliant_piirl.alternatives`), each such comparison weighing ``alternative_weight``
+(2) samples', the margins still relative to its samples' mean cost; the ranking's default temperature is then
+h = 5 alone.  The samples say which way is better near the demonstration, the alternatives whether another way
+into the same target would have been cheaper: only those bound the ratios a near-optimal demonstrator allows
+(docs/plugins/piirl.md, "Alternatives", has the development and held-out figures).
+
 ``objective = "ratio"`` is thesis eq. 4.1, the chapter's "modified form" of Kalakrishnan et al.'s objective::
 
     S_hat = argmin_S  sum_k  (S . V_k) / (sum_l S . V_kl),     lower <= S_i <= upper
@@ -83,6 +90,9 @@ TEMPERATURES = {"likelihood": 30.0}
 #: recovery at h = 5 and one at h = 10, combined by the geometric mean (chosen on development trials, session 25:
 #: h = 5 overshoots the large ratios of near-optimal demonstrations, h = 10 undershoots the simulated expert's)
 RANKING_TEMPERATURES = {"samples": (5.0, 10.0), "demonstration": (10.0,)}
+#: the ranking's temperature when ``temperature`` is None and the demonstrations come with alternatives (session 38:
+#: chosen with them on 44 development trials, docs/plugins/piirl.md "Alternatives")
+RANKING_TEMPERATURES_WITH_ALTERNATIVES = {"samples": (5.0,), "demonstration": (10.0,)}
 MARGINS = ("samples", "demonstration")
 #: each objective's extra L-BFGS-B runs when ``restarts`` is None.  The likelihood and the ranking are solved in
 #: log S inside the box, where the ray of solutions can stop at a bound: with 2 restarts a property test found the
@@ -98,12 +108,14 @@ class RecoveryOptions:
                             "loss of the relative margin); likelihood: PIIRL's likelihood with PI^2's "
                             "normalisation; ratio: eq. 4.1",
                             choices=OBJECTIVES)
-    temperature: float | None = option(None, "h of the likelihood or the ranking (None: likelihood 30; ranking the "
-                                       "geometric mean of h = 5 and 10, or 10 with margin 'demonstration'; unused "
-                                       "by ratio)", minimum=1e-9)
+    temperature: float | None = option(None, "h of the likelihood or the ranking (None: likelihood 30; ranking 5 "
+                                       "with alternatives, else the geometric mean of h = 5 and 10, or 10 with "
+                                       "margin 'demonstration'; unused by ratio)", minimum=1e-9)
     margin: str = option("samples", "the ranking's margins are relative to: samples (each demonstration's samples' "
                          "mean cost) or demonstration (its own cost, the default before 2026-11-29); unused by "
                          "likelihood and ratio", choices=MARGINS)
+    alternative_weight: float = option(2.0, "weight of one comparison with an alternative straight insertion, in "
+                                       "comparisons with a sample (the ranking only)", minimum=0.0)
     lower: float = option(0.1, "lower bound of every sensitivity (thesis 0.1)", minimum=1e-12)
     upper: float = option(1000.0, "upper bound of every sensitivity (thesis 1000)", minimum=1e-12)
     initial: float = option(500.0, "initial value of every sensitivity (thesis 500)", minimum=1e-12)
@@ -124,14 +136,17 @@ class RecoveryOptions:
 
 
 def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: RecoveryOptions | None = None,
-            rng: np.random.Generator | None = None) -> dict:
+            rng: np.random.Generator | None = None, alternatives: list[np.ndarray] | None = None) -> dict:
     """Recover the sensitivities.  ``demonstrations`` ``(K, n)``; ``samples[k]`` ``(L_k, n)``.  Returns
     ``sensitivities`` ``(n,)``, ``objective``, ``used`` (indices of the informative demonstrations), ``iterations``,
     ``message`` and ``temperatures`` (the h used: none for ratio, two for the ranking's default, whose ``objective``
     is then the mean of the two minima and ``iterations`` their sum).  ``rng``: draws the screen's candidate starting
     points (the learner passes its learning stream; every temperature uses the same points); without one they are a
     fixed design (the stream of seed 0's "piirl-screen" task), so that the recovery is a function of its data and
-    options."""
+    options.  ``alternatives[k]`` ``(m_k, n)``: other paths of demonstration ``k``'s task
+    (:func:`~pliant_piirl.alternatives.straight_alternatives`); the ranking compares the demonstration with them as
+    with its samples, each comparison weighing ``alternative_weight`` samples', its margins still relative to the
+    samples' mean cost.  The likelihood and eq. 4.1 use the samples alone, as printed."""
     o = options or RecoveryOptions()
     if not o.lower <= o.initial <= o.upper:
         raise ConfigError("lower <= initial <= upper is required", field="recovery",
@@ -146,8 +161,13 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
                           value=[demos.shape, len(samples)])
     n = demos.shape[1]
     samples = [np.asarray(s, dtype=np.float64).reshape(-1, n) for s in samples]
+    if alternatives is not None and len(alternatives) != len(demos):
+        raise ConfigError("one set of alternatives per demonstration", field="alternatives",
+                          value=[len(demos), len(alternatives)])
+    others = [np.zeros((0, n)) if alternatives is None else np.asarray(alternatives[k], dtype=np.float64).reshape(-1, n)
+              for k in range(len(demos))]
     sums = np.array([s.sum(axis=0) if len(s) else np.zeros(n) for s in samples])
-    if not (np.all(np.isfinite(demos)) and all(np.all(np.isfinite(s)) and np.all(s >= 0) for s in samples)
+    if not (np.all(np.isfinite(demos)) and all(np.all(np.isfinite(s)) and np.all(s >= 0) for s in samples + others)
             and np.all(demos >= 0)):
         raise ConfigError("features must be finite and non-negative", field="features")
     used = np.flatnonzero((demos.sum(axis=1) > 0) & (sums.sum(axis=1) > 0))
@@ -155,10 +175,11 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
         return {"sensitivities": np.full(n, o.initial), "objective": float("nan"), "used": [], "iterations": 0,
                 "message": "no informative demonstration", "temperatures": []}
     scale = max(demos[used].max(), max(samples[k].max() for k in used))
+    compared = o.objective == "ranking" and o.alternative_weight > 0 and any(len(others[k]) for k in used)
     if o.temperature is not None:
         temperatures = (o.temperature,)
     elif o.objective == "ranking":
-        temperatures = RANKING_TEMPERATURES[o.margin]
+        temperatures = (RANKING_TEMPERATURES_WITH_ALTERNATIVES if compared else RANKING_TEMPERATURES)[o.margin]
     else:
         temperatures = (TEMPERATURES.get(o.objective),)
     restarts = RESTARTS[o.objective] if o.restarts is None else o.restarts
@@ -166,7 +187,8 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
     if o.screen and restarts:
         rng = rng if rng is not None else stream(0, "task", "piirl-screen")
         points = np.exp(rng.uniform(np.log(o.lower), np.log(o.upper), (o.screen, n)))
-    runs = [_solve(demos, samples, sums, used, scale, o, h, points, restarts) for h in temperatures]
+    runs = [_solve(demos, samples, sums, used, scale, o, h, points, restarts, others if compared else None)
+            for h in temperatures]
     if len(runs) == 1:
         return {**runs[0], "temperatures": [] if temperatures[0] is None else [float(temperatures[0])]}
     # several temperatures: the geometric mean of their sensitivities, scaled again as one recovery is (the least
@@ -179,15 +201,17 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
 
 
 def _solve(demos: np.ndarray, samples: list[np.ndarray], sums: np.ndarray, used: np.ndarray, scale: float,
-           o: RecoveryOptions, h: float | None, points: np.ndarray | None, restarts: int) -> dict:
+           o: RecoveryOptions, h: float | None, points: np.ndarray | None, restarts: int,
+           others: list[np.ndarray] | None = None) -> dict:
     """One recovery at temperature ``h``: L-BFGS-B from ``initial`` and from the ``restarts`` best screened
-    ``points``; the result as :func:`recover` returns it."""
+    ``points``; the result as :func:`recover` returns it.  ``others``: the ranking's alternatives (or None)."""
     n = demos.shape[1]
     if o.objective == "ratio":
         objective, batch, log_space = _ratio(demos[used] / scale, sums[used] / scale)
     elif o.objective == "ranking":
         objective, batch, log_space = _ranking([demos[k] / scale for k in used], [samples[k] / scale for k in used], h,
-                                               o.margin)
+                                               o.margin, None if others is None else [others[k] / scale for k in used],
+                                               o.alternative_weight)
     else:
         objective, batch, log_space = _likelihood([demos[k] / scale for k in used], [samples[k] / scale for k in used],
                                                   h)
@@ -280,7 +304,8 @@ def _likelihood(demos: list[np.ndarray], samples: list[np.ndarray], h: float):
     return objective, batch, True
 
 
-def _ranking(demos: list[np.ndarray], samples: list[np.ndarray], h: float, margin: str = "samples"):
+def _ranking(demos: list[np.ndarray], samples: list[np.ndarray], h: float, margin: str = "samples",
+             alternatives: list[np.ndarray] | None = None, alternative_weight: float = 1.0):
     """The ranking objective: every sample should cost more than its demonstration.  Each (demonstration, sample)
     pair is one comparison and adds the logistic loss ``log(1 + exp(-h m))`` of the relative margin ``m = (c_l -
     c_0) / b``, with ``b`` the mean cost of the demonstration's samples (``margin = "samples"``) or its own cost
@@ -288,18 +313,23 @@ def _ranking(demos: list[np.ndarray], samples: list[np.ndarray], h: float, margi
     counts, each demonstration weighs one; a demonstration with fewer valid samples offers fewer comparisons and weighs
     less).  ``F0[k]`` is demonstration ``k``, ``F[k]`` its samples, padded with weight 0, ``Fb[k]`` the features of
     ``b`` (``b = Fb[k] . S``: the samples' mean, or the demonstration).  Demonstrations that deform nothing, or whose
-    samples deform nothing, are left out before this is called, so ``b > 0`` for ``S > 0``."""
+    samples deform nothing, are left out before this is called, so ``b > 0`` for ``S > 0``.  ``alternatives[k]``:
+    more paths to compare demonstration ``k`` with, each comparison weighing ``alternative_weight`` times a
+    sample's; ``b`` stays the samples' mean (or the demonstration's cost)."""
     from scipy.special import expit
 
     K, n = len(demos), len(demos[0])
-    L = max(len(s) for s in samples)
+    others = alternatives if alternatives is not None else [np.zeros((0, n))] * K
+    L = max(len(s) + len(a) for s, a in zip(samples, others))
     F0 = np.array(demos)
     F = np.zeros((K, L, n))
     weight = np.zeros((K, L))
     each = K / sum(len(s) for s in samples)
-    for k, s in enumerate(samples):
+    for k, (s, a) in enumerate(zip(samples, others)):
         F[k, :len(s)] = s
         weight[k, :len(s)] = each
+        F[k, len(s):len(s) + len(a)] = a
+        weight[k, len(s):len(s) + len(a)] = each * alternative_weight
     Fb = np.array([s.mean(axis=0) for s in samples]) if margin == "samples" else F0
 
     def objective(s):

@@ -277,3 +277,97 @@ def test_nothing_to_learn_from_says_so_and_bad_input_is_an_error():
     with pytest.raises(ConfigError, match="samples, demonstration") as raised:
         recover(np.ones((1, 2)), [np.ones((2, 2))], RecoveryOptions(margin="costs"))
     assert raised.value.field == "margin"
+
+
+# --- alternatives: other paths of each demonstration's task, compared with it by the ranking -------------------
+
+def ranking_with_alternatives(s, demos, samples, alternatives, weight, h=5.0):
+    """The ranking at ``s`` ``(P, n)`` with each demonstration also compared with its alternatives, each comparison
+    weighing ``weight`` samples'; the margins relative to the samples' mean cost alone."""
+    s = np.atleast_2d(s)
+    total = np.zeros(len(s))
+    for v, w, a in zip(demos, samples, alternatives):
+        scale = (s @ w.T).mean(axis=1)
+        for paths, each in ((w, 1.0), (a, weight)):
+            m = (s @ paths.T - (s @ v)[:, None]) / scale[:, None]
+            total += each * np.logaddexp(0.0, -h * m).sum(axis=1)
+    return total * len(demos) / sum(len(w) for w in samples)
+
+
+def test_an_alternative_pulls_the_ratio_toward_where_the_demonstration_stays_cheaper_than_it():
+    # the case above (demonstration (1, 1), samples (4, 0) and (0, 2), r = S2 / S1, margins over the samples' mean
+    # 2 + r) with one alternative (2.5, 0), weighing w samples: its margin u3 = (1.5 - r) / (2 + r) is negative for
+    # r > 1.5, where the demonstration costs more than it.  With u1' = -5, u2' = 3, u3' = -3.5 (over (2 + r)^2) the
+    # optimum is where 3 sigmoid(-h u2) = 5 sigmoid(-h u1) + 3.5 w sigmoid(-h u3), lower the more it weighs
+    demos, samples, alternative = np.array([[1.0, 1.0]]), [np.array([[4.0, 0.0], [0.0, 2.0]])], [np.array([[2.5, 0.0]])]
+    h = 5.0
+    plain = recover(demos, samples, RecoveryOptions(temperature=h))["sensitivities"]
+    ratios = [plain[1] / plain[0]]
+    for w in (1.0, 2.0, 4.0):
+        s = recover(demos, samples, RecoveryOptions(temperature=h, alternative_weight=w), alternatives=alternative)[
+            "sensitivities"]
+        r = s[1] / s[0]
+        u1, u2, u3 = (3 - r) / (2 + r), (r - 1) / (2 + r), (1.5 - r) / (2 + r)
+        assert 3 * expit(-h * u2) == pytest.approx(5 * expit(-h * u1) + 3.5 * w * expit(-h * u3), rel=1e-4)
+        ratios.append(r)
+    assert np.all(np.diff(ratios) < 0)          # the more it weighs, the further down (0.82 at w = 4: below 1)
+
+
+def test_with_alternatives_the_ranking_defaults_to_h_5_and_the_other_objectives_ignore_them():
+    rng = np.random.default_rng(4)
+    demos, samples = rng.uniform(0, 1, (3, 3)), [rng.uniform(0, 2, (6, 3)) for _ in range(3)]
+    alternatives = [rng.uniform(0, 2, (k, 3)) for k in (4, 0, 2)]
+    compared = recover(demos, samples, RecoveryOptions(), alternatives=alternatives)
+    five = recover(demos, samples, RecoveryOptions(temperature=5.0), alternatives=alternatives)
+    assert compared["temperatures"] == [5.0]
+    np.testing.assert_array_equal(compared["sensitivities"], five["sensitivities"])
+    plain = recover(demos, samples, RecoveryOptions())
+    assert plain["temperatures"] == [5.0, 10.0]
+    assert not np.allclose(compared["sensitivities"], plain["sensitivities"])
+    # none given, none to compare with, or a weight of 0: the recovery without them
+    for kwargs, options in (({"alternatives": [np.zeros((0, 3))] * 3}, RecoveryOptions()),
+                            ({"alternatives": alternatives}, RecoveryOptions(alternative_weight=0.0))):
+        np.testing.assert_array_equal(recover(demos, samples, options, **kwargs)["sensitivities"],
+                                      plain["sensitivities"])
+    for options in (LIKELIHOOD, RATIO):
+        np.testing.assert_array_equal(recover(demos, samples, options, alternatives=alternatives)["sensitivities"],
+                                      recover(demos, samples, options)["sensitivities"])
+
+
+def test_the_ranking_with_alternatives_matches_its_reference_and_finite_differences():
+    from scipy.optimize import check_grad
+
+    rng = np.random.default_rng(2)
+    demos = [rng.uniform(0, 1, 3) for _ in range(3)]
+    samples = [rng.uniform(0, 2, (k, 3)) for k in (6, 3, 5)]
+    alternatives = [rng.uniform(0, 2, (k, 3)) for k in (2, 0, 7)]
+    objective, batch, _ = _ranking(demos, samples, 5.0, "samples", alternatives, 3.0)
+    for s in rng.uniform(0.1, 10, (5, 3)):
+        f, g = (lambda x: objective(x)[0]), (lambda x: objective(x)[1])
+        assert f(s) == pytest.approx(ranking_with_alternatives(s, demos, samples, alternatives, 3.0)[0], rel=1e-12)
+        assert batch(s[None])[0] == pytest.approx(f(s), rel=1e-12)
+        assert check_grad(f, g, s, epsilon=1e-7) < 1e-5 * np.linalg.norm(g(s)) + 1e-9
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 10_000))
+def test_the_recovery_with_alternatives_is_no_worse_than_any_point_of_a_random_search(seed):
+    rng = np.random.default_rng(seed)
+    demos = rng.uniform(0, 1, (3, 4))
+    samples = [rng.uniform(0, 2, (5, 4)) for _ in range(3)]
+    alternatives = [rng.uniform(0, 2, (3, 4)) for _ in range(3)]
+    result = recover(demos, samples, RecoveryOptions(), alternatives=alternatives)
+    s = result["sensitivities"]
+    assert result["objective"] == pytest.approx(
+        ranking_with_alternatives(s, demos, samples, alternatives, 2.0)[0], rel=1e-9, abs=1e-9)
+    best = ranking_with_alternatives(rng.uniform(0.1, 1000, (2000, 4)), demos, samples, alternatives, 2.0).min()
+    assert result["objective"] <= best + 1e-9
+
+
+def test_alternatives_are_checked_like_samples():
+    demos, samples = np.ones((2, 2)), [np.ones((2, 2))] * 2
+    with pytest.raises(ConfigError, match="one set of alternatives") as raised:
+        recover(demos, samples, alternatives=[np.ones((1, 2))])
+    assert raised.value.field == "alternatives"
+    with pytest.raises(ConfigError, match="non-negative"):
+        recover(demos, samples, alternatives=[np.ones((1, 2)), -np.ones((1, 2))])
