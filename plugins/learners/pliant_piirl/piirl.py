@@ -139,8 +139,9 @@ def recover(demonstrations: np.ndarray, samples: list[np.ndarray], options: Reco
             rng: np.random.Generator | None = None, alternatives: list[np.ndarray] | None = None) -> dict:
     """Recover the sensitivities.  ``demonstrations`` ``(K, n)``; ``samples[k]`` ``(L_k, n)``.  Returns
     ``sensitivities`` ``(n,)``, ``objective``, ``used`` (indices of the informative demonstrations), ``iterations``,
-    ``message`` and ``temperatures`` (the h used: none for ratio, two for the ranking's default, whose ``objective``
-    is then the mean of the two minima and ``iterations`` their sum).  ``rng``: draws the screen's candidate starting
+    ``message`` and ``temperatures`` (the h used: none for ratio, one (5) for the ranking's default with
+    alternatives, two without them, whose ``objective`` is then the mean of the two minima and ``iterations`` their
+    sum).  ``rng``: draws the screen's candidate starting
     points (the learner passes its learning stream; every temperature uses the same points); without one they are a
     fixed design (the stream of seed 0's "piirl-screen" task), so that the recovery is a function of its data and
     options.  ``alternatives[k]`` ``(m_k, n)``: other paths of demonstration ``k``'s task
