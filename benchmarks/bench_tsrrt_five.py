@@ -51,7 +51,8 @@ MEANS = np.array([[0.045, 0, 0], [-0.045, 0, 0], [0, 0.045, 0], [0, -0.045, 0], 
 #: before planning.strokes was measured anywhere (G: plate-1, knife-1, both cups, knife-2; H: plate-1, both forks and
 #: both knives, with cup-1 fixed in the middle); I and J: drawn in session 36 for turning first; K and L: drawn in
 #: session 37 before refine_optimum_population 512 was run; M and N: before refine_optimum_basins 3 was; O and P:
-#: session 38, before a second improvement run under a work budget (refine_restarts 2) was run anywhere
+#: session 38, before a second improvement run under a work budget (refine_restarts 2) was run anywhere; Q and R:
+#: session 38, after that run was chosen on L and before it ran on them
 SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 3000),
         "held-out B": ((1, 2, 5, 6, 7), 4000),
         "held-out C": ((0, 3, 4, 5, 7), 5000),
@@ -67,7 +68,9 @@ SETS = {"development": ((0, 1, 2, 3, 4), 2000), "held-out": ((3, 4, 5, 6, 7), 30
         "held-out M": ((0, 1, 2, 4, 7), 15000),
         "held-out N": ((1, 3, 4, 6, 7), 16000),
         "held-out O": ((0, 1, 3, 5, 7), 17000),
-        "held-out P": ((2, 3, 4, 5, 7), 18000)}
+        "held-out P": ((2, 3, 4, 5, 7), 18000),
+        "held-out Q": ((0, 2, 3, 4, 6), 19000),
+        "held-out R": ((1, 2, 3, 5, 7), 20000)}
 
 
 class _Models:
