@@ -16,7 +16,10 @@ fork-1, knife-1, fork-2, knife-2; seeds 10000-10007), drawn in session 36 before
 were run anywhere; held-out I and J (session 36, for turning first); held-out K (plate-1, fork-1, cup-1, plate-2,
 knife-2; seeds 13000-) and L (plate-1, knife-1, fork-2, knife-2, cup-2; 14000-), drawn in session 37 before a larger
 optimiser population was run anywhere, and M (plate-1, fork-1, knife-1, plate-2, cup-2; 15000-) and N (fork-1,
-cup-1, plate-2, knife-2, cup-2; 16000-), drawn before its three basins were.  Plans use the option's
+cup-1, plate-2, knife-2, cup-2; 16000-), drawn before its three basins were; O (plate-1, fork-1, cup-1, fork-2,
+cup-2; 17000-) and P (knife-1, cup-1, plate-2, fork-2, cup-2; 18000-), drawn in session 38 before a second
+improvement run under a work budget ran anywhere, and Q (plate-1, knife-1, cup-1, plate-2, knife-2; 19000-) and R
+(fork-1, knife-1, cup-1, fork-2, cup-2; 20000-), drawn after that run was chosen on L.  Plans use the option's
 ``planning.strokes`` (``--strokes 1``: whole pushes only).  Each ratio is the plan's final cost over the best
 reference found for those objects (:func:`reference_optimum` with 3000 rounds and 512 members per pool from seed 0,
 and 1500 rounds from each plan's final arrangement).  Every budget is a count (``--time``: a time budget instead,
