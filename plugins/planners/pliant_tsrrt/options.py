@@ -141,7 +141,7 @@ class ImprovementOptions:
     refine_optimum: int = option(3000, "rounds of the multi-start free-placement optimisation whose optimum and its "
                                  "mirror images across the table are targets too (0: none; not in replanning)",
                                  minimum=0)
-    refine_restarts: int = option(1, "improvement phases run one after another, each from the last one's plan with "
+    refine_restarts: int = option(2, "improvement phases run one after another, each from the last one's plan with "
                                   "a new refine_optimum; under a time budget alone, until its deadline", minimum=1)
     refine_optimum_population: int = option(512, "members of each of the refine_optimum's three pools of starts "
                                             "(random, quarter-turned, packed patterns)", minimum=1)
