@@ -41,9 +41,9 @@ class SampleOptions:
     rotation: float = option(0.05, "largest standard deviation of the rotation noise (rad)", minimum=0.0)
     rounds: int = option(3, "local optimiser rounds (0: keep demonstrations as shown)", minimum=0)
     redraws: int = option(20, "most redraws of an invalid sample before it is dropped", minimum=0)
-    alternatives: int = option(7, "straight insertions of each demonstration's task the fit also compares it with: "
-                               "tilts across the funnel's gap (x grid // 2 | 1 along the edge, and 14 around the "
-                               "demonstration's own direction); 0: the samples only", minimum=0)
+    alternatives: int = option(7, "straight insertions the fit also compares each demonstration with: tilts across "
+                               "the funnel (x grid // 2 | 1 along it, and 14 around its own direction); 0: none",
+                               minimum=0)
 
 
 def smooth_covariance(k: int, clamp_end: bool = False) -> np.ndarray:
