@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from pliant_piirl.demonstration import Demonstration
-from pliant_piirl.expert import ExpertOptions, funnel_frame, straight_insertion, tilt_of
+from pliant_piirl.expert import ExpertOptions, funnel_frame, straight_insertion, tilt_axes, tilt_of
 
 #: the fine lattice around the demonstration's own direction: points across the gap, along the edge (one coarse
 #: step either way)
@@ -41,8 +41,7 @@ def straight_alternatives(sampler, demonstration: Demonstration, grid: int,
     o = options or ExpertOptions()
     task = demonstration.task
     frame = funnel_frame(task)
-    alphas = np.linspace(-o.across_angle, o.across_angle, grid) if grid > 1 else np.zeros(1)
-    betas = np.linspace(-o.along_angle, o.along_angle, max(1, grid // 2 | 1)) if grid > 1 else np.zeros(1)
+    alphas, betas = tilt_axes(grid, o)
     tilts = [(a, b) for a in alphas for b in betas]
     rot, _, _ = sampler.robot.rigid_placement(np.asarray(demonstration.path, dtype=np.float64)[-1:])
     own = tilt_of(rot[0][:, 2], frame)

@@ -5,7 +5,7 @@ sensitivities: the probe turns outside the objects to a direction ``d``, then sl
 touches the target.  The path is ``[start, pre-insertion, final]``: the final configuration has the tip on the
 target and the body axis along ``d``; the pre-insertion one is ``insertion`` metres further out along ``d``.  The
 directions searched are the funnel's axis tilted by ``alpha`` across the gap and ``beta`` along the edge, on a
-``grid x (grid // 2)`` lattice within the funnel's openings, then refined ``refine`` times on finer lattices
+``grid x (grid // 2 | 1)`` lattice within the funnel's openings, then refined ``refine`` times on finer lattices
 around the best; a candidate is valid when every measured
 configuration keeps the probe inside the collision planes and its cost is finite.  The cheapest valid direction
 (true cost ``S . V``) is the optimum.
@@ -66,8 +66,7 @@ class SimulatedExpert:
         """The cheapest valid tilts ``(alpha, beta)`` (rad) and the funnel frame they are measured in."""
         o = self.options
         frame = funnel_frame(task)
-        alphas = np.linspace(-o.across_angle, o.across_angle, o.grid) if o.grid > 1 else np.zeros(1)
-        betas = np.linspace(-o.along_angle, o.along_angle, max(1, o.grid // 2 | 1)) if o.grid > 1 else np.zeros(1)
+        alphas, betas = tilt_axes(o.grid, o)
         best = self._best(task, frame, np.array([(a, b) for a in alphas for b in betas]))
         # refine: the same lattice, ``refine`` times finer, over one coarse step around the best
         for _ in range(o.refine):
@@ -99,6 +98,15 @@ class SimulatedExpert:
         for k, p in enumerate(paths):
             out[k] = bool(task.allows(self.features.outline(self.features.states(p))).all())
         return out
+
+
+def tilt_axes(grid: int, options: ExpertOptions) -> tuple[np.ndarray, np.ndarray]:
+    """The funnel's lattice of tilts: ``grid`` values across the gap within ``+-across_angle`` and ``grid // 2 | 1``
+    (odd, so the axis itself is one) along the edge within ``+-along_angle`` (rad); the axis alone for ``grid`` 1."""
+    if grid <= 1:
+        return np.zeros(1), np.zeros(1)
+    return (np.linspace(-options.across_angle, options.across_angle, grid),
+            np.linspace(-options.along_angle, options.along_angle, max(1, grid // 2 | 1)))
 
 
 def straight_insertion(task: DemonstrationTask, tilt, frame, tip: np.ndarray, insertion: float) -> np.ndarray:

@@ -25,7 +25,7 @@ import numpy as np
 from pliant.api import PlanningError
 
 from pliant_piirl.demonstration import Demonstration, DemonstrationTask
-from pliant_piirl.expert import ExpertOptions, SimulatedExpert, funnel_frame
+from pliant_piirl.expert import ExpertOptions, SimulatedExpert, funnel_frame, tilt_axes
 
 #: the near-optimal demonstrator's slack: it shows a path within 2% of the cheapest true cost
 SLACK = 0.02
@@ -51,8 +51,7 @@ class NearOptimalDemonstrator(SimulatedExpert):
     def demonstrate(self, task: DemonstrationTask, rng: np.random.Generator) -> Demonstration:
         o = self.options
         frame = funnel_frame(task)
-        alphas = np.linspace(-o.across_angle, o.across_angle, o.grid) if o.grid > 1 else np.zeros(1)
-        betas = np.linspace(-o.along_angle, o.along_angle, max(1, o.grid // 2 | 1)) if o.grid > 1 else np.zeros(1)
+        alphas, betas = tilt_axes(o.grid, o)
         tilts, feats = self._measure(task, frame, np.array([(a, b) for a in alphas for b in betas]))
         for _ in range(o.refine):
             best = tilts[np.argmin(feats @ self.weights)]

@@ -114,6 +114,9 @@ class PiirlLearner(Learner):
         started = time.perf_counter()
         demonstrations = self._demonstrations(data)
         improved, replaced, demo_features, sample_features, alternatives = [], [], [], [], []
+        # only the ranking compares with alternatives: for the other objectives they would be drawn for nothing
+        o = self.options
+        grid = o.alternatives if o.objective == "ranking" and o.alternative_weight > 0 else 0
         for demonstration in demonstrations:
             # the local optimiser's last round drew its samples around the demonstration it returns: they are the
             # fit's samples (a fresh draw only when it stopped otherwise), so each path is measured once
@@ -124,8 +127,7 @@ class PiirlLearner(Learner):
             replaced.append(count)
             demo_features.append(mine)
             sample_features.append(drawn_features)
-            alternatives.append(straight_alternatives(self.sampler, demonstration, self.options.alternatives,
-                                                      self.funnel))
+            alternatives.append(straight_alternatives(self.sampler, demonstration, grid, self.funnel))
         fitted_at = time.perf_counter()
         result = recover(np.array(demo_features).reshape(len(demonstrations), -1), sample_features,
                          _part(self.options, RecoveryOptions), rng, alternatives)

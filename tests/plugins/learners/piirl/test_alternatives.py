@@ -1,6 +1,8 @@
 """The straight-insertion alternatives a fit compares each demonstration with: the lattice, the funnel check and the
 features against the expert's own path-by-path reading; the tilts' round trip; none outside SE(3)."""
 
+import functools
+
 import numpy as np
 import pliant
 import pytest
@@ -62,11 +64,17 @@ def _axis_of(configuration):
     return Rotation.from_quat(configuration[3:]).apply([0.0, 0.0, 1.0])
 
 
+@functools.cache
+def _one_task():
+    """A hollow-cube task (made once: hypothesis calls the test below 50 times)."""
+    return TaskSpace(pliant.load_scene("hollow-cube")).generate_task("L1", "M1", np.random.default_rng(0), TIP,
+                                                                       rotation_onto)
+
+
 @settings(max_examples=50, deadline=None)
 @given(st.floats(-0.6, 0.6), st.floats(-0.15, 0.15))
 def test_a_straight_insertions_tilts_come_back_from_its_direction(alpha, beta):
-    scene = pliant.load_scene("hollow-cube")
-    task = TaskSpace(scene).generate_task("L1", "M1", np.random.default_rng(0), TIP, rotation_onto)
+    task = _one_task()
     frame = funnel_frame(task)
     path = straight_insertion(task, (alpha, beta), frame, TIP, 0.07)
     d = (path[1, :3] - path[2, :3]) / 0.07

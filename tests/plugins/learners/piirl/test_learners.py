@@ -69,3 +69,24 @@ def test_the_pipeline_writes_what_it_learned(tmp_path):
                                                                                      "H1", "H2"}
     rows = dict(record.summary_rows())
     assert rows["learner"] == "active-piirl" and "learned sensitivities H1" in rows
+
+
+def test_the_fit_draws_alternatives_only_for_an_objective_that_compares_with_them(monkeypatch):
+    import pliant_piirl.learner as module
+
+    grids = []
+    real = module.straight_alternatives
+
+    def counted(sampler, demonstration, grid, options=None):
+        grids.append(grid)
+        return real(sampler, demonstration, grid, options)
+
+    monkeypatch.setattr(module, "straight_alternatives", counted)
+    demos = example_demonstrations()
+    learner("piirl", samples=5, rounds=0).fit(demos, np.random.default_rng(0))
+    assert grids == [7, 7]                                 # the ranking (the default) with its alternatives
+    grids.clear()
+    for options in ({"objective": "likelihood"}, {"objective": "ratio"}, {"alternative_weight": 0.0}):
+        learner("piirl", samples=5, rounds=0, **options).fit(demos, np.random.default_rng(0))
+        assert grids == [0, 0], options
+        grids.clear()
