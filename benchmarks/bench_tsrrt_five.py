@@ -84,7 +84,8 @@ class _Models:
 
 
 def run_set(label: str, indices, base: int, seeds: int, settings: list[str], iterations: int,
-            overrides: dict | None = None, seconds: float | None = None) -> list[dict]:
+            overrides: dict | None = None, seconds: float | None = None, on_plan=None) -> list[dict]:
+    """Plan every start of one set; ``on_plan(plans, reference)`` after each plan (to write results as they go)."""
     from pliant import api
     from pliant.api import Termination, build_options
     from pliant_tsrrt.planner import TSRRTOptions, build_space
@@ -121,6 +122,8 @@ def run_set(label: str, indices, base: int, seeds: int, settings: list[str], ite
             print(f"{label} seed {seed} refine_optimum {setting}: cost {found.cost:.4f}, {len(found.actions)} pushes, "
                   f"{cpu:.1f} s CPU, {plans[-1]['iterations']} tree extensions, {plans[-1]['refine_runs']} "
                   f"improvement runs", flush=True)
+            if on_plan is not None:
+                on_plan(plans, ref)
     for plan in plans:
         plan["reference"] = float(ref)
         plan["ratio"] = plan["cost"] / ref
@@ -169,9 +172,18 @@ def main() -> None:
     if unknown:
         parser.error(f"--sets: unknown set {unknown[0]!r} (known: {', '.join(SETS)})")
     plans = []
+
+    def write(partial: list[dict], reference: float | None = None) -> None:
+        # after every plan: a run stopped early keeps what it planned (the ratios against the reference so far)
+        done = [dict(p, reference=float(reference), ratio=p["cost"] / reference) for p in partial] \
+            if reference is not None else []
+        write_json("tsrrt_five", {"settings": settings, "iterations": args.iterations, "time": args.time,
+                                  "strokes": list(strokes), "complete": reference is None, "plans": plans + done})
+
     for label in args.sets.split(","):
         indices, base = SETS[label]
-        plans += run_set(label, indices, base, args.seeds, settings, args.iterations, overrides, args.time)
+        plans += run_set(label, indices, base, args.seeds, settings, args.iterations, overrides, args.time,
+                         on_plan=write)
     rows = []
     for label in args.sets.split(","):
         for setting in settings:
@@ -182,9 +194,7 @@ def main() -> None:
                          f"{mine[0]['reference']:.4f}"))
     print_table("TS-RRT, 5 objects: plan / reference optimum (target: median <= 1.1)",
                 ("set", "refine_optimum", "median", "within 10%", "ratios", "CPU s (median)", "reference"), rows)
-    write_json("tsrrt_five", {"settings": settings, "iterations": args.iterations, "time": args.time,
-                              "strokes": list(strokes),
-                              "plans": plans})
+    write(plans)
 
 
 if __name__ == "__main__":
