@@ -84,8 +84,9 @@ class _Models:
 
 
 def run_set(label: str, indices, base: int, seeds: int, settings: list[str], iterations: int,
-            overrides: dict | None = None, seconds: float | None = None, on_plan=None) -> list[dict]:
-    """Plan every start of one set; ``on_plan(plans, reference)`` after each plan (to write results as they go)."""
+            overrides: dict | None = None, seconds: float | None = None, on_plan=None, skip: int = 0) -> list[dict]:
+    """Plan starts ``skip`` to ``seeds - 1`` of one set; ``on_plan(plans, reference)`` after each plan (to write
+    results as they go)."""
     from pliant import api
     from pliant.api import Termination, build_options
     from pliant_tsrrt.planner import TSRRTOptions, build_space
@@ -96,7 +97,7 @@ def run_set(label: str, indices, base: int, seeds: int, settings: list[str], ite
     movable = [o.name for o in scene.objects if o.movable]
     names = [movable[i] for i in indices]
     space, ref, plans = None, np.inf, []
-    for seed in range(base, base + seeds):
+    for seed in range(base + skip, base + seeds):
         for setting in settings:
             rounds, _, orders = setting.partition(":")
             options = build_options(TSRRTOptions, {"objects": tuple(names), "improvement.refine_optimum": int(rounds),
@@ -139,6 +140,9 @@ def main() -> None:
     parser.add_argument("--time", type=float, default=None, metavar="SECONDS",
                         help="a time budget per plan instead of --iterations: the plans then depend on the machine "
                              "and its load")
+    parser.add_argument("--skip", type=int, default=0, metavar="N",
+                        help="leave out each set's first N starts (to split a set over processes; then take each "
+                             "ratio against the lower of their references)")
     parser.add_argument("--sets", default="development,held-out,held-out B")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="another TS-RRT option for every plan (e.g. improvement.refine_width=128)")
@@ -167,6 +171,8 @@ def main() -> None:
         parser.error(str(exc))
     if args.time is not None and not args.time > 0:
         parser.error(f"--time {args.time}: must be a positive number of seconds")
+    if not 0 <= args.skip < args.seeds:
+        parser.error(f"--skip {args.skip}: must be at least 0 and below --seeds ({args.seeds})")
     settings = args.settings.split(",")
     unknown = [label for label in args.sets.split(",") if label not in SETS]
     if unknown:
@@ -178,12 +184,13 @@ def main() -> None:
         done = [dict(p, reference=float(reference), ratio=p["cost"] / reference) for p in partial] \
             if reference is not None else []
         write_json("tsrrt_five", {"settings": settings, "iterations": args.iterations, "time": args.time,
+                                  "skip": args.skip,
                                   "strokes": list(strokes), "complete": reference is None, "plans": plans + done})
 
     for label in args.sets.split(","):
         indices, base = SETS[label]
         plans += run_set(label, indices, base, args.seeds, settings, args.iterations, overrides, args.time,
-                         on_plan=write)
+                         on_plan=write, skip=args.skip)
     rows = []
     for label in args.sets.split(","):
         for setting in settings:
