@@ -27,6 +27,7 @@ and the plans then depend on the machine and its load); CPU seconds are reported
 
     pliant bench tsrrt_five [-- --settings 0,3000 --seeds 8]
     pliant bench tsrrt_five -- --settings 3000:120 --sets "held-out G,held-out H" --strokes 1
+    pliant bench tsrrt_five -- --settings 3000:120 --sets "held-out E" --seeds 8 --skip 4   # starts 4-7 only
 """
 
 from __future__ import annotations
